@@ -1,0 +1,2 @@
+//! Build script (shader compilation lands with the gpu layer).
+fn main() {}

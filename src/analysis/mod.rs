@@ -1,0 +1,1 @@
+//! Histogram analysis (in progress).

@@ -1,0 +1,22 @@
+//! morphray: a GPU volume renderer for MRI built directly on Vulkan (`ash`).
+//!
+//! Layers, each knowing only the ones below it (DESIGN.md):
+//!
+//! ```text
+//! cli                 commands, argument parsing, output formatting; no Vulkan calls
+//! engine              one volume on one device: runs the passes in order, owns their outputs
+//! passes              one file per GPU pass; each owns its pipeline and bindings
+//! gpu                 the object layer on ash: instance, device, memory, resources, commands
+//! volume              NIfTI reader, samples, statistics, the built-in phantom
+//! analysis            histogram peaks, tissue windows, the paper's Table-1 row (CPU)
+//! reference           f64 CPU twins of every GPU kernel, for tests and accuracy studies
+//! ```
+//!
+//! Library code never panics on input data or Vulkan results: every failure is a typed error
+//! whose `Display` is one sentence a person can act on.
+#![warn(missing_docs)]
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
+
+pub mod analysis;
+pub mod reference;
+pub mod volume;

@@ -1,0 +1,2 @@
+//! The `morphray` command-line tool; all logic lives in the library's `cli` layer.
+fn main() {}

@@ -1,0 +1,1 @@
+//! f64 CPU twins of the GPU kernels (in progress).
