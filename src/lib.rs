@@ -15,8 +15,15 @@
 //! Library code never panics on input data or Vulkan results: every failure is a typed error
 //! whose `Display` is one sentence a person can act on.
 #![warn(missing_docs)]
-#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
+#![cfg_attr(
+    not(test),
+    deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)
+)]
 
 pub mod analysis;
+pub mod engine;
+pub mod gpu;
+pub mod passes;
 pub mod reference;
+pub mod scene;
 pub mod volume;

@@ -31,7 +31,10 @@ pub struct LinearMap {
 
 impl LinearMap {
     /// The identity map: stored samples are physical intensities.
-    pub const IDENTITY: LinearMap = LinearMap { slope: 1.0, intercept: 0.0 };
+    pub const IDENTITY: LinearMap = LinearMap {
+        slope: 1.0,
+        intercept: 0.0,
+    };
 
     /// Physical intensity of one stored sample value.
     pub fn apply(&self, stored: f64) -> f64 {
@@ -76,7 +79,11 @@ impl Orientation {
     /// The upper-left 3x3 block: how one index step moves in world space, per axis (columns).
     pub fn linear_part(&self) -> [[f64; 3]; 3] {
         let a = &self.affine;
-        [[a[0][0], a[0][1], a[0][2]], [a[1][0], a[1][1], a[1][2]], [a[2][0], a[2][1], a[2][2]]]
+        [
+            [a[0][0], a[0][1], a[0][2]],
+            [a[1][0], a[1][1], a[1][2]],
+            [a[2][0], a[2][1], a[2][2]],
+        ]
     }
 }
 

@@ -63,35 +63,53 @@ pub struct RaggedSamples {
 impl Samples {
     /// Wraps little-endian bytes; fails if they are not a whole number of samples.
     pub fn from_le_bytes(kind: SampleKind, bytes: Vec<u8>) -> Result<Self, RaggedSamples> {
-        if bytes.len() % kind.size_bytes() != 0 {
-            return Err(RaggedSamples { len: bytes.len(), kind });
+        if !bytes.len().is_multiple_of(kind.size_bytes()) {
+            return Err(RaggedSamples {
+                len: bytes.len(),
+                kind,
+            });
         }
         Ok(Samples { kind, bytes })
     }
 
     /// Samples from u8 values.
     pub fn from_u8(values: Vec<u8>) -> Self {
-        Samples { kind: SampleKind::U8, bytes: values }
+        Samples {
+            kind: SampleKind::U8,
+            bytes: values,
+        }
     }
 
     /// Samples from i8 values.
     pub fn from_i8(values: &[i8]) -> Self {
-        Samples { kind: SampleKind::I8, bytes: values.iter().map(|v| *v as u8).collect() }
+        Samples {
+            kind: SampleKind::I8,
+            bytes: values.iter().map(|v| *v as u8).collect(),
+        }
     }
 
     /// Samples from u16 values.
     pub fn from_u16(values: &[u16]) -> Self {
-        Samples { kind: SampleKind::U16, bytes: values.iter().flat_map(|v| v.to_le_bytes()).collect() }
+        Samples {
+            kind: SampleKind::U16,
+            bytes: values.iter().flat_map(|v| v.to_le_bytes()).collect(),
+        }
     }
 
     /// Samples from i16 values.
     pub fn from_i16(values: &[i16]) -> Self {
-        Samples { kind: SampleKind::I16, bytes: values.iter().flat_map(|v| v.to_le_bytes()).collect() }
+        Samples {
+            kind: SampleKind::I16,
+            bytes: values.iter().flat_map(|v| v.to_le_bytes()).collect(),
+        }
     }
 
     /// Samples from f32 values (NaN and infinities allowed).
     pub fn from_f32(values: &[f32]) -> Self {
-        Samples { kind: SampleKind::F32, bytes: values.iter().flat_map(|v| v.to_le_bytes()).collect() }
+        Samples {
+            kind: SampleKind::F32,
+            bytes: values.iter().flat_map(|v| v.to_le_bytes()).collect(),
+        }
     }
 
     /// The encoding.

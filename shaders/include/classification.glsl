@@ -1,0 +1,36 @@
+// Tissue classification: smooth windows, opacity-weighted colour (src/scene/classification.rs
+// documents the function; its f64 twin is Classification::classify).
+#ifndef MORPHRAY_CLASSIFICATION_GLSL
+#define MORPHRAY_CLASSIFICATION_GLSL
+
+float window_weight(float v, vec4 window) {
+    // window = (lo, hi, edge, visible); edge >= 1e-4 (smoothstep needs edge0 < edge1).
+    return window.w * smoothstep(window.x - window.z, window.x + window.z, v)
+                    * (1.0 - smoothstep(window.y - window.z, window.y + window.z, v));
+}
+
+// Returns f(v) in .a (clamped to 1) and the opacity-weighted mean colour in .rgb.
+vec4 classify(float v) {
+    float total = 0.0;
+    vec3 colour = vec3(0.0);
+    for (int t = 0; t < 4; t++) {
+        float w = window_weight(v, params.windows[t]) * params.colours[t].a;
+        total += w;
+        colour += w * params.colours[t].rgb;
+    }
+    if (total <= 0.0) {
+        return vec4(0.0);
+    }
+    return vec4(colour / total, min(total, 1.0));
+}
+
+// Curvature weight w(k) = 1 + s * tanh(|k| / k_ref): thin, sharply bent structures (the cortical
+// ribbon, sulcal walls, vessels) have large |k| and gain up to (1 + s) times the opacity of smooth
+// transitions. tanh written with exp for GLSL 450 portability of large arguments.
+float curvature_weight(float k) {
+    float x = min(abs(k) * params.curvature.y, 20.0);
+    float e = exp(-2.0 * x);
+    return 1.0 + params.curvature.x * (1.0 - e) / (1.0 + e);
+}
+
+#endif

@@ -1,0 +1,162 @@
+#version 450
+// The morphologically modulated front-to-back raymarch (paper eqs. 4-6), one invocation per
+// pixel in 8x8 tiles, writing a storage image.
+//
+// Per DVR sample: v = trilinear I_norm; f(v), C_s(v) from the tissue windows; opacity
+//   a = clamp(f(v) * |grad I| / |grad I|max * w(k), 0, 1)       (eq. 4)
+// corrected for the step length, then C += (1 - A) C_s a, A += (1 - A) a (eqs. 5, 6) in f32,
+// stopping once A exceeds the early-termination threshold. MIP and MinIP track the extreme
+// I_norm instead. What a scene does not use is compiled out: MODE, CURVATURE, SHADING and
+// GRADIENT_ON_THE_FLY are specialization constants, so no sample branches on them.
+//
+// Geometry: rays start in world space (mm) and are marched in index space with the parameter
+// in mm (geometry.glsl); ray starts are jittered per pixel against wood-grain banding.
+// The f64 twin of this whole shader is src/reference/raymarch.rs.
+#extension GL_GOOGLE_include_directive : require
+
+layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
+
+layout(constant_id = 0) const uint MODE = 0u;                 // 0 DVR, 1 MIP, 2 MinIP
+layout(constant_id = 1) const bool CURVATURE = false;         // multiply by w(k)
+layout(constant_id = 2) const bool SHADING = false;           // Phong with gradient normals
+layout(constant_id = 3) const bool GRADIENT_ON_THE_FLY = false; // derivatives per sample
+
+layout(set = 0, binding = 0) uniform sampler3D volume;          // I_norm, trilinear
+layout(set = 0, binding = 1) uniform sampler3D gradient_volume; // .r |g| per mm, .g k per mm^2
+layout(set = 0, binding = 2) uniform sampler3D normal_volume;   // .xyz unit world gradient
+layout(set = 0, binding = 3) uniform writeonly image2D target;  // RGBA8 (or RGBA32F for studies)
+
+layout(set = 0, binding = 4, std140) uniform Params {
+    mat4 world_to_index;
+    vec4 camera_origin;     // w: 1 = orthographic
+    vec4 camera_right;      // w: half extent
+    vec4 camera_up;         // w: half extent
+    vec4 camera_forward;
+    vec4 dims;              // w: step length (mm)
+    vec4 march;             // x: opacity exponent r, y: ERT threshold, z: jitter on, w: 1/|g|max
+    vec4 curvature;         // x: strength s, y: 1/k_ref, z: tau
+    vec4 background;
+    vec4 windows[4];        // lo, hi, edge, visible
+    vec4 colours[4];        // rgb, opacity
+    vec4 intensity;         // x, y: MIP/MinIP display window; z: MinIP floor
+    vec4 gradient_to_world[3];
+    uvec4 image;            // width, height, jitter seed, max steps
+} params;
+
+#include "geometry.glsl"
+#include "jitter.glsl"
+#include "classification.glsl"
+#include "compositing.glsl"
+#include "gradients.glsl"
+
+const uint MODE_DVR = 0u;
+const uint MODE_MIP = 1u;
+const uint MODE_MINIP = 2u;
+
+// Headlight Phong: ambient + diffuse on |n . l| (two-sided) + a white highlight. Without a
+// reliable normal (|n| tiny: flat regions) the sample keeps its unshaded colour.
+vec3 shade(vec3 colour, vec3 normal, vec3 view_direction) {
+    float len = length(normal);
+    if (len < 1e-3) {
+        return colour;
+    }
+    float ndl = abs(dot(normal / len, view_direction));
+    return colour * (0.35 + 0.65 * ndl) + vec3(0.25 * pow(ndl, 24.0));
+}
+
+void main() {
+    uvec2 pixel = gl_GlobalInvocationID.xy;
+    if (pixel.x >= params.image.x || pixel.y >= params.image.y) {
+        return;
+    }
+    vec3 origin_world;
+    vec3 direction_world;
+    camera_ray_world(pixel, origin_world, direction_world);
+    vec3 origin = (params.world_to_index * vec4(origin_world, 1.0)).xyz;
+    vec3 direction = mat3(params.world_to_index) * direction_world;   // per mm of ray length
+
+    vec3 dims = params.dims.xyz;
+    float dt = params.dims.w;
+    float t_near;
+    float t_far;
+    bool hit = intersect_box(origin, direction, dims, t_near, t_far);
+    float offset = params.march.z > 0.5 ? jitter(pixel, params.image.z) : 0.5;
+    float start = t_near + offset * dt;
+    // Samples at start + i * dt for i in [0, n) while inside; clamped before the conversion
+    // (float -> uint of negative or huge values is undefined).
+    float count = hit ? clamp(floor((t_far - start) / dt) + 1.0, 0.0, float(params.image.w)) : 0.0;
+    uint steps = uint(count);
+
+    vec4 result = vec4(params.background.rgb, 1.0);
+    if (MODE == MODE_DVR) {
+        vec4 acc = vec4(0.0);
+        for (uint i = 0u; i < steps; i++) {
+            vec3 p = origin + direction * (start + float(i) * dt);
+            float v = sample_volume(p);
+            vec4 cls = classify(v);
+            if (cls.a <= 0.0) {
+                continue;
+            }
+            float magnitude;
+            float k = 0.0;
+            vec3 normal = vec3(0.0);
+            if (GRADIENT_ON_THE_FLY) {
+                vec3 g = gradient_on_the_fly(p);
+                magnitude = length(g);
+                if (CURVATURE) {
+                    k = curvature_on_the_fly(p, v, g);
+                }
+                if (SHADING) {
+                    normal = magnitude > params.curvature.z ? g / magnitude : vec3(0.0);
+                }
+            } else {
+                vec3 tc = index_to_texture(p, dims);
+                vec2 gk = textureLod(gradient_volume, tc, 0.0).rg;
+                magnitude = gk.x;
+                if (CURVATURE) {
+                    k = gk.y;
+                }
+                if (SHADING) {
+                    normal = textureLod(normal_volume, tc, 0.0).xyz;
+                }
+            }
+            float a = clamp(cls.a * magnitude * params.march.w, 0.0, 1.0);
+            if (CURVATURE) {
+                a = min(a * curvature_weight(k), 1.0);
+            }
+            a = opacity_correct(a, params.march.x);
+            vec3 colour = cls.rgb;
+            if (SHADING) {
+                colour = shade(colour, normal, direction_world);
+            }
+            composite(acc, colour, a);
+            if (acc.a > params.march.y) {
+                break;
+            }
+        }
+        result = vec4(acc.rgb + (1.0 - acc.a) * params.background.rgb, 1.0);
+    } else {
+        bool found = false;
+        // Plain assignments, not `?:` on MODE: glslang would emit an OpSpecConstantOp Select that
+        // the build's reflection cannot evaluate.
+        float extreme = 1.0;
+        if (MODE == MODE_MIP) {
+            extreme = 0.0;
+        }
+        for (uint i = 0u; i < steps; i++) {
+            float v = sample_volume(origin + direction * (start + float(i) * dt));
+            if (MODE == MODE_MIP) {
+                extreme = max(extreme, v);
+                found = true;
+            } else if (v >= params.intensity.z) {
+                extreme = min(extreme, v);
+                found = true;
+            }
+        }
+        if (found) {
+            float grey = clamp((extreme - params.intensity.x) / max(params.intensity.y - params.intensity.x, 1e-6), 0.0, 1.0);
+            result = vec4(vec3(grey), 1.0);
+        }
+    }
+    imageStore(target, ivec2(pixel), result);
+}

@@ -1,0 +1,164 @@
+//! One volume on one device: runs the passes in order and owns their outputs.
+//!
+//! Decisions:
+//! - Passes (pipelines) are created on first use and cached per variant (sample kind, derivative
+//!   outputs), so a second volume of the same kind creates no pipeline.
+//! - The data flow of DESIGN.md: upload -> min/max -> (CPU, f64) normalization plan ->
+//!   normalize -> histogram -> (CPU) peaks; derived volumes only when asked for. The min/max
+//!   result makes one host round trip, because the scale and offset are computed in f64.
+//! - The engine records what each persistent image was last used for, so readback and later
+//!   passes put the right barrier in front of it.
+
+mod derive;
+mod prepare;
+pub mod readback;
+mod render;
+pub mod upload;
+
+pub use derive::Derived;
+pub use prepare::{PrepareTimings, PreparedVolume};
+pub use render::{FRAMES_IN_FLIGHT, Frame, RenderTarget};
+
+use crate::gpu::{
+    Access, Device, DeviceConfig, Filter, GpuResult, Image, ImageDesc, Recording, Sampler,
+};
+use crate::passes::derivatives::{DerivativeOutputs, DerivativePass};
+use crate::passes::histogram::HistogramPass;
+use crate::passes::minmax::MinMaxPass;
+use crate::passes::normalize::NormalizePass;
+use crate::passes::raymarch::RaymarchPass;
+use crate::scene::Effects;
+use crate::volume::SampleKind;
+use ash::vk;
+use std::collections::HashMap;
+use std::sync::Arc;
+
+/// How to create an engine.
+#[derive(Clone, Debug)]
+pub struct EngineConfig {
+    /// Device choice and validation.
+    pub device: DeviceConfig,
+    /// Format of the normalized volume (R16_UNORM by default; R8_UNORM, R16_SFLOAT and
+    /// R32_SFLOAT are the accuracy study's alternatives).
+    pub normalized_format: vk::Format,
+}
+
+impl Default for EngineConfig {
+    fn default() -> Self {
+        EngineConfig {
+            device: DeviceConfig::default(),
+            normalized_format: vk::Format::R16_UNORM,
+        }
+    }
+}
+
+/// The analysis passes of one sample kind.
+struct KindPasses {
+    minmax: MinMaxPass,
+    normalize: NormalizePass,
+    histogram: HistogramPass,
+}
+
+/// 1-texel stand-ins bound where a shader variant declares an input it does not read.
+struct Placeholders {
+    gradient: Arc<Image>,
+    normal: Arc<Image>,
+}
+
+/// The GPU engine.
+pub struct Engine {
+    device: Device,
+    config: EngineConfig,
+    kind_passes: HashMap<SampleKind, KindPasses>,
+    derivative_passes: HashMap<DerivativeOutputs, DerivativePass>,
+    raymarch_passes: HashMap<Effects, RaymarchPass>,
+    nearest: Arc<Sampler>,
+    linear: Arc<Sampler>,
+    placeholders: Placeholders,
+    pipeline_cache: vk::PipelineCache,
+}
+
+impl Engine {
+    /// Creates the device and the shared objects; pipelines are created on first use.
+    pub fn new(config: EngineConfig) -> GpuResult<Engine> {
+        let device = Device::new(&config.device)?;
+        let nearest = Sampler::new(&device, Filter::Nearest)?;
+        let linear = Sampler::new(&device, Filter::Linear)?;
+        let placeholders = Placeholders {
+            gradient: Image::new(
+                &device,
+                ImageDesc::volume(
+                    "placeholder (gradient)",
+                    [1, 1, 1],
+                    vk::Format::R16G16_SFLOAT,
+                ),
+            )?,
+            normal: Image::new(
+                &device,
+                ImageDesc::volume(
+                    "placeholder (normals)",
+                    [1, 1, 1],
+                    vk::Format::R8G8B8A8_SNORM,
+                ),
+            )?,
+        };
+        let mut rec = Recording::new(&device, "placeholder layouts")?;
+        // Moves the placeholders once into the layout sampling needs; they are never written.
+        rec.barriers(
+            &[],
+            &[
+                (
+                    &placeholders.gradient,
+                    Access::Nothing,
+                    Access::ComputeSampled,
+                ),
+                (
+                    &placeholders.normal,
+                    Access::Nothing,
+                    Access::ComputeSampled,
+                ),
+            ],
+        );
+        rec.submit()?.wait()?;
+        Ok(Engine {
+            device,
+            config,
+            kind_passes: HashMap::new(),
+            derivative_passes: HashMap::new(),
+            raymarch_passes: HashMap::new(),
+            nearest,
+            linear,
+            placeholders,
+            pipeline_cache: vk::PipelineCache::null(),
+        })
+    }
+
+    /// The device.
+    pub fn device(&self) -> &Device {
+        &self.device
+    }
+
+    fn kind_passes(&mut self, kind: SampleKind) -> GpuResult<&KindPasses> {
+        if !self.kind_passes.contains_key(&kind) {
+            let passes = KindPasses {
+                minmax: MinMaxPass::new(&self.device, kind, self.pipeline_cache)?,
+                normalize: NormalizePass::new(&self.device, kind, self.pipeline_cache)?,
+                histogram: HistogramPass::new(&self.device, kind, self.pipeline_cache)?,
+            };
+            self.kind_passes.insert(kind, passes);
+        }
+        self.kind_passes
+            .get(&kind)
+            .ok_or_else(|| crate::gpu::GpuError::InvalidRequest("pass cache lost an entry".into()))
+    }
+
+    fn derivative_pass(&mut self, outputs: DerivativeOutputs) -> GpuResult<&DerivativePass> {
+        if !self.derivative_passes.contains_key(&outputs) {
+            let pass = DerivativePass::new(&self.device, outputs, self.pipeline_cache)?;
+            self.derivative_passes.insert(outputs, pass);
+        }
+        self.derivative_passes
+            .get(&outputs)
+            .ok_or_else(|| crate::gpu::GpuError::InvalidRequest("pass cache lost an entry".into()))
+    }
+}

@@ -1,0 +1,191 @@
+//! Upload, min/max, normalization and histogram of one volume.
+
+use super::Engine;
+use super::readback::read_buffer;
+use super::upload::{UploadPath, upload_samples};
+use crate::gpu::{
+    Access, Buffer, BufferDesc, GpuError, GpuResult, Image, ImageDesc, PassTiming, Recording,
+};
+use crate::passes::histogram::BINS;
+use crate::passes::minmax::decode_result;
+use crate::passes::normalize::{self, Normalization};
+use crate::volume::{SampleKind, Volume};
+use std::sync::Arc;
+use std::time::Instant;
+
+/// Host-side times of [`Engine::prepare`] (GPU pass times are in `PreparedVolume::gpu_timings`).
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct PrepareTimings {
+    /// Creating pipelines for this sample kind (0 when cached).
+    pub pipelines_ms: f64,
+    /// Writing the samples into mapped memory.
+    pub upload_write_ms: f64,
+    /// Wall time of the whole preparation.
+    pub wall_ms: f64,
+}
+
+/// A volume on the GPU: samples, normalized image, histogram.
+pub struct PreparedVolume {
+    /// Dimensions.
+    pub dims: [u32; 3],
+    /// Stored sample encoding.
+    pub kind: SampleKind,
+    /// The uploaded samples (zero-padded to 16 bytes).
+    pub samples: Arc<Buffer>,
+    /// How the samples were uploaded.
+    pub upload_path: UploadPath,
+    /// I_norm; last accessed as [`Access::ComputeSampled`].
+    pub normalized: Arc<Image>,
+    /// Stored-sample min/max over finite voxels (None if none is finite).
+    pub stored_range: Option<(f64, f64)>,
+    /// Physical range and shader parameters.
+    pub normalization: Normalization,
+    /// 256-bin histogram of I_norm over finite voxels.
+    pub histogram: [u32; BINS],
+    /// Voxels in the volume.
+    pub voxel_count: u64,
+    /// Finite voxels (= sum of the histogram).
+    pub finite_voxels: u64,
+    /// Index-to-world linear part, for derivatives.
+    pub linear_part: [[f64; 3]; 3],
+    /// Full index-to-world affine (row-major), for rendering.
+    pub affine: [[f64; 4]; 4],
+    /// GPU time per pass.
+    pub gpu_timings: Vec<PassTiming>,
+    /// Host-side times.
+    pub timings: PrepareTimings,
+}
+
+impl PreparedVolume {
+    /// Voxels that are NaN or infinite.
+    pub fn nonfinite_voxels(&self) -> u64 {
+        self.voxel_count - self.finite_voxels
+    }
+}
+
+/// Checks that the volume's size fits the 32-bit indices and the 3D image limit.
+fn checked_dims(engine: &Engine, volume: &Volume) -> GpuResult<[u32; 3]> {
+    let max = engine.device.adapter().max_image_dimension_3d;
+    let mut dims = [0u32; 3];
+    for (axis, &d) in volume.dims.iter().enumerate() {
+        dims[axis] = u32::try_from(d).ok().filter(|&d| d >= 1 && d <= max).ok_or_else(|| {
+            GpuError::Unsupported(format!(
+                "volume side {d} along axis {axis} exceeds this device's 3D image limit of {max}"
+            ))
+        })?;
+    }
+    let count = volume.voxel_count() as u64;
+    if count > u32::MAX as u64 || volume.samples.len() as u64 != count {
+        return Err(GpuError::InvalidRequest(format!(
+            "volume of {count} voxels holds {} samples (or exceeds 2^32 voxels)",
+            volume.samples.len()
+        )));
+    }
+    Ok(dims)
+}
+
+impl Engine {
+    /// Uploads `volume` and computes min/max, I_norm and its histogram on the GPU.
+    pub fn prepare(&mut self, volume: &Volume) -> GpuResult<PreparedVolume> {
+        let start = Instant::now();
+        let dims = checked_dims(self, volume)?;
+        let kind = volume.samples.kind();
+        let voxel_count = volume.voxel_count() as u64;
+        let before_pipelines = Instant::now();
+        self.kind_passes(kind)?;
+        let pipelines_ms = before_pipelines.elapsed().as_secs_f64() * 1e3;
+        let device = self.device.clone();
+        let normalized_format = self.config.normalized_format;
+        let passes = self.kind_passes(kind)?;
+
+        // Submission 1: upload and min/max; the host needs the range before normalizing.
+        let mut rec = Recording::new(&device, "upload and min/max")?;
+        let before_write = Instant::now();
+        let (samples, upload_path) = upload_samples(&device, &mut rec, &volume.samples)?;
+        let upload_write_ms = before_write.elapsed().as_secs_f64() * 1e3;
+        let range_gpu = Buffer::new(&device, BufferDesc::gpu_storage("min/max result", 8))?;
+        let range_host = Buffer::new(&device, BufferDesc::readback("min/max result (host)", 8))?;
+        rec.begin_pass("minmax");
+        passes
+            .minmax
+            .record(&device, &mut rec, &samples, voxel_count, &range_gpu)?;
+        rec.end_pass();
+        // Orders the min/max atomics before the copy to host memory.
+        rec.barriers(
+            &[(&range_gpu, Access::ComputeWriteBuffer, Access::TransferRead)],
+            &[],
+        );
+        rec.copy_buffer(&range_gpu, &range_host, 8);
+        // Makes the copied result visible to the host.
+        rec.barriers(
+            &[(&range_host, Access::TransferWrite, Access::HostRead)],
+            &[],
+        );
+        let mut gpu_timings = rec.submit()?.wait()?;
+        let mut words = [0u8; 8];
+        range_host.read(0, &mut words)?;
+        let min_key = u32::from_le_bytes([words[0], words[1], words[2], words[3]]);
+        let max_key = u32::from_le_bytes([words[4], words[5], words[6], words[7]]);
+        let stored_range = decode_result(min_key, max_key);
+        let normalization = normalize::plan(dims, stored_range, volume.to_physical);
+
+        // Submission 2: normalize, then histogram of what was written.
+        let normalized = Image::new(
+            &device,
+            ImageDesc::volume("normalized volume", dims, normalized_format),
+        )?;
+        let bins = Buffer::new(
+            &device,
+            BufferDesc::gpu_storage("histogram bins", (BINS * 4) as u64),
+        )?;
+        let mut rec = Recording::new(&device, "normalize and histogram")?;
+        rec.begin_pass("normalize");
+        passes
+            .normalize
+            .record(&mut rec, &samples, &normalization.params, &normalized)?;
+        rec.end_pass();
+        // Orders the normalized writes before the histogram's (and later passes') reads.
+        rec.barriers(
+            &[],
+            &[(
+                &normalized,
+                Access::ComputeWriteImage,
+                Access::ComputeSampled,
+            )],
+        );
+        rec.begin_pass("histogram");
+        passes
+            .histogram
+            .record(&device, &mut rec, &normalized, &samples, &bins)?;
+        rec.end_pass();
+        gpu_timings.extend(rec.submit()?.wait()?);
+        let mut bin_bytes = vec![0u8; BINS * 4];
+        read_buffer(&device, &bins, Access::ComputeWriteBuffer, &mut bin_bytes)?;
+        let mut histogram = [0u32; BINS];
+        for (bin, chunk) in histogram.iter_mut().zip(bin_bytes.chunks_exact(4)) {
+            *bin = u32::from_le_bytes([chunk[0], chunk[1], chunk[2], chunk[3]]);
+        }
+        let finite_voxels = histogram.iter().map(|&c| c as u64).sum();
+
+        Ok(PreparedVolume {
+            dims,
+            kind,
+            samples,
+            upload_path,
+            normalized,
+            stored_range,
+            normalization,
+            histogram,
+            voxel_count,
+            finite_voxels,
+            linear_part: volume.orientation.linear_part(),
+            affine: volume.orientation.affine,
+            gpu_timings,
+            timings: PrepareTimings {
+                pipelines_ms,
+                upload_write_ms,
+                wall_ms: start.elapsed().as_secs_f64() * 1e3,
+            },
+        })
+    }
+}

@@ -1,0 +1,230 @@
+//! Rendering frames of a prepared volume: uniforms, raymarch, readback.
+//!
+//! Decisions:
+//! - A [`RenderTarget`] owns the output image, its readback buffer and two uniform buffers used
+//!   alternately (one per frame in flight), so writing the next frame's parameters never touches
+//!   memory the GPU may still read.
+//! - Rendering checks that the derived volumes the scene needs exist (the caller derives them
+//!   from `Effects::derivative_outputs`), and fails with a typed error instead of sampling a
+//!   placeholder by mistake.
+
+use super::Engine;
+use super::derive::Derived;
+use super::prepare::PreparedVolume;
+use crate::gpu::{
+    Access, Buffer, BufferDesc, GpuError, GpuResult, Image, ImageDesc, PassTiming, Recording,
+};
+use crate::passes::raymarch::{RaymarchInputs, RaymarchPass};
+use crate::scene::uniforms::{GradientStats, RaymarchUniforms};
+use crate::scene::{Effects, GradientSource, RenderMode, Scene, VolumeGeometry};
+use ash::vk;
+use std::sync::Arc;
+
+/// Frames that may be in flight at once (uniform buffers per target).
+pub const FRAMES_IN_FLIGHT: usize = 2;
+
+/// An output image with its readback buffer and per-frame uniform buffers.
+pub struct RenderTarget {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    image: Arc<Image>,
+    readback: Arc<Buffer>,
+    uniforms: [Arc<Buffer>; FRAMES_IN_FLIGHT],
+    next_uniforms: usize,
+}
+
+/// One rendered frame, read back.
+pub struct Frame {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// RGBA8 pixels, rows top to bottom (or RGBA f32 values for a float target, see
+    /// [`Frame::values`]).
+    pub rgba8: Vec<u8>,
+    /// RGBA f32 values when the target format is R32G32B32A32_SFLOAT, else empty.
+    pub values: Vec<f32>,
+    /// GPU time of the raymarch.
+    pub gpu_timings: Vec<PassTiming>,
+}
+
+impl Engine {
+    /// Creates a `width` x `height` render target in `format` (RGBA8_UNORM for pictures,
+    /// R32G32B32A32_SFLOAT for accuracy studies).
+    pub fn render_target(
+        &self,
+        width: u32,
+        height: u32,
+        format: vk::Format,
+    ) -> GpuResult<RenderTarget> {
+        if width == 0 || height == 0 {
+            return Err(GpuError::InvalidRequest(format!(
+                "image size {width}x{height} has a zero side"
+            )));
+        }
+        let texel = match format {
+            vk::Format::R8G8B8A8_UNORM => 4,
+            vk::Format::R32G32B32A32_SFLOAT => 16,
+            other => {
+                return Err(GpuError::InvalidRequest(format!(
+                    "render targets are RGBA8 or RGBA32F, not {other:?}"
+                )));
+            }
+        };
+        let image = Image::new(
+            &self.device,
+            ImageDesc::render_target("render target", width, height, format),
+        )?;
+        let readback = Buffer::new(
+            &self.device,
+            BufferDesc::readback("render target (host)", width as u64 * height as u64 * texel),
+        )?;
+        let size = std::mem::size_of::<RaymarchUniforms>() as u64;
+        let uniforms = [
+            Buffer::new(
+                &self.device,
+                BufferDesc::uniform("raymarch uniforms (frame 0)", size),
+            )?,
+            Buffer::new(
+                &self.device,
+                BufferDesc::uniform("raymarch uniforms (frame 1)", size),
+            )?,
+        ];
+        Ok(RenderTarget {
+            width,
+            height,
+            image,
+            readback,
+            uniforms,
+            next_uniforms: 0,
+        })
+    }
+
+    fn raymarch_pass(&mut self, effects: Effects) -> GpuResult<&RaymarchPass> {
+        let key = normalized_effects(effects);
+        if !self.raymarch_passes.contains_key(&key) {
+            let pass = RaymarchPass::new(&self.device, key, self.pipeline_cache)?;
+            self.raymarch_passes.insert(key, pass);
+        }
+        self.raymarch_passes
+            .get(&key)
+            .ok_or_else(|| GpuError::InvalidRequest("pass cache lost an entry".into()))
+    }
+
+    /// Renders `scene` into `target`, waits, and reads the frame back.
+    pub fn render(
+        &mut self,
+        target: &mut RenderTarget,
+        prepared: &PreparedVolume,
+        derived: Option<&Derived>,
+        scene: &Scene,
+    ) -> GpuResult<Frame> {
+        let effects = scene.effects;
+        let needed = effects.derivative_outputs();
+        let (gradient, normal, stats) = match (needed, derived) {
+            (None, _) => (
+                None,
+                None,
+                GradientStats {
+                    max_magnitude: 0.0,
+                    tau: 0.0,
+                },
+            ),
+            (Some(outputs), Some(d)) => {
+                let missing = (outputs.magnitude && d.volumes.gradient.is_none())
+                    || (outputs.curvature && !d.volumes.outputs.curvature)
+                    || (outputs.normal && d.volumes.normal.is_none());
+                if missing {
+                    return Err(GpuError::InvalidRequest(format!(
+                        "the scene needs derived volumes {outputs:?}, but only {:?} were computed",
+                        d.volumes.outputs
+                    )));
+                }
+                (
+                    d.volumes.gradient.clone(),
+                    d.volumes.normal.clone(),
+                    d.stats,
+                )
+            }
+            (Some(outputs), None) => {
+                return Err(GpuError::InvalidRequest(format!(
+                    "the scene needs the derivative pass ({outputs:?}) but none was run"
+                )));
+            }
+        };
+        let geometry = VolumeGeometry::new(prepared.dims, prepared.affine)
+            .map_err(|e| GpuError::InvalidRequest(e.to_string()))?;
+        let block = RaymarchUniforms::new(scene, &geometry, &stats, target.width, target.height);
+        let uniforms = target.uniforms[target.next_uniforms].clone();
+        target.next_uniforms = (target.next_uniforms + 1) % FRAMES_IN_FLIGHT;
+        uniforms.write(0, bytemuck::bytes_of(&block))?;
+
+        let device = self.device.clone();
+        let linear = self.linear.clone();
+        let gradient = gradient.unwrap_or_else(|| self.placeholders.gradient.clone());
+        let normal = normal.unwrap_or_else(|| self.placeholders.normal.clone());
+        let pass = self.raymarch_pass(effects)?;
+        let inputs = RaymarchInputs {
+            volume: &prepared.normalized,
+            gradient: &gradient,
+            normal: &normal,
+            linear: &linear,
+        };
+        let mut rec = Recording::new(&device, "raymarch")?;
+        rec.begin_pass("raymarch");
+        pass.record(&mut rec, &inputs, &uniforms, &target.image)?;
+        rec.end_pass();
+        // Orders the raymarch's writes before the copy to host memory.
+        rec.barriers(
+            &[],
+            &[(
+                &target.image,
+                Access::ComputeWriteImage,
+                Access::TransferRead,
+            )],
+        );
+        rec.copy_image_to_buffer(&target.image, &target.readback);
+        // Makes the copied pixels visible to the host.
+        rec.barriers(
+            &[(&target.readback, Access::TransferWrite, Access::HostRead)],
+            &[],
+        );
+        rec.keep(uniforms);
+        let gpu_timings = rec.submit()?.wait()?;
+
+        let mut bytes = vec![0u8; target.readback.size() as usize];
+        target.readback.read(0, &mut bytes)?;
+        let (rgba8, values) = if target.image.format() == vk::Format::R8G8B8A8_UNORM {
+            (bytes, Vec::new())
+        } else {
+            (
+                Vec::new(),
+                super::readback::decode(target.image.format(), &bytes)?,
+            )
+        };
+        Ok(Frame {
+            width: target.width,
+            height: target.height,
+            rgba8,
+            values,
+            gpu_timings,
+        })
+    }
+}
+
+/// Effects that select the same pipeline map to one key (curvature and shading mean nothing
+/// outside DVR).
+fn normalized_effects(effects: Effects) -> Effects {
+    if effects.mode == RenderMode::Dvr {
+        effects
+    } else {
+        Effects {
+            mode: effects.mode,
+            curvature: false,
+            shading: false,
+            gradient_source: GradientSource::Precomputed,
+        }
+    }
+}

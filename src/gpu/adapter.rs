@@ -1,0 +1,358 @@
+//! Physical-device choice: what each device offers, what morphray requires, and why a device was
+//! rejected.
+//!
+//! Decisions (after wgpu-hal's `PhysicalDeviceFeatures` and vk-bootstrap's detailed failure
+//! reasons): every requirement is checked on every device and each miss becomes a readable
+//! phrase, so "no suitable device" lists all reasons for all devices. The user can pick a device
+//! by index or by a case-insensitive name fragment (`--device`, or `MORPHRAY_DEVICE`). Otherwise
+//! the first device of the best type wins: discrete > integrated > virtual > CPU.
+
+use super::error::{DeviceRejection, GpuError, GpuResult, vk_err};
+use super::instance::Instance;
+use ash::vk;
+
+/// Formats the engine stores volumes and derived data in, with the features each must have.
+pub(crate) const REQUIRED_FORMATS: &[(vk::Format, &str)] = &[
+    (vk::Format::R16_UNORM, "R16_UNORM"),
+    (vk::Format::R16_SFLOAT, "R16_SFLOAT"),
+    (vk::Format::R16G16_SFLOAT, "R16G16_SFLOAT"),
+    (vk::Format::R8G8B8A8_SNORM, "R8G8B8A8_SNORM"),
+];
+
+/// Which physical device to use.
+#[derive(Clone, Debug, PartialEq, Eq, Default)]
+pub enum DeviceSelector {
+    /// The best suitable device (or `MORPHRAY_DEVICE` when set).
+    #[default]
+    Auto,
+    /// The device at this index in Vulkan's enumeration order.
+    Index(usize),
+    /// The first device whose name contains this text (case-insensitive).
+    Name(String),
+}
+
+impl DeviceSelector {
+    /// Parses `3` as an index and anything else as a name fragment.
+    pub fn parse(text: &str) -> Self {
+        match text.trim().parse::<usize>() {
+            Ok(index) => DeviceSelector::Index(index),
+            Err(_) => DeviceSelector::Name(text.trim().to_string()),
+        }
+    }
+
+    /// `Auto`, unless `MORPHRAY_DEVICE` is set.
+    pub fn from_env() -> Self {
+        match std::env::var("MORPHRAY_DEVICE") {
+            Ok(text) if !text.trim().is_empty() => DeviceSelector::parse(&text),
+            _ => DeviceSelector::Auto,
+        }
+    }
+}
+
+/// What the engine knows about one physical device.
+#[derive(Clone, Debug)]
+pub struct AdapterInfo {
+    /// Index in the Vulkan enumeration order.
+    pub index: usize,
+    /// Device name.
+    pub name: String,
+    /// Discrete, integrated, virtual or CPU.
+    pub device_type: vk::PhysicalDeviceType,
+    /// Vulkan API version the device supports.
+    pub api_version: u32,
+    /// Driver name and version string (from VkPhysicalDeviceDriverProperties).
+    pub driver: String,
+    /// PCI vendor id.
+    pub vendor_id: u32,
+    /// Vendor's device id.
+    pub device_id: u32,
+    /// Driver's pipeline-cache UUID (keys the on-disk pipeline cache).
+    pub pipeline_cache_uuid: [u8; 16],
+    /// Default subgroup size.
+    pub subgroup_size: u32,
+    /// Smallest and largest subgroup size (subgroup size control), if reported.
+    pub subgroup_size_range: Option<(u32, u32)>,
+    /// Queue family used for compute and transfer.
+    pub queue_family: u32,
+    /// Valid bits of timestamps on that queue (0: no timestamps).
+    pub timestamp_valid_bits: u32,
+    /// Nanoseconds per timestamp tick.
+    pub timestamp_period_ns: f64,
+    /// Largest 3D image side.
+    pub max_image_dimension_3d: u32,
+    /// Largest storage-buffer binding in bytes.
+    pub max_storage_buffer_range: u32,
+    /// Largest workgroup count along x.
+    pub max_workgroup_count_x: u32,
+    /// Largest push-constant block in bytes.
+    pub max_push_constants_size: u32,
+    /// Whether VK_EXT_memory_budget is available.
+    pub has_memory_budget: bool,
+    /// Whether `subgroupSizeControl` and `computeFullSubgroups` are available.
+    pub has_subgroup_size_control: bool,
+    /// Memory heaps: (size in bytes, device-local).
+    pub heaps: Vec<(u64, bool)>,
+    /// True when every device-local heap is also reachable by host-visible memory types (CPU
+    /// devices, integrated GPUs): uploads then skip the staging copy.
+    pub unified_memory: bool,
+    /// Reasons this device cannot run morphray (empty when suitable).
+    pub rejections: Vec<String>,
+}
+
+impl AdapterInfo {
+    /// True when the device meets every requirement.
+    pub fn is_suitable(&self) -> bool {
+        self.rejections.is_empty()
+    }
+
+    /// Short type name (`discrete`, `integrated`, `virtual`, `cpu`, `other`).
+    pub fn type_name(&self) -> &'static str {
+        match self.device_type {
+            vk::PhysicalDeviceType::DISCRETE_GPU => "discrete",
+            vk::PhysicalDeviceType::INTEGRATED_GPU => "integrated",
+            vk::PhysicalDeviceType::VIRTUAL_GPU => "virtual",
+            vk::PhysicalDeviceType::CPU => "cpu",
+            _ => "other",
+        }
+    }
+
+    fn type_rank(&self) -> u32 {
+        match self.device_type {
+            vk::PhysicalDeviceType::DISCRETE_GPU => 0,
+            vk::PhysicalDeviceType::INTEGRATED_GPU => 1,
+            vk::PhysicalDeviceType::VIRTUAL_GPU => 2,
+            vk::PhysicalDeviceType::CPU => 3,
+            _ => 4,
+        }
+    }
+}
+
+/// Lists every physical device with its properties and rejection reasons.
+pub fn enumerate(instance: &Instance) -> GpuResult<Vec<(vk::PhysicalDevice, AdapterInfo)>> {
+    // SAFETY: enumeration on a live instance.
+    let devices = unsafe { instance.raw.enumerate_physical_devices() }
+        .map_err(vk_err("vkEnumeratePhysicalDevices"))?;
+    let mut out = Vec::with_capacity(devices.len());
+    for (index, physical) in devices.into_iter().enumerate() {
+        out.push((physical, describe(instance, physical, index)?));
+    }
+    Ok(out)
+}
+
+/// Picks a device per `selector`; errors list every device and why it was not usable.
+pub fn select(
+    instance: &Instance,
+    selector: &DeviceSelector,
+) -> GpuResult<(vk::PhysicalDevice, AdapterInfo)> {
+    let adapters = enumerate(instance)?;
+    if adapters.is_empty() {
+        return Err(GpuError::NoDevices);
+    }
+    let summary = || {
+        adapters
+            .iter()
+            .map(|(_, a)| {
+                if a.is_suitable() {
+                    format!("#{} {} (usable)", a.index, a.name)
+                } else {
+                    format!(
+                        "#{} {} (rejected: {})",
+                        a.index,
+                        a.name,
+                        a.rejections.join("; ")
+                    )
+                }
+            })
+            .collect::<Vec<_>>()
+    };
+    let pick = |found: Option<&(vk::PhysicalDevice, AdapterInfo)>, wanted: String| match found {
+        Some((p, a)) if a.is_suitable() => Ok((*p, a.clone())),
+        _ => Err(GpuError::DeviceNotFound {
+            wanted,
+            available: summary(),
+        }),
+    };
+    match selector {
+        DeviceSelector::Index(i) => pick(adapters.get(*i), format!("#{i}")),
+        DeviceSelector::Name(name) => {
+            let needle = name.to_lowercase();
+            pick(
+                adapters
+                    .iter()
+                    .find(|(_, a)| a.name.to_lowercase().contains(&needle)),
+                name.clone(),
+            )
+        }
+        DeviceSelector::Auto => {
+            let best = adapters
+                .iter()
+                .filter(|(_, a)| a.is_suitable())
+                .min_by_key(|(_, a)| (a.type_rank(), a.index));
+            match best {
+                Some((p, a)) => Ok((*p, a.clone())),
+                None => Err(GpuError::NoSuitableDevice(
+                    adapters
+                        .iter()
+                        .map(|(_, a)| DeviceRejection {
+                            index: a.index,
+                            name: a.name.clone(),
+                            reasons: a.rejections.clone(),
+                        })
+                        .collect(),
+                )),
+            }
+        }
+    }
+}
+
+fn describe(
+    instance: &Instance,
+    physical: vk::PhysicalDevice,
+    index: usize,
+) -> GpuResult<AdapterInfo> {
+    let raw = &instance.raw;
+    let mut driver = vk::PhysicalDeviceDriverProperties::default();
+    let mut subgroup = vk::PhysicalDeviceSubgroupProperties::default();
+    let mut size_control = vk::PhysicalDeviceSubgroupSizeControlProperties::default();
+    let mut properties2 = vk::PhysicalDeviceProperties2::default()
+        .push_next(&mut driver)
+        .push_next(&mut subgroup)
+        .push_next(&mut size_control);
+    let mut features13 = vk::PhysicalDeviceVulkan13Features::default();
+    let mut features2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut features13);
+    // SAFETY: query calls on a device enumerated from this instance, with valid out-structs.
+    let (queue_families, memory, extensions) = unsafe {
+        raw.get_physical_device_properties2(physical, &mut properties2);
+        raw.get_physical_device_features2(physical, &mut features2);
+        (
+            raw.get_physical_device_queue_family_properties(physical),
+            raw.get_physical_device_memory_properties(physical),
+            raw.enumerate_device_extension_properties(physical)
+                .map_err(vk_err("vkEnumerateDeviceExtensionProperties"))?,
+        )
+    };
+    let properties = properties2.properties;
+    let features = features2.features;
+    let name = properties
+        .device_name_as_c_str()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let driver_name = driver
+        .driver_name_as_c_str()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let driver_info = driver
+        .driver_info_as_c_str()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let has_extension = |wanted: &std::ffi::CStr| {
+        extensions
+            .iter()
+            .any(|e| e.extension_name_as_c_str() == Ok(wanted))
+    };
+
+    let mut rejections = Vec::new();
+    if properties.api_version < vk::API_VERSION_1_3 {
+        rejections.push(format!(
+            "supports Vulkan {}.{}, needs 1.3",
+            vk::api_version_major(properties.api_version),
+            vk::api_version_minor(properties.api_version)
+        ));
+    }
+    let queue_family = queue_families
+        .iter()
+        .position(|q| q.queue_flags.contains(vk::QueueFlags::COMPUTE) && q.queue_count > 0);
+    if queue_family.is_none() {
+        rejections.push("has no compute queue".to_string());
+    }
+    if features.shader_storage_image_write_without_format == vk::FALSE {
+        rejections.push("lacks shaderStorageImageWriteWithoutFormat".to_string());
+    }
+    if features13.synchronization2 == vk::FALSE {
+        rejections.push("lacks synchronization2".to_string());
+    }
+    if !subgroup
+        .supported_stages
+        .contains(vk::ShaderStageFlags::COMPUTE)
+    {
+        rejections.push("has no subgroup operations in compute shaders".to_string());
+    }
+    let wanted_ops = vk::SubgroupFeatureFlags::BASIC
+        | vk::SubgroupFeatureFlags::VOTE
+        | vk::SubgroupFeatureFlags::ARITHMETIC
+        | vk::SubgroupFeatureFlags::BALLOT;
+    if !subgroup.supported_operations.contains(wanted_ops) {
+        rejections.push(format!(
+            "subgroup operations {:?} lack some of basic, vote, arithmetic, ballot",
+            subgroup.supported_operations
+        ));
+    }
+    for (format, format_name) in REQUIRED_FORMATS {
+        // SAFETY: query on an enumerated device.
+        let props = unsafe { raw.get_physical_device_format_properties(physical, *format) };
+        let needed = vk::FormatFeatureFlags::SAMPLED_IMAGE
+            | vk::FormatFeatureFlags::STORAGE_IMAGE
+            | vk::FormatFeatureFlags::SAMPLED_IMAGE_FILTER_LINEAR;
+        if !props.optimal_tiling_features.contains(needed) {
+            rejections.push(format!(
+                "{format_name} 3D images lack sampled+storage+linear-filter support"
+            ));
+        }
+    }
+
+    let family = queue_family.unwrap_or(0);
+    let timestamp_valid_bits = queue_families
+        .get(family)
+        .map(|q| q.timestamp_valid_bits)
+        .unwrap_or(0);
+    let heaps: Vec<(u64, bool)> = memory.memory_heaps[..memory.memory_heap_count as usize]
+        .iter()
+        .map(|h| (h.size, h.flags.contains(vk::MemoryHeapFlags::DEVICE_LOCAL)))
+        .collect();
+    let types = &memory.memory_types[..memory.memory_type_count as usize];
+    let unified_memory = heaps
+        .iter()
+        .enumerate()
+        .filter(|(_, (_, local))| *local)
+        .all(|(heap, _)| {
+            types.iter().any(|t| {
+                t.heap_index as usize == heap
+                    && t.property_flags.contains(
+                        vk::MemoryPropertyFlags::HOST_VISIBLE
+                            | vk::MemoryPropertyFlags::DEVICE_LOCAL,
+                    )
+            })
+        })
+        && (properties.device_type == vk::PhysicalDeviceType::CPU
+            || properties.device_type == vk::PhysicalDeviceType::INTEGRATED_GPU);
+    let has_subgroup_size_control = features13.subgroup_size_control == vk::TRUE
+        && features13.compute_full_subgroups == vk::TRUE;
+
+    Ok(AdapterInfo {
+        index,
+        name,
+        device_type: properties.device_type,
+        api_version: properties.api_version,
+        driver: format!("{driver_name} {driver_info}").trim().to_string(),
+        vendor_id: properties.vendor_id,
+        device_id: properties.device_id,
+        pipeline_cache_uuid: properties.pipeline_cache_uuid,
+        subgroup_size: subgroup.subgroup_size,
+        subgroup_size_range: has_subgroup_size_control.then_some((
+            size_control.min_subgroup_size,
+            size_control.max_subgroup_size,
+        )),
+        queue_family: family as u32,
+        timestamp_valid_bits,
+        timestamp_period_ns: properties.limits.timestamp_period as f64,
+        max_image_dimension_3d: properties.limits.max_image_dimension3_d,
+        max_storage_buffer_range: properties.limits.max_storage_buffer_range,
+        max_workgroup_count_x: properties.limits.max_compute_work_group_count[0],
+        max_push_constants_size: properties.limits.max_push_constants_size,
+        has_memory_budget: has_extension(ash::ext::memory_budget::NAME),
+        has_subgroup_size_control,
+        heaps,
+        unified_memory,
+        rejections,
+    })
+}

@@ -1,0 +1,231 @@
+//! Buffers: a handle, its memory, its name; destroyed when the last owner drops it.
+//!
+//! Decision (kajiya's `BufferDesc`): a buffer is described by value with intent-named
+//! constructors, and host access goes through checked `write`/`read` on mapped, host-coherent
+//! memory (gpu-allocator only maps HOST_COHERENT types for CpuToGpu/GpuToCpu, so no flushes).
+
+use super::device::{Device, DeviceShared};
+use super::error::{GpuError, GpuResult, vk_err};
+use super::memory::{self, MemoryIntent, TrackedAllocation};
+use ash::vk;
+use std::sync::{Arc, Mutex};
+
+/// Description of a buffer.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct BufferDesc {
+    /// Name shown in the memory ledger and in errors.
+    pub name: String,
+    /// Size in bytes (> 0).
+    pub size: u64,
+    /// Vulkan usage flags.
+    pub usage: vk::BufferUsageFlags,
+    /// Where the memory lives.
+    pub intent: MemoryIntent,
+}
+
+impl BufferDesc {
+    /// A storage buffer only the GPU touches (filled by transfers or shaders).
+    pub fn gpu_storage(name: &str, size: u64) -> Self {
+        BufferDesc {
+            name: name.into(),
+            size,
+            usage: vk::BufferUsageFlags::STORAGE_BUFFER
+                | vk::BufferUsageFlags::TRANSFER_DST
+                | vk::BufferUsageFlags::TRANSFER_SRC,
+            intent: MemoryIntent::GpuOnly,
+        }
+    }
+
+    /// A storage buffer the host writes and the GPU reads in place.
+    pub fn host_storage(name: &str, size: u64) -> Self {
+        BufferDesc {
+            name: name.into(),
+            size,
+            usage: vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
+            intent: MemoryIntent::Upload,
+        }
+    }
+
+    /// A uniform buffer the host rewrites between frames.
+    pub fn uniform(name: &str, size: u64) -> Self {
+        BufferDesc {
+            name: name.into(),
+            size,
+            usage: vk::BufferUsageFlags::UNIFORM_BUFFER,
+            intent: MemoryIntent::Upload,
+        }
+    }
+
+    /// Host memory for a copy into a GPU-only resource.
+    pub fn staging(name: &str, size: u64) -> Self {
+        BufferDesc {
+            name: name.into(),
+            size,
+            usage: vk::BufferUsageFlags::TRANSFER_SRC,
+            intent: MemoryIntent::Staging,
+        }
+    }
+
+    /// Host-readable memory the GPU copies or writes results into.
+    pub fn readback(name: &str, size: u64) -> Self {
+        BufferDesc {
+            name: name.into(),
+            size,
+            usage: vk::BufferUsageFlags::TRANSFER_DST | vk::BufferUsageFlags::STORAGE_BUFFER,
+            intent: MemoryIntent::Readback,
+        }
+    }
+}
+
+/// A Vulkan buffer with its memory.
+pub struct Buffer {
+    pub(crate) raw: vk::Buffer,
+    desc: BufferDesc,
+    allocation: Mutex<Option<TrackedAllocation>>,
+    mapped: Option<std::ptr::NonNull<u8>>,
+    device: Arc<DeviceShared>,
+}
+
+// SAFETY: the mapped pointer refers to memory owned by this buffer; host access through it is
+// only via `write`/`read`, which copy bytes and are safe to call from any thread (the memory is
+// coherent; ordering against the GPU is the caller's fences, as for any Vulkan resource).
+unsafe impl Send for Buffer {}
+// SAFETY: as above.
+unsafe impl Sync for Buffer {}
+
+impl Buffer {
+    /// Creates a buffer and binds memory to it.
+    pub fn new(device: &Device, desc: BufferDesc) -> GpuResult<Arc<Buffer>> {
+        if desc.size == 0 {
+            return Err(GpuError::InvalidRequest(format!(
+                "buffer `{}` has size 0",
+                desc.name
+            )));
+        }
+        let shared = &device.shared;
+        let info = vk::BufferCreateInfo::default()
+            .size(desc.size)
+            .usage(desc.usage)
+            .sharing_mode(vk::SharingMode::EXCLUSIVE);
+        // SAFETY: valid create info on a live device.
+        let raw =
+            unsafe { shared.raw.create_buffer(&info, None) }.map_err(vk_err("vkCreateBuffer"))?;
+        // SAFETY: raw was just created on this device.
+        let requirements = unsafe { shared.raw.get_buffer_memory_requirements(raw) };
+        let tracked = match memory::allocate(
+            &shared.allocator,
+            &shared.ledger,
+            &shared.memory_properties,
+            &desc.name,
+            requirements,
+            desc.intent,
+            true,
+        ) {
+            Ok(t) => t,
+            Err(e) => {
+                // SAFETY: the buffer has no memory and was never used.
+                unsafe { shared.raw.destroy_buffer(raw, None) };
+                return Err(e);
+            }
+        };
+        // SAFETY: memory and offset come from an allocation made for these requirements.
+        let bound = unsafe {
+            shared.raw.bind_buffer_memory(
+                raw,
+                tracked.allocation.memory(),
+                tracked.allocation.offset(),
+            )
+        };
+        if let Err(e) = bound {
+            memory::free(&shared.allocator, &shared.ledger, tracked);
+            // SAFETY: as above.
+            unsafe { shared.raw.destroy_buffer(raw, None) };
+            return Err(GpuError::from_vk("vkBindBufferMemory", e));
+        }
+        let mapped = tracked.allocation.mapped_ptr().map(|p| p.cast::<u8>());
+        if desc.intent != MemoryIntent::GpuOnly && mapped.is_none() {
+            memory::free(&shared.allocator, &shared.ledger, tracked);
+            // SAFETY: as above.
+            unsafe { shared.raw.destroy_buffer(raw, None) };
+            return Err(GpuError::Unsupported(format!(
+                "host-visible memory for `{}` could not be mapped",
+                desc.name
+            )));
+        }
+        Ok(Arc::new(Buffer {
+            raw,
+            desc,
+            allocation: Mutex::new(Some(tracked)),
+            mapped,
+            device: shared.clone(),
+        }))
+    }
+
+    /// Creates a host-visible buffer holding `bytes`.
+    pub fn with_data(device: &Device, desc: BufferDesc, bytes: &[u8]) -> GpuResult<Arc<Buffer>> {
+        let buffer = Buffer::new(device, desc)?;
+        buffer.write(0, bytes)?;
+        Ok(buffer)
+    }
+
+    /// Size in bytes.
+    pub fn size(&self) -> u64 {
+        self.desc.size
+    }
+
+    /// Name given at creation.
+    pub fn name(&self) -> &str {
+        &self.desc.name
+    }
+
+    /// The raw handle.
+    pub fn raw(&self) -> vk::Buffer {
+        self.raw
+    }
+
+    /// Copies `bytes` into mapped memory at `offset`. The caller orders this against GPU use
+    /// (write before submitting work that reads it, or after the fence of work that used it).
+    pub fn write(&self, offset: u64, bytes: &[u8]) -> GpuResult<()> {
+        let ptr = self.host_range(offset, bytes.len() as u64)?;
+        // SAFETY: host_range checked that [offset, offset + len) lies inside the mapped memory.
+        unsafe { std::ptr::copy_nonoverlapping(bytes.as_ptr(), ptr, bytes.len()) };
+        Ok(())
+    }
+
+    /// Copies `out.len()` bytes from mapped memory at `offset` into `out`.
+    pub fn read(&self, offset: u64, out: &mut [u8]) -> GpuResult<()> {
+        let ptr = self.host_range(offset, out.len() as u64)?;
+        // SAFETY: host_range checked the range lies inside the mapped memory.
+        unsafe { std::ptr::copy_nonoverlapping(ptr as *const u8, out.as_mut_ptr(), out.len()) };
+        Ok(())
+    }
+
+    fn host_range(&self, offset: u64, len: u64) -> GpuResult<*mut u8> {
+        let base = self.mapped.ok_or_else(|| {
+            GpuError::InvalidRequest(format!("buffer `{}` is not host-visible", self.desc.name))
+        })?;
+        let end = offset
+            .checked_add(len)
+            .filter(|&end| end <= self.desc.size)
+            .ok_or_else(|| {
+                GpuError::InvalidRequest(format!(
+                    "range {offset}+{len} lies outside buffer `{}` of {} bytes",
+                    self.desc.name, self.desc.size
+                ))
+            })?;
+        let _ = end;
+        // SAFETY: offset <= size, checked above, and the mapping covers the whole buffer.
+        Ok(unsafe { base.as_ptr().add(offset as usize) })
+    }
+}
+
+impl Drop for Buffer {
+    fn drop(&mut self) {
+        // SAFETY: a Buffer is dropped only when no recording or submission holds it any more
+        // (they keep Arcs until their fence signals), so the GPU no longer uses it.
+        unsafe { self.device.raw.destroy_buffer(self.raw, None) };
+        if let Some(tracked) = self.allocation.lock().ok().and_then(|mut slot| slot.take()) {
+            memory::free(&self.device.allocator, &self.device.ledger, tracked);
+        }
+    }
+}

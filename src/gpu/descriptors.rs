@@ -1,0 +1,236 @@
+//! Descriptor sets, written from named resources and checked against the reflection.
+//!
+//! Decisions: each set has its own small pool sized from the reflection (sets are created per
+//! pass invocation and live as long as the work that uses them; pools this small are cheap, and
+//! nothing is ever freed individually). A set keeps the resources written into it alive. Binding
+//! is by the shader's variable name; a missing, unknown or mistyped binding is an error naming it.
+
+use super::buffer::Buffer;
+use super::device::DeviceShared;
+use super::error::{GpuError, GpuResult, vk_err};
+use super::image::Image;
+use super::pipeline::{ComputePipeline, descriptor_type};
+use super::sampler::Sampler;
+use super::shaders::BindingKind;
+use ash::vk;
+use std::any::Any;
+use std::sync::Arc;
+
+/// A resource to write into one binding.
+#[derive(Clone)]
+pub enum Resource {
+    /// A storage or uniform buffer (whole buffer).
+    Buffer(Arc<Buffer>),
+    /// A storage image (layout GENERAL).
+    StorageImage(Arc<Image>),
+    /// A sampled image without sampler (layout SHADER_READ_ONLY_OPTIMAL).
+    SampledImage(Arc<Image>),
+    /// A combined image sampler (layout SHADER_READ_ONLY_OPTIMAL).
+    CombinedImageSampler(Arc<Image>, Arc<Sampler>),
+}
+
+impl Resource {
+    fn matches(&self, kind: BindingKind) -> bool {
+        matches!(
+            (self, kind),
+            (
+                Resource::Buffer(_),
+                BindingKind::StorageBuffer { .. } | BindingKind::UniformBuffer
+            ) | (Resource::StorageImage(_), BindingKind::StorageImage { .. })
+                | (Resource::SampledImage(_), BindingKind::SampledImage)
+                | (
+                    Resource::CombinedImageSampler(..),
+                    BindingKind::CombinedImageSampler
+                )
+        )
+    }
+
+    fn keep_alive(&self) -> Vec<Arc<dyn Any + Send + Sync>> {
+        match self {
+            Resource::Buffer(b) => vec![b.clone()],
+            Resource::StorageImage(i) | Resource::SampledImage(i) => vec![i.clone()],
+            Resource::CombinedImageSampler(i, s) => vec![i.clone(), s.clone()],
+        }
+    }
+}
+
+/// A written descriptor set and the resources it refers to.
+pub struct DescriptorSet {
+    pub(crate) raw: vk::DescriptorSet,
+    pub(crate) set_index: u32,
+    pool: vk::DescriptorPool,
+    _resources: Vec<Arc<dyn Any + Send + Sync>>,
+    device: Arc<DeviceShared>,
+}
+
+impl DescriptorSet {
+    /// Allocates set `set_index` of `pipeline` and writes `resources` by binding name.
+    pub fn new(
+        pipeline: &ComputePipeline,
+        set_index: u32,
+        resources: &[(&str, Resource)],
+    ) -> GpuResult<Arc<DescriptorSet>> {
+        let shader = pipeline.shader();
+        let device = pipeline_device(pipeline);
+        let wanted: Vec<_> = shader
+            .bindings
+            .iter()
+            .filter(|b| b.set == set_index)
+            .collect();
+        let layout = *pipeline
+            .set_layouts
+            .get(set_index as usize)
+            .ok_or_else(|| {
+                GpuError::InvalidRequest(format!(
+                    "shader {} has no descriptor set {set_index}",
+                    shader.name
+                ))
+            })?;
+        for (name, _) in resources {
+            if !wanted.iter().any(|b| b.name == *name) {
+                return Err(GpuError::InvalidRequest(format!(
+                    "shader {} does not use a binding `{name}` in set {set_index}",
+                    shader.name
+                )));
+            }
+        }
+        let mut sizes: Vec<vk::DescriptorPoolSize> = Vec::new();
+        for b in &wanted {
+            let ty = descriptor_type(b.kind);
+            match sizes.iter_mut().find(|s| s.ty == ty) {
+                Some(s) => s.descriptor_count += b.count,
+                None => sizes.push(vk::DescriptorPoolSize {
+                    ty,
+                    descriptor_count: b.count,
+                }),
+            }
+        }
+        let pool_info = vk::DescriptorPoolCreateInfo::default()
+            .max_sets(1)
+            .pool_sizes(&sizes);
+        // SAFETY: valid create info on a live device.
+        let pool = unsafe { device.raw.create_descriptor_pool(&pool_info, None) }
+            .map_err(vk_err("vkCreateDescriptorPool"))?;
+        let mut set = DescriptorSet {
+            raw: vk::DescriptorSet::null(),
+            set_index,
+            pool,
+            _resources: Vec::new(),
+            device: device.clone(),
+        };
+        let layouts = [layout];
+        let alloc_info = vk::DescriptorSetAllocateInfo::default()
+            .descriptor_pool(pool)
+            .set_layouts(&layouts);
+        // SAFETY: pool and layout belong to this device; the pool has room for exactly this set.
+        set.raw = unsafe { device.raw.allocate_descriptor_sets(&alloc_info) }
+            .map_err(vk_err("vkAllocateDescriptorSets"))?
+            .first()
+            .copied()
+            .unwrap_or(vk::DescriptorSet::null());
+
+        let mut buffer_infos = Vec::new();
+        let mut image_infos = Vec::new();
+        let mut targets = Vec::new();
+        for binding in &wanted {
+            let (_, resource) = resources
+                .iter()
+                .find(|(n, _)| *n == binding.name)
+                .ok_or_else(|| {
+                    GpuError::InvalidRequest(format!(
+                        "binding `{}` of shader {} was not given a resource",
+                        binding.name, shader.name
+                    ))
+                })?;
+            if !resource.matches(binding.kind) {
+                return Err(GpuError::InvalidRequest(format!(
+                    "binding `{}` of shader {} is {:?}; the resource given does not fit it",
+                    binding.name, shader.name, binding.kind
+                )));
+            }
+            set._resources.extend(resource.keep_alive());
+            match resource {
+                Resource::Buffer(b) => {
+                    buffer_infos.push(vk::DescriptorBufferInfo {
+                        buffer: b.raw,
+                        offset: 0,
+                        range: vk::WHOLE_SIZE,
+                    });
+                    targets.push((
+                        binding.binding,
+                        descriptor_type(binding.kind),
+                        true,
+                        buffer_infos.len() - 1,
+                    ));
+                }
+                Resource::StorageImage(i) => {
+                    image_infos.push(vk::DescriptorImageInfo {
+                        sampler: vk::Sampler::null(),
+                        image_view: i.view,
+                        image_layout: vk::ImageLayout::GENERAL,
+                    });
+                    targets.push((
+                        binding.binding,
+                        descriptor_type(binding.kind),
+                        false,
+                        image_infos.len() - 1,
+                    ));
+                }
+                Resource::SampledImage(i) => {
+                    image_infos.push(vk::DescriptorImageInfo {
+                        sampler: vk::Sampler::null(),
+                        image_view: i.view,
+                        image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+                    });
+                    targets.push((
+                        binding.binding,
+                        descriptor_type(binding.kind),
+                        false,
+                        image_infos.len() - 1,
+                    ));
+                }
+                Resource::CombinedImageSampler(i, s) => {
+                    image_infos.push(vk::DescriptorImageInfo {
+                        sampler: s.raw,
+                        image_view: i.view,
+                        image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+                    });
+                    targets.push((
+                        binding.binding,
+                        descriptor_type(binding.kind),
+                        false,
+                        image_infos.len() - 1,
+                    ));
+                }
+            }
+        }
+        let writes: Vec<vk::WriteDescriptorSet> = targets
+            .iter()
+            .map(|&(binding, ty, is_buffer, index)| {
+                let write = vk::WriteDescriptorSet::default()
+                    .dst_set(set.raw)
+                    .dst_binding(binding)
+                    .descriptor_type(ty);
+                if is_buffer {
+                    write.buffer_info(std::slice::from_ref(&buffer_infos[index]))
+                } else {
+                    write.image_info(std::slice::from_ref(&image_infos[index]))
+                }
+            })
+            .collect();
+        // SAFETY: every handle in `writes` is alive (kept by `set._resources`).
+        unsafe { device.raw.update_descriptor_sets(&writes, &[]) };
+        Ok(Arc::new(set))
+    }
+}
+
+fn pipeline_device(pipeline: &ComputePipeline) -> Arc<DeviceShared> {
+    pipeline.device_shared()
+}
+
+impl Drop for DescriptorSet {
+    fn drop(&mut self) {
+        // SAFETY: dropped only when no submission uses the set; destroying the pool frees it.
+        unsafe { self.device.raw.destroy_descriptor_pool(self.pool, None) };
+    }
+}

@@ -1,0 +1,39 @@
+//! The object layer on ash: instance, device choice, memory, buffers, images, samplers,
+//! descriptors, pipelines, command recording and submission, barriers, timestamps.
+//!
+//! Decisions (details in each file):
+//! - RAII everywhere: every object owns its handle and an `Arc` of the device; work in flight
+//!   keeps what it uses alive until its fence signals. No `vkDeviceWaitIdle` outside shutdown.
+//! - Layouts come from the build-time reflection table (`shaders.rs`), never written by hand.
+//! - Barriers come from one access table (`sync.rs`).
+//! - Every Vulkan result becomes a typed [`GpuError`]; nothing here unwraps or panics.
+
+pub mod adapter;
+pub mod buffer;
+pub mod commands;
+pub mod debug;
+pub mod descriptors;
+pub mod device;
+pub mod error;
+pub mod image;
+pub mod instance;
+pub mod memory;
+pub mod pipeline;
+pub mod sampler;
+pub mod shaders;
+pub mod sync;
+pub mod timestamps;
+
+pub use adapter::{AdapterInfo, DeviceSelector};
+pub use buffer::{Buffer, BufferDesc};
+pub use commands::{Recording, Submission};
+pub use descriptors::{DescriptorSet, Resource};
+pub use device::{Device, DeviceConfig};
+pub use error::{GpuError, GpuResult};
+pub use image::{Image, ImageDesc};
+pub use instance::Validation;
+pub use memory::{AllocationRecord, MemoryIntent};
+pub use pipeline::{ComputePipeline, SpecValue};
+pub use sampler::{Filter, Sampler};
+pub use sync::Access;
+pub use timestamps::PassTiming;

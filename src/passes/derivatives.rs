@@ -1,0 +1,199 @@
+//! Gradient, Hessian and directional curvature of I_norm (shaders/derivatives.comp), paper eqs.
+//! 2 and 3, written compactly to 3D images.
+//!
+//! Decisions:
+//! - Outputs on request only ([`DerivativeOutputs`]); what is not requested is neither computed
+//!   (specialization constants remove the code) nor stored (no image is allocated for it; a
+//!   1-texel placeholder fills the unused binding).
+//! - Formats: gradient magnitude alone in R16_SFLOAT, with curvature in R16G16_SFLOAT (2 or 4
+//!   bytes per voxel); normals in R8G8B8A8_SNORM. Values are in world units (I_norm per mm and per
+//!   mm^2): the world transform `M = A^-T` is applied in the shader, in f32, from the f64 affine.
+//! - Curvature and normals are 0 where |g| <= tau (NUMERICS.md "zero gradient").
+//! - Every dispatch also reduces max |g| (the normalizer of paper eq. 4) into a 4-byte buffer;
+//!   with no output requested that is all it does (the on-the-fly gradient path).
+
+use crate::gpu::shaders::table;
+use crate::gpu::{
+    Access, Buffer, ComputePipeline, DescriptorSet, Device, GpuError, GpuResult, Image, ImageDesc,
+    Recording, Resource, Sampler, SpecValue,
+};
+use ash::vk;
+use glam::DMat3;
+use std::sync::Arc;
+
+/// |g| (I_norm per mm) at or below which the gradient direction is undefined. The f64 twin uses
+/// the same value (`reference::derivatives::DEFAULT_TAU`).
+pub const DEFAULT_TAU: f32 = 1e-6;
+
+/// Which derived volumes to compute.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize)]
+pub struct DerivativeOutputs {
+    /// |grad I| in world units (paper eq. 4's gradient term).
+    pub magnitude: bool,
+    /// Directional curvature k = g^T H g (paper eq. 3); stored beside the magnitude.
+    pub curvature: bool,
+    /// Unit world-space gradient direction, for shading.
+    pub normal: bool,
+}
+
+/// Push constants of `derivatives.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct DerivativeParams {
+    /// Dimensions (w unused).
+    pub dims: [i32; 4],
+    /// Rows of M = A^-T (w unused).
+    pub m_rows: [[f32; 4]; 3],
+    /// Zero-gradient threshold.
+    pub tau: f32,
+}
+
+/// The derived images one dispatch produced.
+pub struct DerivedVolumes {
+    /// R16F (|g|) or RG16F (|g|, k); None when neither was requested.
+    pub gradient: Option<Arc<Image>>,
+    /// RGBA8_SNORM unit gradient; None when not requested.
+    pub normal: Option<Arc<Image>>,
+    /// What was computed.
+    pub outputs: DerivativeOutputs,
+}
+
+/// `A^-T` of the affine's linear part, or an error for a singular or non-finite affine.
+pub fn world_transform(linear: [[f64; 3]; 3]) -> GpuResult<DMat3> {
+    let a = DMat3::from_cols_array_2d(&linear).transpose(); // rows in, glam is column-major
+    let det = a.determinant();
+    if !det.is_finite() || det.abs() < 1e-12 {
+        return Err(GpuError::InvalidRequest(format!(
+            "the volume's affine is singular (determinant {det:e}); derivatives need an invertible affine"
+        )));
+    }
+    Ok(a.inverse().transpose())
+}
+
+/// The derivative pass for one combination of outputs.
+pub struct DerivativePass {
+    pipeline: Arc<ComputePipeline>,
+    outputs: DerivativeOutputs,
+}
+
+impl DerivativePass {
+    /// Creates the pipeline specialized for `outputs`.
+    pub fn new(
+        device: &Device,
+        outputs: DerivativeOutputs,
+        cache: vk::PipelineCache,
+    ) -> GpuResult<Self> {
+        let pipeline = ComputePipeline::new(
+            device,
+            &table::DERIVATIVES,
+            &[
+                ("WANT_MAGNITUDE", SpecValue::Bool(outputs.magnitude)),
+                ("WANT_CURVATURE", SpecValue::Bool(outputs.curvature)),
+                ("WANT_NORMAL", SpecValue::Bool(outputs.normal)),
+            ],
+            cache,
+        )?;
+        Ok(DerivativePass { pipeline, outputs })
+    }
+
+    /// Allocates the requested outputs and records the pass. `normalized` must be in
+    /// `Access::ComputeSampled`; the outputs are left in `Access::ComputeWriteImage`. `stats`
+    /// (4 bytes) receives the bits of max |g| and is left in `Access::ComputeWriteBuffer`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn record(
+        &self,
+        device: &Device,
+        rec: &mut Recording,
+        normalized: &Arc<Image>,
+        nearest: &Arc<Sampler>,
+        linear_part: [[f64; 3]; 3],
+        tau: f32,
+        stats: &Arc<Buffer>,
+    ) -> GpuResult<DerivedVolumes> {
+        let extent = normalized.extent();
+        let m = world_transform(linear_part)?;
+        let want_gradient = self.outputs.magnitude || self.outputs.curvature;
+        let gradient_format = if self.outputs.curvature {
+            vk::Format::R16G16_SFLOAT
+        } else {
+            vk::Format::R16_SFLOAT
+        };
+        let image = |name: &str, wanted: bool, format| {
+            let size = if wanted { extent } else { [1, 1, 1] };
+            let name = if wanted {
+                name.to_string()
+            } else {
+                format!("{name} (unused placeholder)")
+            };
+            Image::new(device, ImageDesc::volume(&name, size, format))
+        };
+        let gradient = image("gradient magnitude", want_gradient, gradient_format)?;
+        let normal = image("normals", self.outputs.normal, vk::Format::R8G8B8A8_SNORM)?;
+        let set = DescriptorSet::new(
+            &self.pipeline,
+            0,
+            &[
+                (
+                    "volume",
+                    Resource::CombinedImageSampler(normalized.clone(), nearest.clone()),
+                ),
+                ("gradient_out", Resource::StorageImage(gradient.clone())),
+                ("normal_out", Resource::StorageImage(normal.clone())),
+                ("stats", Resource::Buffer(stats.clone())),
+            ],
+        )?;
+        rec.fill_buffer(stats, 0, 4, 0);
+        // Orders the zeroing of the maximum before the shader's atomicMax.
+        rec.barriers(
+            &[(stats, Access::TransferWrite, Access::ComputeWriteBuffer)],
+            &[],
+        );
+        // Moves the fresh outputs to GENERAL for storage writes; nothing to preserve.
+        rec.barriers(
+            &[],
+            &[
+                (&gradient, Access::Nothing, Access::ComputeWriteImage),
+                (&normal, Access::Nothing, Access::ComputeWriteImage),
+            ],
+        );
+        let rows = m.transpose().to_cols_array_2d(); // rows of M
+        let params = DerivativeParams {
+            dims: [extent[0] as i32, extent[1] as i32, extent[2] as i32, 0],
+            m_rows: rows.map(|r| [r[0] as f32, r[1] as f32, r[2] as f32, 0.0]),
+            tau,
+        };
+        let groups = self.pipeline.workgroups_for(extent);
+        rec.dispatch(&self.pipeline, &[set], bytemuck::bytes_of(&params), groups)?;
+        Ok(DerivedVolumes {
+            gradient: want_gradient.then_some(gradient),
+            normal: self.outputs.normal.then_some(normal),
+            outputs: self.outputs,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn push_constants_match_the_shader() {
+        assert_eq!(
+            table::DERIVATIVES.push_constant_bytes as usize,
+            std::mem::size_of::<DerivativeParams>()
+        );
+    }
+
+    #[test]
+    fn world_transform_of_spacing_divides_by_spacing() {
+        let m = world_transform([[0.5, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 3.0]]).unwrap();
+        let g = m * glam::DVec3::new(1.0, 1.0, 1.0);
+        assert!((g - glam::DVec3::new(2.0, 1.0, 1.0 / 3.0)).length() < 1e-12);
+    }
+
+    #[test]
+    fn singular_affines_are_rejected() {
+        assert!(world_transform([[1.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 1.0]]).is_err());
+        assert!(world_transform([[f64::NAN, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]).is_err());
+    }
+}

@@ -1,0 +1,217 @@
+//! Normalization into a 3D image (shaders/normalize.comp), paper eq. 1.
+//!
+//! Decisions (NUMERICS.md): scale and offset are computed here in f64 from the GPU's min/max and
+//! handed to the shader as `I_norm = clamp((ldexp(s, e) - offset) * scale, 0, 1)`:
+//! - the power-of-two pre-scale `e` brings the largest |sample| just below 1, so neither the
+//!   subtraction nor the product can overflow for +-3e38 data, and `scale` stays a normal f32
+//!   even when 1/(Imax - Imin) would be subnormal;
+//! - `offset` is the pre-scaled sample that maps to Imin, exactly representable, so
+//!   "1e30 + tiny" ranges subtract exactly (Sterbenz);
+//! - a negative scl_slope flips which stored extreme is Imin: `scale` is then negative;
+//! - a constant volume (Imax == Imin, or no finite voxel) gets scale 0: I_norm = 0 everywhere.
+
+use crate::gpu::shaders::table;
+use crate::gpu::{
+    Access, Buffer, ComputePipeline, DescriptorSet, Device, GpuResult, Image, Recording, Resource,
+    SpecValue,
+};
+use crate::volume::{LinearMap, SampleKind};
+use ash::vk;
+use std::sync::Arc;
+
+/// Push constants of `normalize.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct NormalizeParams {
+    /// Volume dimensions.
+    pub dims: [u32; 3],
+    /// Power-of-two pre-scale applied to every sample.
+    pub pre_exponent: i32,
+    /// Pre-scaled stored value of Imin.
+    pub offset: f32,
+    /// `slope * 2^-e / (Imax - Imin)`, or 0 for a constant volume.
+    pub scale: f32,
+}
+
+/// The physical range and the shader parameters derived from the stored min/max.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Normalization {
+    /// Smallest finite physical intensity (None without finite voxels).
+    pub imin: Option<f64>,
+    /// Largest finite physical intensity.
+    pub imax: Option<f64>,
+    /// True when every finite voxel has the same intensity (or none is finite): I_norm = 0.
+    pub constant: bool,
+    /// Shader parameters.
+    pub params: NormalizeParams,
+}
+
+/// Computes the normalization in f64 from the stored min/max (`None`: no finite sample).
+pub fn plan(
+    dims: [u32; 3],
+    stored_range: Option<(f64, f64)>,
+    to_physical: LinearMap,
+) -> Normalization {
+    let constant_plan = |imin, imax| Normalization {
+        imin,
+        imax,
+        constant: true,
+        params: NormalizeParams {
+            dims,
+            pre_exponent: 0,
+            offset: 0.0,
+            scale: 0.0,
+        },
+    };
+    let Some((smin, smax)) = stored_range else {
+        return constant_plan(None, None);
+    };
+    let (p1, p2) = (to_physical.apply(smin), to_physical.apply(smax));
+    let (imin, imax) = (p1.min(p2), p1.max(p2));
+    let range = imax - imin;
+    if !(range > 0.0 && range.is_finite()) {
+        return constant_plan(Some(imin), Some(imax));
+    }
+    // Largest |sample| -> e with |sample| * 2^e in [0.5, 1).
+    let largest = smin.abs().max(smax.abs());
+    let e = if largest > 0.0 {
+        -(largest.log2().floor() as i32 + 1)
+    } else {
+        0
+    };
+    let e = e.clamp(-149, 149);
+    let reference = if to_physical.slope >= 0.0 { smin } else { smax };
+    let offset = reference * 2f64.powi(e);
+    let scale = to_physical.slope * 2f64.powi(-e) / range;
+    Normalization {
+        imin: Some(imin),
+        imax: Some(imax),
+        constant: false,
+        params: NormalizeParams {
+            dims,
+            pre_exponent: e,
+            offset: offset as f32,
+            scale: scale as f32,
+        },
+    }
+}
+
+/// The normalization pass for one sample kind.
+pub struct NormalizePass {
+    pipeline: Arc<ComputePipeline>,
+}
+
+impl NormalizePass {
+    /// Creates the pipeline specialized for `kind`.
+    pub fn new(device: &Device, kind: SampleKind, cache: vk::PipelineCache) -> GpuResult<Self> {
+        let pipeline = ComputePipeline::new(
+            device,
+            &table::NORMALIZE,
+            &[("SAMPLE_KIND", SpecValue::U32(kind as u32))],
+            cache,
+        )?;
+        Ok(NormalizePass { pipeline })
+    }
+
+    /// Records the normalization of `samples` into `target` (whose previous contents are
+    /// discarded). Afterwards `target` was last accessed as `Access::ComputeWriteImage`.
+    pub fn record(
+        &self,
+        rec: &mut Recording,
+        samples: &Arc<Buffer>,
+        params: &NormalizeParams,
+        target: &Arc<Image>,
+    ) -> GpuResult<()> {
+        let set = DescriptorSet::new(
+            &self.pipeline,
+            0,
+            &[
+                ("samples", Resource::Buffer(samples.clone())),
+                ("normalized", Resource::StorageImage(target.clone())),
+            ],
+        )?;
+        // Moves the target to GENERAL for storage writes; its old contents are not needed.
+        rec.barriers(&[], &[(target, Access::Nothing, Access::ComputeWriteImage)]);
+        let groups = self.pipeline.workgroups_for(params.dims);
+        rec.dispatch(&self.pipeline, &[set], bytemuck::bytes_of(params), groups)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn apply(p: &NormalizeParams, s: f64) -> f64 {
+        ((s * 2f64.powi(p.pre_exponent) - p.offset as f64) * p.scale as f64).clamp(0.0, 1.0)
+    }
+
+    #[test]
+    fn push_constants_match_the_shader() {
+        assert_eq!(
+            table::NORMALIZE.push_constant_bytes as usize,
+            std::mem::size_of::<NormalizeParams>()
+        );
+    }
+
+    #[test]
+    fn int16_range_maps_to_unit_interval() {
+        let n = plan([1, 1, 1], Some((-100.0, 1000.0)), LinearMap::IDENTITY);
+        assert_eq!(
+            (n.imin, n.imax, n.constant),
+            (Some(-100.0), Some(1000.0), false)
+        );
+        assert!((apply(&n.params, -100.0)).abs() < 1e-7);
+        assert!((apply(&n.params, 1000.0) - 1.0).abs() < 1e-6);
+        assert!((apply(&n.params, 450.0) - 0.5).abs() < 1e-6);
+    }
+
+    #[test]
+    fn negative_slope_flips_the_range() {
+        let map = LinearMap {
+            slope: -2.0,
+            intercept: 10.0,
+        };
+        let n = plan([1, 1, 1], Some((0.0, 5.0)), map);
+        assert_eq!((n.imin, n.imax), (Some(0.0), Some(10.0)));
+        assert!(
+            (apply(&n.params, 5.0)).abs() < 1e-7,
+            "stored 5 -> physical 0 = Imin"
+        );
+        assert!((apply(&n.params, 0.0) - 1.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn constant_and_empty_volumes_normalize_to_zero() {
+        let n = plan([2, 2, 2], Some((7.0, 7.0)), LinearMap::IDENTITY);
+        assert!(n.constant);
+        assert_eq!(n.params.scale, 0.0);
+        let n = plan([2, 2, 2], None, LinearMap::IDENTITY);
+        assert!(n.constant && n.imin.is_none());
+    }
+
+    #[test]
+    fn extreme_ranges_keep_scale_and_offset_finite_and_normal() {
+        for (lo, hi) in [
+            (-3e38, 3e38),
+            (1e30, 1e30 * (1.0 + 1e-6)),
+            (-1e-40, 1e-40),
+            (0.0, 1e-44),
+        ] {
+            let (lo32, hi32) = (lo as f32 as f64, hi as f32 as f64);
+            let n = plan([1, 1, 1], Some((lo32, hi32)), LinearMap::IDENTITY);
+            assert!(!n.constant, "{lo}..{hi}");
+            assert!(
+                n.params.scale.is_finite() && n.params.scale.is_normal(),
+                "{lo}..{hi}: {:?}",
+                n.params
+            );
+            assert!(n.params.offset.is_finite());
+            assert!((apply(&n.params, lo32)).abs() < 1e-6, "{lo}..{hi}");
+            assert!(
+                (apply(&n.params, hi32) - 1.0).abs() < 1e-5,
+                "{lo}..{hi}: {}",
+                apply(&n.params, hi32)
+            );
+        }
+    }
+}

@@ -1,0 +1,227 @@
+//! Tissue classification: per-tissue windows with smooth edges, colours, opacities, switches.
+//!
+//! The classification function (paper step 4, evaluated per sample in the raymarch and in the
+//! f64 reference):
+//!
+//! ```text
+//! w_t(v) = smoothstep(lo_t - e_t, lo_t + e_t, v) * (1 - smoothstep(hi_t - e_t, hi_t + e_t, v))
+//! f(v)   = min(1, sum_t visible_t * w_t(v) * opacity_t)
+//! C_s(v) = sum_t visible_t * w_t(v) * opacity_t * colour_t / sum_t visible_t * w_t(v) * opacity_t
+//! ```
+//!
+//! Smooth edges (width `e` on each side) avoid the staircase a hard window draws on every
+//! isosurface of its bounds. A tissue whose peak was not found has no window and never contributes.
+
+/// The tissue classes the renderer knows, in the order of the uniform arrays.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TissueClass {
+    /// Cerebrospinal fluid.
+    Csf = 0,
+    /// Grey matter.
+    Gm = 1,
+    /// White matter.
+    Wm = 2,
+    /// Pathology / contrast band (lesions, enhancing vessels), above white matter.
+    Pathology = 3,
+}
+
+impl TissueClass {
+    /// All classes in uniform-array order.
+    pub const ALL: [TissueClass; 4] = [
+        TissueClass::Csf,
+        TissueClass::Gm,
+        TissueClass::Wm,
+        TissueClass::Pathology,
+    ];
+
+    /// Lowercase name as used on the command line (`csf`, `gm`, `wm`, `pathology`).
+    pub fn name(self) -> &'static str {
+        match self {
+            TissueClass::Csf => "csf",
+            TissueClass::Gm => "gm",
+            TissueClass::Wm => "wm",
+            TissueClass::Pathology => "pathology",
+        }
+    }
+
+    /// Parses a command-line name.
+    pub fn parse(text: &str) -> Option<TissueClass> {
+        TissueClass::ALL
+            .into_iter()
+            .find(|t| t.name() == text.trim().to_lowercase())
+    }
+}
+
+/// An intensity window in I_norm with smooth edges.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct Window {
+    /// Lower bound (weight 0.5 there).
+    pub lo: f64,
+    /// Upper bound (weight 0.5 there).
+    pub hi: f64,
+    /// Half-width of each smooth edge (> 0).
+    pub edge: f64,
+}
+
+/// Smallest edge half-width: GLSL's smoothstep is undefined for edge0 >= edge1.
+pub const MIN_EDGE: f64 = 1e-4;
+
+impl Window {
+    /// Weight of intensity `v` in this window, in [0, 1].
+    pub fn weight(&self, v: f64) -> f64 {
+        let e = self.edge.max(MIN_EDGE);
+        smoothstep(self.lo - e, self.lo + e, v) * (1.0 - smoothstep(self.hi - e, self.hi + e, v))
+    }
+}
+
+/// GLSL's smoothstep in f64.
+pub fn smoothstep(edge0: f64, edge1: f64, x: f64) -> f64 {
+    let t = ((x - edge0) / (edge1 - edge0)).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}
+
+/// How one tissue is drawn.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct TissueStyle {
+    /// Window in I_norm; None when the tissue was not found (never drawn).
+    pub window: Option<Window>,
+    /// Display colour, RGB in [0, 1].
+    pub colour: [f32; 3],
+    /// Opacity per voxel-length step at full window weight and maximal gradient.
+    pub opacity: f32,
+    /// On/off switch ("pathological unmasking" toggles these).
+    pub visible: bool,
+}
+
+/// The four tissue styles, indexed by [`TissueClass`].
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct Classification {
+    /// Styles in [`TissueClass::ALL`] order.
+    pub tissues: [TissueStyle; 4],
+}
+
+impl Classification {
+    /// Default colours and opacities around the given windows: CSF blue, GM orange, WM ivory,
+    /// pathology red; all visible except pathology.
+    pub fn with_windows(windows: [Option<Window>; 4]) -> Self {
+        let styles = [
+            ([0.30, 0.55, 1.00], 0.35, true),
+            ([1.00, 0.55, 0.35], 0.70, true),
+            ([0.96, 0.94, 0.82], 0.85, true),
+            ([1.00, 0.12, 0.08], 1.00, false),
+        ];
+        let mut tissues = [TissueStyle {
+            window: None,
+            colour: [0.0; 3],
+            opacity: 0.0,
+            visible: false,
+        }; 4];
+        for (i, (colour, opacity, visible)) in styles.into_iter().enumerate() {
+            tissues[i] = TissueStyle {
+                window: windows[i],
+                colour,
+                opacity,
+                visible,
+            };
+        }
+        Classification { tissues }
+    }
+
+    /// The style of one tissue.
+    pub fn style(&self, tissue: TissueClass) -> &TissueStyle {
+        &self.tissues[tissue as usize]
+    }
+
+    /// Mutable style of one tissue.
+    pub fn style_mut(&mut self, tissue: TissueClass) -> &mut TissueStyle {
+        &mut self.tissues[tissue as usize]
+    }
+
+    /// Sets exactly these tissues visible.
+    pub fn show_only(&mut self, visible: &[TissueClass]) {
+        for t in TissueClass::ALL {
+            self.style_mut(t).visible = visible.contains(&t);
+        }
+    }
+
+    /// f(v) and C_s(v) of the module docs.
+    pub fn classify(&self, v: f64) -> (f64, [f64; 3]) {
+        let mut total = 0.0;
+        let mut colour = [0.0; 3];
+        for style in &self.tissues {
+            let Some(window) = style.window else { continue };
+            if !style.visible {
+                continue;
+            }
+            let w = window.weight(v) * style.opacity as f64;
+            total += w;
+            for (c, s) in colour.iter_mut().zip(style.colour) {
+                *c += w * s as f64;
+            }
+        }
+        if total <= 0.0 {
+            return (0.0, [0.0; 3]);
+        }
+        (total.min(1.0), colour.map(|c| c / total))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn window_weight_is_half_at_the_bounds_and_one_inside() {
+        let w = Window {
+            lo: 0.2,
+            hi: 0.4,
+            edge: 0.02,
+        };
+        assert!((w.weight(0.2) - 0.5).abs() < 1e-12);
+        assert!((w.weight(0.4) - 0.5).abs() < 1e-12);
+        assert_eq!(w.weight(0.3), 1.0);
+        assert_eq!(w.weight(0.1), 0.0);
+        assert_eq!(w.weight(0.5), 0.0);
+    }
+
+    #[test]
+    fn hidden_or_missing_tissues_contribute_nothing() {
+        let window = Some(Window {
+            lo: 0.0,
+            hi: 1.0,
+            edge: 0.01,
+        });
+        let mut c = Classification::with_windows([window, None, None, None]);
+        assert!(c.classify(0.5).0 > 0.0);
+        c.show_only(&[]);
+        assert_eq!(c.classify(0.5).0, 0.0);
+        c.show_only(&[TissueClass::Gm]);
+        assert_eq!(c.classify(0.5).0, 0.0, "GM has no window");
+    }
+
+    #[test]
+    fn colour_is_the_opacity_weighted_mean() {
+        let mut c = Classification::with_windows([
+            Some(Window {
+                lo: 0.0,
+                hi: 1.0,
+                edge: 0.01,
+            }),
+            Some(Window {
+                lo: 0.0,
+                hi: 1.0,
+                edge: 0.01,
+            }),
+            None,
+            None,
+        ]);
+        c.tissues[0].colour = [1.0, 0.0, 0.0];
+        c.tissues[0].opacity = 0.25;
+        c.tissues[1].colour = [0.0, 0.0, 1.0];
+        c.tissues[1].opacity = 0.75;
+        let (f, colour) = c.classify(0.5);
+        assert!((f - 1.0).abs() < 1e-12);
+        assert!((colour[0] - 0.25).abs() < 1e-12 && (colour[2] - 0.75).abs() < 1e-12);
+    }
+}

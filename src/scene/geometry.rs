@@ -1,0 +1,165 @@
+//! Index-space / world-space geometry of a volume, as the raymarch needs it.
+//!
+//! Decisions: rays are generated in world space (mm, from the NIfTI affine) and marched in index
+//! space, where the volume is the box `[-0.5, dim - 0.5]` (voxel centres at integers) and
+//! texture coordinates are `(p + 0.5) / dim`. The ray parameter stays in world millimetres
+//! (the direction is transformed, not normalized), so the step length, and with it opacity
+//! correction, means the same physical distance for anisotropic and oblique volumes.
+
+use glam::{DMat3, DMat4, DVec3, DVec4};
+
+/// Geometry of one volume.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VolumeGeometry {
+    /// Voxels along i, j, k.
+    pub dims: [u32; 3],
+    /// Index (i, j, k, 1) to world (x, y, z, 1) in mm.
+    pub index_to_world: DMat4,
+    /// The inverse.
+    pub world_to_index: DMat4,
+    /// `A^-T`: maps index-space gradients to world-space gradients.
+    pub gradient_to_world: DMat3,
+    /// World length of the shortest index step (mm): one "voxel" of step size.
+    pub voxel_mm: f64,
+}
+
+/// The affine cannot be inverted (singular or non-finite).
+#[derive(Debug, thiserror::Error)]
+#[error("the volume's index-to-world affine is not invertible (determinant {determinant:e})")]
+pub struct SingularAffine {
+    /// Determinant of the linear part.
+    pub determinant: f64,
+}
+
+impl VolumeGeometry {
+    /// Builds the geometry from dims and a row-major 4x4 affine.
+    pub fn new(dims: [u32; 3], affine: [[f64; 4]; 4]) -> Result<Self, SingularAffine> {
+        let index_to_world = DMat4::from_cols_array_2d(&affine).transpose();
+        let linear = DMat3::from_mat4(index_to_world);
+        let determinant = linear.determinant();
+        if !determinant.is_finite() || determinant.abs() < 1e-12 || !index_to_world.is_finite() {
+            return Err(SingularAffine { determinant });
+        }
+        let voxel_mm = (0..3)
+            .map(|c| linear.col(c).length())
+            .fold(f64::INFINITY, f64::min);
+        Ok(VolumeGeometry {
+            dims,
+            index_to_world,
+            world_to_index: index_to_world.inverse(),
+            gradient_to_world: linear.inverse().transpose(),
+            voxel_mm,
+        })
+    }
+
+    /// World-space axis-aligned bounds of the sampled box `[-0.5, dim - 0.5]`.
+    pub fn world_bounds(&self) -> (DVec3, DVec3) {
+        let mut lo = DVec3::splat(f64::INFINITY);
+        let mut hi = DVec3::splat(f64::NEG_INFINITY);
+        for corner in 0..8 {
+            let p = DVec4::new(
+                if corner & 1 == 0 {
+                    -0.5
+                } else {
+                    self.dims[0] as f64 - 0.5
+                },
+                if corner & 2 == 0 {
+                    -0.5
+                } else {
+                    self.dims[1] as f64 - 0.5
+                },
+                if corner & 4 == 0 {
+                    -0.5
+                } else {
+                    self.dims[2] as f64 - 0.5
+                },
+                1.0,
+            );
+            let w = (self.index_to_world * p).truncate();
+            lo = lo.min(w);
+            hi = hi.max(w);
+        }
+        (lo, hi)
+    }
+
+    /// A world ray (origin, unit direction) in index space; the parameter stays in mm.
+    pub fn ray_to_index(&self, origin: DVec3, direction: DVec3) -> (DVec3, DVec3) {
+        let o = (self.world_to_index * origin.extend(1.0)).truncate();
+        let d = (self.world_to_index * direction.extend(0.0)).truncate();
+        (o, d)
+    }
+}
+
+/// Smallest |direction component| the slab test divides by; keeps 0 * inf out (NUMERICS.md).
+pub const MIN_DIRECTION: f64 = 1e-20;
+
+/// Robust ray/box intersection in index space against `[-0.5, dim - 0.5]`: `(t_near, t_far)`
+/// with `t_near <= t_far` on a hit, or None on a miss. Zero direction components are replaced by
+/// +-1e-20 with their sign, so rays parallel to a face, on a face, grazing an edge, or starting
+/// inside the box are all handled without NaN. The GLSL twin is `shaders/include/geometry.glsl`.
+pub fn intersect_box(origin: DVec3, direction: DVec3, dims: [u32; 3]) -> Option<(f64, f64)> {
+    let mut t_near = f64::NEG_INFINITY;
+    let mut t_far = f64::INFINITY;
+    for axis in 0..3 {
+        let d = direction[axis];
+        let d = if d.abs() < MIN_DIRECTION {
+            MIN_DIRECTION.copysign(d)
+        } else {
+            d
+        };
+        let inv = 1.0 / d;
+        let lo = (-0.5 - origin[axis]) * inv;
+        let hi = (dims[axis] as f64 - 0.5 - origin[axis]) * inv;
+        t_near = t_near.max(lo.min(hi));
+        t_far = t_far.min(lo.max(hi));
+    }
+    (t_near <= t_far && t_far >= 0.0).then_some((t_near.max(0.0), t_far))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn anisotropic_geometry_uses_the_finest_axis_as_a_voxel() {
+        let g = VolumeGeometry::new(
+            [10, 10, 10],
+            [
+                [0.5, 0.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0, 0.0],
+                [0.0, 0.0, 3.0, 0.0],
+                [0.0, 0.0, 0.0, 1.0],
+            ],
+        )
+        .unwrap();
+        assert_eq!(g.voxel_mm, 0.5);
+        let (lo, hi) = g.world_bounds();
+        assert!((lo - DVec3::new(-0.25, -0.5, -1.5)).length() < 1e-12);
+        assert!((hi - DVec3::new(4.75, 9.5, 28.5)).length() < 1e-12);
+    }
+
+    #[test]
+    fn axis_aligned_rays_on_faces_edges_and_corners_hit() {
+        let dims = [4, 4, 4];
+        // On the face x = -0.5, travelling along +y.
+        let hit = intersect_box(DVec3::new(-0.5, -5.0, 1.0), DVec3::Y, dims).unwrap();
+        assert_eq!(hit, (4.5, 8.5));
+        // Along the edge x = -0.5, z = -0.5.
+        assert!(intersect_box(DVec3::new(-0.5, -5.0, -0.5), DVec3::Y, dims).is_some());
+        // Through the corner diagonal.
+        let d = DVec3::ONE.normalize();
+        assert!(intersect_box(DVec3::splat(-1.5), d, dims).is_some());
+        // Just outside a face: a miss, not NaN.
+        assert!(intersect_box(DVec3::new(-0.5001, -5.0, 1.0), DVec3::Y, dims).is_none());
+    }
+
+    #[test]
+    fn camera_inside_starts_at_zero_and_misses_take_no_samples() {
+        let (t0, t1) = intersect_box(DVec3::splat(1.5), DVec3::X, [4, 4, 4]).unwrap();
+        assert_eq!((t0, t1), (0.0, 2.0));
+        assert!(
+            intersect_box(DVec3::new(10.0, 1.0, 1.0), DVec3::X, [4, 4, 4]).is_none(),
+            "box behind the ray"
+        );
+    }
+}

@@ -1,0 +1,125 @@
+//! The scene: what to render (camera, classification, mode, effects, quality), independent of
+//! the GPU. The raymarch pass turns it into uniforms; the f64 reference reads it directly.
+//!
+//! Decisions: everything a user changes interactively is here and reaches the GPU as a uniform
+//! write only. What decides which passes and shader variants exist (mode, curvature, shading,
+//! gradient source) is separated in [`Effects`], so a change there is visible as such.
+
+pub mod camera;
+pub mod classification;
+pub mod geometry;
+pub mod uniforms;
+
+pub use camera::{Camera, Projection};
+pub use classification::{Classification, TissueClass, TissueStyle, Window};
+pub use geometry::VolumeGeometry;
+
+/// What a ray computes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RenderMode {
+    /// Emission-absorption compositing of classified samples (the paper).
+    Dvr,
+    /// Maximum intensity projection.
+    Mip,
+    /// Minimum intensity projection over samples at or above a floor.
+    MinIp,
+}
+
+/// Where the gradient-magnitude term of eq. 4 (and normals, curvature) comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum GradientSource {
+    /// Read from volumes computed once by the derivative pass.
+    Precomputed,
+    /// Computed per sample from trilinear I_norm fetches (no derived memory).
+    OnTheFly,
+}
+
+/// The parts of a scene that select shader variants and derived volumes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+pub struct Effects {
+    /// Composite, MIP or MinIP.
+    pub mode: RenderMode,
+    /// Multiply opacity by the curvature weight w(k).
+    pub curvature: bool,
+    /// Phong shading with world-space gradient normals.
+    pub shading: bool,
+    /// Precomputed or on-the-fly derivatives.
+    pub gradient_source: GradientSource,
+}
+
+impl Effects {
+    /// The derived volumes the derivative pass must produce for these effects, or None when no
+    /// derivative pass runs at all (MIP and MinIP read I_norm only). The on-the-fly path still
+    /// runs the pass with no outputs, for max |g|.
+    pub fn derivative_outputs(&self) -> Option<crate::passes::derivatives::DerivativeOutputs> {
+        if self.mode != RenderMode::Dvr {
+            return None;
+        }
+        let stored = self.gradient_source == GradientSource::Precomputed;
+        Some(crate::passes::derivatives::DerivativeOutputs {
+            magnitude: stored,
+            curvature: stored && self.curvature,
+            normal: stored && self.shading,
+        })
+    }
+}
+
+impl Default for Effects {
+    fn default() -> Self {
+        Effects {
+            mode: RenderMode::Dvr,
+            curvature: false,
+            shading: false,
+            gradient_source: GradientSource::Precomputed,
+        }
+    }
+}
+
+/// Everything that determines one image of one prepared volume.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct Scene {
+    /// Camera.
+    pub camera: Camera,
+    /// Tissue windows, colours, opacities, switches.
+    pub classification: Classification,
+    /// Mode and effects.
+    pub effects: Effects,
+    /// Strength `s` of the curvature weight `w(k) = 1 + s * tanh(|k| / k_ref)`.
+    pub curvature_strength: f32,
+    /// Sampling distance in voxels (of the finest axis).
+    pub step_voxels: f64,
+    /// Early ray termination once accumulated opacity exceeds this (>= 1 disables it).
+    pub early_termination: f32,
+    /// Jittered ray starts against wood-grain banding.
+    pub jitter: bool,
+    /// Seed of the jitter pattern (a frame counter for animations).
+    pub frame: u32,
+    /// Background colour, RGB in [0, 1].
+    pub background: [f32; 3],
+    /// MIP/MinIP display window in I_norm: values map linearly from `lo` (black) to `hi` (white).
+    pub intensity_window: [f32; 2],
+    /// MinIP ignores samples below this I_norm (the background would otherwise win every ray).
+    pub minip_floor: f32,
+}
+
+impl Scene {
+    /// The default scene around the given classification: anterior view, DVR, step 0.5 voxel,
+    /// early termination at 1 - 1/255, jitter on, black background.
+    pub fn new(classification: Classification) -> Self {
+        Scene {
+            camera: Camera::default(),
+            classification,
+            effects: Effects::default(),
+            curvature_strength: 1.0,
+            step_voxels: 0.5,
+            early_termination: 1.0 - 1.0 / 255.0,
+            jitter: true,
+            frame: 0,
+            background: [0.0, 0.0, 0.0],
+            intensity_window: [0.0, 1.0],
+            minip_floor: 0.0,
+        }
+    }
+}

@@ -1,0 +1,164 @@
+//! The raymarch's uniform block (`Params` in shaders/raymarch.comp), std140.
+//!
+//! Decision: every field is a vec4 or mat4 so std140 adds no hidden padding and the Rust struct
+//! is the block byte for byte (checked against the reflected block size in a test). Everything a
+//! user changes interactively lives here, so an interaction is one buffer write.
+
+use super::Scene;
+use super::camera::CameraRays;
+use super::classification::MIN_EDGE;
+use super::geometry::VolumeGeometry;
+
+/// Sample cap per ray: protects against absurd step sizes; 2^16 steps of 0.125 voxel cross an
+/// 8192-voxel diagonal.
+pub const MAX_STEPS: u32 = 1 << 16;
+
+/// The uniform block.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct RaymarchUniforms {
+    /// World mm to index space (column-major).
+    pub world_to_index: [[f32; 4]; 4],
+    /// Camera origin (world); w = 1 for orthographic.
+    pub camera_origin: [f32; 4],
+    /// Image-right unit vector; w = half extent along it.
+    pub camera_right: [f32; 4],
+    /// Image-up unit vector; w = half extent along it.
+    pub camera_up: [f32; 4],
+    /// Viewing direction; w unused.
+    pub camera_forward: [f32; 4],
+    /// xyz = dims; w = step length in mm.
+    pub dims: [f32; 4],
+    /// x = opacity-correction exponent r (step / one voxel), y = early-termination threshold,
+    /// z = jitter on (1) / off (0), w = 1 / |grad I|max.
+    pub march: [f32; 4],
+    /// x = curvature strength s, y = 1 / k_ref, z = tau (zero-gradient threshold), w unused.
+    pub curvature: [f32; 4],
+    /// Background RGB; w unused.
+    pub background: [f32; 4],
+    /// Per tissue: lo, hi, edge, visible (1 / 0).
+    pub windows: [[f32; 4]; 4],
+    /// Per tissue: RGB, opacity.
+    pub colours: [[f32; 4]; 4],
+    /// x, y = MIP/MinIP display window; z = MinIP floor; w unused.
+    pub intensity: [f32; 4],
+    /// Rows of A^-T (index-space gradient to world), xyz; w unused.
+    pub gradient_to_world: [[f32; 4]; 3],
+    /// x = width, y = height, z = jitter seed (frame), w = maximum steps per ray.
+    pub image: [u32; 4],
+}
+
+/// Gradient statistics of the volume the raymarch needs (from the derivative pass).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct GradientStats {
+    /// Largest |grad I_norm| over the volume, per mm (paper eq. 4's normalizer).
+    pub max_magnitude: f64,
+    /// Zero-gradient threshold used by the derivative pass, per mm.
+    pub tau: f64,
+}
+
+impl GradientStats {
+    /// Reference curvature `k_ref = max|g| / (4 * voxel_mm)`: a step edge of full height blurred
+    /// over about four voxels. |k| at this scale saturates the curvature weight.
+    pub fn k_ref(&self, voxel_mm: f64) -> f64 {
+        (self.max_magnitude / (4.0 * voxel_mm)).max(1e-12)
+    }
+}
+
+fn vec4(v: glam::DVec3, w: f64) -> [f32; 4] {
+    [v.x as f32, v.y as f32, v.z as f32, w as f32]
+}
+
+impl RaymarchUniforms {
+    /// Builds the block for `scene` on a volume with `geometry` and `gradients`, for an image
+    /// of `width` x `height`.
+    pub fn new(
+        scene: &Scene,
+        geometry: &VolumeGeometry,
+        gradients: &GradientStats,
+        width: u32,
+        height: u32,
+    ) -> Self {
+        let rays: CameraRays = scene.camera.rays(geometry.world_bounds(), width, height);
+        let step_voxels = if scene.step_voxels.is_finite() && scene.step_voxels > 0.0 {
+            scene.step_voxels
+        } else {
+            0.5
+        };
+        let step_mm = step_voxels * geometry.voxel_mm;
+        let mut windows = [[0.0f32; 4]; 4];
+        let mut colours = [[0.0f32; 4]; 4];
+        for (i, style) in scene.classification.tissues.iter().enumerate() {
+            if let Some(w) = style.window {
+                windows[i] = [
+                    w.lo as f32,
+                    w.hi as f32,
+                    w.edge.max(MIN_EDGE) as f32,
+                    style.visible as u32 as f32,
+                ];
+            } else {
+                windows[i] = [2.0, 3.0, MIN_EDGE as f32, 0.0];
+            }
+            colours[i] = [
+                style.colour[0],
+                style.colour[1],
+                style.colour[2],
+                style.opacity.clamp(0.0, 1.0),
+            ];
+        }
+        let m = geometry.gradient_to_world.transpose(); // rows of M as columns of M^T
+        let inv_gmax = if gradients.max_magnitude > 0.0 {
+            1.0 / gradients.max_magnitude
+        } else {
+            0.0
+        };
+        RaymarchUniforms {
+            world_to_index: geometry
+                .world_to_index
+                .to_cols_array_2d()
+                .map(|c| c.map(|v| v as f32)),
+            camera_origin: vec4(rays.origin, rays.orthographic as u32 as f64),
+            camera_right: vec4(rays.right, rays.half_extent[0]),
+            camera_up: vec4(rays.up, rays.half_extent[1]),
+            camera_forward: vec4(rays.forward, 0.0),
+            dims: [
+                geometry.dims[0] as f32,
+                geometry.dims[1] as f32,
+                geometry.dims[2] as f32,
+                step_mm as f32,
+            ],
+            march: [
+                step_voxels as f32,
+                scene.early_termination,
+                scene.jitter as u32 as f32,
+                inv_gmax as f32,
+            ],
+            curvature: [
+                scene.curvature_strength,
+                (1.0 / gradients.k_ref(geometry.voxel_mm)) as f32,
+                gradients.tau as f32,
+                0.0,
+            ],
+            background: [
+                scene.background[0],
+                scene.background[1],
+                scene.background[2],
+                1.0,
+            ],
+            windows,
+            colours,
+            intensity: [
+                scene.intensity_window[0],
+                scene.intensity_window[1],
+                scene.minip_floor,
+                0.0,
+            ],
+            gradient_to_world: [
+                vec4(m.col(0), 0.0),
+                vec4(m.col(1), 0.0),
+                vec4(m.col(2), 0.0),
+            ],
+            image: [width, height, scene.frame, MAX_STEPS],
+        }
+    }
+}

@@ -1,0 +1,41 @@
+//! Shared helpers for GPU tests: an engine with validation required, and the validation check.
+//!
+//! A GPU test that finds no Vulkan device fails with a message naming what to install; it never
+//! passes silently.
+#![allow(dead_code)]
+
+use morphray::engine::{Engine, EngineConfig};
+use morphray::gpu::{DeviceConfig, Validation};
+
+/// An engine on the default device with the Khronos validation layer required.
+pub fn engine() -> Engine {
+    let config = EngineConfig {
+        device: DeviceConfig {
+            validation: Validation::Required,
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    match Engine::new(config) {
+        Ok(engine) => engine,
+        Err(e) => panic!(
+            "this test needs a Vulkan device with the validation layer \
+             (Debian: apt-get install mesa-vulkan-drivers libvulkan1 vulkan-validationlayers): {e}"
+        ),
+    }
+}
+
+/// Fails the test if the validation layer reported any error.
+pub fn assert_no_validation_errors(engine: &Engine) {
+    assert!(
+        engine.device().validation_enabled(),
+        "validation layer is not active"
+    );
+    let errors = engine.device().validation_log().errors();
+    assert!(
+        errors.is_empty(),
+        "{} validation error(s):\n{}",
+        errors.len(),
+        errors.join("\n---\n")
+    );
+}

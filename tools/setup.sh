@@ -1,0 +1,27 @@
+#!/usr/bin/env bash
+# Installs what morphray needs on Debian 12 / Ubuntu, idempotently:
+#   - a Vulkan loader and a Vulkan driver (lavapipe, Mesa's CPU device, when there is no GPU);
+#   - the Khronos validation layers (tests run with them as an oracle);
+#   - glslangValidator (build.rs compiles the GLSL shaders with it) and spirv-val (tests);
+#   - xvfb and xauth (the viewer's scripted test runs under a virtual X server).
+# Rust itself is expected to be installed (rustup); this script does not touch it.
+set -euo pipefail
+
+packages=(mesa-vulkan-drivers libvulkan1 vulkan-validationlayers vulkan-tools glslang-tools spirv-tools xvfb xauth)
+missing=()
+for p in "${packages[@]}"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -eq 0 ]; then
+    echo "setup: all packages present (${packages[*]})"
+    exit 0
+fi
+sudo=""
+if [ "$(id -u)" -ne 0 ]; then
+    command -v sudo >/dev/null || { echo "setup: need root or sudo to install: ${missing[*]}" >&2; exit 1; }
+    sudo="sudo"
+fi
+echo "setup: installing ${missing[*]}"
+$sudo env DEBIAN_FRONTEND=noninteractive apt-get update -qq
+$sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+echo "setup: done"
