@@ -1,0 +1,255 @@
+//! Command-line arguments (clap), with help text that explains each option.
+//!
+//! Decision: every scene option of `render` lives in [`SceneArgs`], flattened into each command
+//! that renders or plans, so `render`, `view`, `bench` and `plan` accept the same spelling.
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use std::path::PathBuf;
+
+/// morphray: GPU volume rendering of MRI scans (NIfTI) on Vulkan.
+#[derive(Debug, Parser)]
+#[command(name = "morphray", version, about, long_about = None, propagate_version = true)]
+pub struct Cli {
+    /// Vulkan device to use: an index from the device list, or part of its name
+    /// (case-insensitive). Default: the best suitable device (or $MORPHRAY_DEVICE).
+    #[arg(long, global = true, value_name = "INDEX|NAME")]
+    pub device: Option<String>,
+
+    /// Load the Khronos validation layer (core + synchronization) and fail on any error it
+    /// reports. Slow; for debugging and tests.
+    #[arg(long, global = true)]
+    pub validation: bool,
+
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The commands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Describe a NIfTI file: header, geometry, intensity range, repairs and warnings (CPU only).
+    Info(InfoArgs),
+    /// Find the CSF / GM / WM histogram peaks on the GPU and print the paper's Table-1 row.
+    Peaks(PeaksArgs),
+    /// Render a volume to a PNG (with provenance), or a turntable of PNGs.
+    Render(RenderArgs),
+    /// List the Vulkan devices and why any of them cannot run morphray.
+    Devices,
+}
+
+/// Options of `info`.
+#[derive(Debug, Args)]
+pub struct InfoArgs {
+    /// NIfTI-1/2 file (.nii or .nii.gz; gzip is detected from the content, not the name).
+    pub file: PathBuf,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    pub json: bool,
+    /// Frame of a 4-D file to analyse (0-based).
+    #[arg(long, default_value_t = 0)]
+    pub frame: usize,
+}
+
+/// Options of `peaks`.
+#[derive(Debug, Args)]
+pub struct PeaksArgs {
+    /// NIfTI-1/2 file; without one, the built-in digital phantom (256x256x192, 1 mm).
+    pub file: Option<PathBuf>,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    pub json: bool,
+    /// Frame of a 4-D file to analyse (0-based).
+    #[arg(long, default_value_t = 0)]
+    pub frame: usize,
+}
+
+/// Rendering mode.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ModeArg {
+    /// Direct volume rendering: the paper's composite with gradient-modulated opacity.
+    Dvr,
+    /// Maximum intensity projection.
+    Mip,
+    /// Minimum intensity projection (ignoring background below the tissue floor).
+    Minip,
+}
+
+/// Which tissue windows to use.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum WindowsArg {
+    /// Placed around the CSF / GM / WM peaks found in this volume's histogram.
+    Adaptive,
+    /// The paper's fixed constants (CSF 0.05-0.12, GM 0.12-0.18, WM > 0.18, pathology > 0.20).
+    Paper,
+}
+
+/// An on/off switch.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Switch {
+    /// Enabled.
+    On,
+    /// Disabled.
+    Off,
+}
+
+impl Switch {
+    /// True for `on`.
+    pub fn on(self) -> bool {
+        self == Switch::On
+    }
+}
+
+/// Projection.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ProjectionArg {
+    /// Pinhole camera, 30 degree vertical field of view.
+    Perspective,
+    /// Parallel rays.
+    Orthographic,
+}
+
+/// Source of the gradient term.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum GradientArg {
+    /// Computed once into derived volumes (more memory, faster frames).
+    Precomputed,
+    /// Computed per sample from the intensity volume (no derived memory).
+    OnTheFly,
+}
+
+/// Everything that defines a rendered image.
+#[derive(Debug, Clone, Args, serde::Serialize)]
+pub struct SceneArgs {
+    /// Image size in pixels, WIDTHxHEIGHT.
+    #[arg(long, default_value = "1024x1024", value_parser = parse_size)]
+    pub size: (u32, u32),
+    /// Camera rotation about the superior axis in degrees: 0 = anterior view (patient's left on
+    /// the image's right), 90 = from the patient's right, 180 = posterior.
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    pub azimuth: f64,
+    /// Camera elevation in degrees above the axial plane (90 = from superior).
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    pub elevation: f64,
+    /// Magnification; 1 fits the whole volume in the image.
+    #[arg(long, default_value_t = 1.0)]
+    pub zoom: f64,
+    /// Move the view by RIGHT,UP millimetres in the image plane.
+    #[arg(long, default_value = "0,0", value_parser = parse_pair, allow_hyphen_values = true)]
+    pub pan: (f64, f64),
+    /// Projection.
+    #[arg(long, value_enum, default_value_t = ProjectionArg::Perspective)]
+    pub projection: ProjectionArg,
+    /// What each ray computes.
+    #[arg(long, value_enum, default_value_t = ModeArg::Dvr)]
+    pub mode: ModeArg,
+    /// Visible tissue classes, comma-separated, from csf, gm, wm, pathology
+    /// (`--tissues pathology` alone "unmasks" lesions and vessels). Default: all but pathology.
+    #[arg(long, default_value = "csf,gm,wm", value_delimiter = ',')]
+    pub tissues: Vec<String>,
+    /// Tissue windows: adaptive (from this volume's histogram peaks) or the paper's constants.
+    #[arg(long, value_enum, default_value_t = WindowsArg::Adaptive)]
+    pub windows: WindowsArg,
+    /// Sampling distance along each ray, in voxels of the finest axis. Smaller is more accurate
+    /// and slower; opacity is corrected so the image does not darken or brighten with it.
+    #[arg(long, default_value_t = 0.5)]
+    pub step: f64,
+    /// Curvature weight w(k) = 1 + s*tanh(|k|/k_ref) on opacity (paper eq. 4), emphasizing thin,
+    /// folded structures; computes the Hessian.
+    #[arg(long, value_enum, default_value_t = Switch::Off)]
+    pub curvature: Switch,
+    /// Phong shading with world-space gradient normals (headlight).
+    #[arg(long, value_enum, default_value_t = Switch::Off)]
+    pub shading: Switch,
+    /// Where the gradient term comes from.
+    #[arg(long, value_enum, default_value_t = GradientArg::Precomputed)]
+    pub gradient: GradientArg,
+    /// Background colour as #RRGGBB or R,G,B in 0..255.
+    #[arg(long, default_value = "#000000", value_parser = parse_colour)]
+    pub background: [f32; 3],
+    /// Disable the per-pixel jitter of ray starts (shows wood-grain banding; for comparisons).
+    #[arg(long)]
+    pub no_jitter: bool,
+}
+
+/// Options of `render`.
+#[derive(Debug, Args)]
+pub struct RenderArgs {
+    /// NIfTI-1/2 file; without one, the built-in digital phantom.
+    pub file: Option<PathBuf>,
+    /// Output PNG (with --turntable N: frames are written as NAME-000.png, NAME-001.png, ...).
+    #[arg(short, long, value_name = "PNG")]
+    pub output: PathBuf,
+    /// Render N frames of a full orbit (azimuth advancing 360/N degrees per frame).
+    #[arg(long, value_name = "N")]
+    pub turntable: Option<u32>,
+    /// Frame of a 4-D file to render (0-based).
+    #[arg(long, default_value_t = 0)]
+    pub frame: usize,
+    /// Scene.
+    #[command(flatten)]
+    pub scene: SceneArgs,
+}
+
+fn parse_size(text: &str) -> Result<(u32, u32), String> {
+    let (w, h) = text
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("`{text}` is not WIDTHxHEIGHT (for example 1024x768)"))?;
+    let parse = |s: &str| s.trim().parse::<u32>().ok().filter(|&v| (1..=16384).contains(&v));
+    match (parse(w), parse(h)) {
+        (Some(w), Some(h)) => Ok((w, h)),
+        _ => Err(format!("`{text}`: width and height must be whole numbers from 1 to 16384")),
+    }
+}
+
+fn parse_pair(text: &str) -> Result<(f64, f64), String> {
+    let (a, b) = text.split_once(',').ok_or_else(|| format!("`{text}` is not X,Y"))?;
+    match (a.trim().parse::<f64>(), b.trim().parse::<f64>()) {
+        (Ok(a), Ok(b)) if a.is_finite() && b.is_finite() => Ok((a, b)),
+        _ => Err(format!("`{text}` is not two finite numbers X,Y")),
+    }
+}
+
+fn parse_colour(text: &str) -> Result<[f32; 3], String> {
+    let text = text.trim();
+    if let Some(hex) = text.strip_prefix('#') {
+        if hex.len() == 6 {
+            if let Ok(v) = u32::from_str_radix(hex, 16) {
+                return Ok([(v >> 16) as f32 / 255.0, ((v >> 8) & 0xff) as f32 / 255.0, (v & 0xff) as f32 / 255.0]);
+            }
+        }
+        return Err(format!("`{text}` is not a #RRGGBB colour"));
+    }
+    let parts: Vec<_> = text.split(',').map(|p| p.trim().parse::<u8>()).collect();
+    match parts.as_slice() {
+        [Ok(r), Ok(g), Ok(b)] => Ok([*r as f32 / 255.0, *g as f32 / 255.0, *b as f32 / 255.0]),
+        _ => Err(format!("`{text}` is neither #RRGGBB nor R,G,B with values 0..255")),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sizes_pairs_and_colours_parse_or_explain() {
+        assert_eq!(parse_size("1920x1080"), Ok((1920, 1080)));
+        assert!(parse_size("0x10").is_err() && parse_size("big").is_err() && parse_size("99999x2").is_err());
+        assert_eq!(parse_pair("-3,4.5"), Ok((-3.0, 4.5)));
+        assert!(parse_pair("nan,1").is_err());
+        assert_eq!(parse_colour("#ff0000"), Ok([1.0, 0.0, 0.0]));
+        assert_eq!(parse_colour("0,255,0"), Ok([0.0, 1.0, 0.0]));
+        assert!(parse_colour("#12345").is_err() && parse_colour("1,2").is_err());
+    }
+
+    #[test]
+    fn the_command_line_definition_is_consistent() {
+        use clap::CommandFactory;
+        Cli::command().debug_assert();
+    }
+}
