@@ -17,10 +17,15 @@
 //!   typed errors.
 //! - Volumes are x fastest: voxel `(i, j, k)` is at `i + nx * (j + ny * k)`.
 
+pub mod derivatives;
 pub mod histogram;
 pub mod minmax;
 pub mod normalize;
 
+pub use derivatives::{
+    DEFAULT_TAU, DerivativeError, DerivativeOptions, Derivatives, IndexToWorld, Sym3,
+    VoxelDerivatives, derivatives, voxel_derivatives,
+};
 pub use histogram::{BINS, bin_of, histogram, histogram_of_samples};
 pub use minmax::{finite_min_max, nonfinite_count};
 pub use normalize::{normalize, normalize_value, physical_range};
