@@ -1,0 +1,68 @@
+//! Tunable constants of the histogram analysis, gathered in one value so accuracy studies can
+//! vary them; [`AnalysisParams::default`] is what [`super::analyze`] uses.
+//!
+//! Every default is stated with its reason next to the field; the ratios are T1-specific (adult
+//! contrast: CSF darker than GM darker than WM), which is what the paper's Table 1 describes.
+
+/// Parameters of [`super::analyze_with`].
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct AnalysisParams {
+    /// Minimum Gaussian smoothing width, in bins. 1 bin: smoothing only steadies the
+    /// bin-to-bin noise; telling noise from modes is the significance test's job, which knows
+    /// the noise level. Wider kernels erase narrow real modes: the CSF mode of the MNI152
+    /// template is about 5 bins wide and 17 % deep in the raw counts, and keeps 9 % of its
+    /// height as prominence at sigma 1, 5 % at 1.5 and 1.6 % at 2. Raised automatically for
+    /// quantized histograms (see `smoothing`).
+    pub sigma_bins: f64,
+    /// A mode is significant only if its prominence exceeds this many standard deviations of
+    /// the Poisson noise of the smoothed histogram at its top and its base. 4 keeps random
+    /// wiggles of flat and two-class histograms out (tests/peaks.rs runs many seeds); the
+    /// MNI152 CSF mode passes at 4.3, its largest rejected wiggle (I_norm 0.17) reaches 3.4.
+    pub noise_z: f64,
+    /// ... and only if its prominence is at least this fraction of its own height: a mode must
+    /// stand out from its surroundings, whatever the count scale (5 %).
+    pub min_relative_prominence: f64,
+    /// A single bin holding at least this fraction of the finite voxels ...
+    pub spike_min_fraction: f64,
+    /// ... and more than this many times every other bin within reach is a spike (masked
+    /// zeros, padding, saturation), never a tissue.
+    pub spike_ratio: f64,
+    /// Modes at least this fraction of the tallest non-background mode's height are "major";
+    /// WM is the brightest major mode. 20 % keeps small bright tails (vessels, fat, lesions)
+    /// from being called WM while GM and WM, the two largest brain classes, always qualify.
+    pub major_fraction: f64,
+    /// Leading (darkest) modes whose intensity is below this fraction of the brightest major
+    /// mode's intensity are background (air noise, dark shells); 0.12 = the lowest CSF ratio.
+    pub background_max_ratio: f64,
+    /// CSF intensity relative to WM, `(csf - zero) / (wm - zero)`, must be in
+    /// `[csf_min_ratio, gm_min_ratio)`; T1 CSF is typically 0.2-0.45 of WM (MNI152: 0.30).
+    pub csf_min_ratio: f64,
+    /// GM intensity relative to WM must be at least this (T1 GM is typically 0.6-0.85 of WM;
+    /// MNI152: 0.77); a lower second mode is CSF with GM missing.
+    pub gm_min_ratio: f64,
+    /// The WM window ends (and the pathology band starts) this many standard deviations above
+    /// the WM mode, the standard deviation estimated from the right half-width at half maximum.
+    pub wm_upper_sigmas: f64,
+    /// Half-width of the adaptive windows' smooth transitions, in bins: 2 bins (0.8 % of the
+    /// range), about how well a valley between two modes is located. Capped per report at a
+    /// quarter of the narrowest window.
+    pub edge_bins: f64,
+}
+
+impl Default for AnalysisParams {
+    fn default() -> Self {
+        AnalysisParams {
+            sigma_bins: 1.0,
+            noise_z: 4.0,
+            min_relative_prominence: 0.05,
+            spike_min_fraction: 0.02,
+            spike_ratio: 5.0,
+            major_fraction: 0.2,
+            background_max_ratio: 0.12,
+            csf_min_ratio: 0.12,
+            gm_min_ratio: 0.5,
+            wm_upper_sigmas: 3.0,
+            edge_bins: 2.0,
+        }
+    }
+}

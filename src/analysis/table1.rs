@@ -1,0 +1,181 @@
+//! The analysis report and the paper's Table-1 row.
+//!
+//! Decisions:
+//! - "Used voxels" = finite voxels whose histogram bin is at or above the background threshold
+//!   bin, i.e. the voxels not classed as background (air, masked zeros, dark shells). It is
+//!   exact with respect to the histogram it was computed from.
+//! - Every peak is given in `I_norm` and in raw (physical) units, `raw = imin + norm (imax -
+//!   imin)`, computed as given (a report with non-finite bounds carries non-finite raw values,
+//!   which serde_json writes as null).
+//! - Missing tissues are `None` (JSON `null`), never a placeholder number.
+//! - The report also lists every significant mode with its role and every spike, so a reader can
+//!   see why a tissue is missing.
+
+use super::params::AnalysisParams;
+use super::windows::TissueWindows;
+
+/// A tissue mode's location.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct Peak {
+    /// In `I_norm` (`[0, 1]`).
+    pub norm: f64,
+    /// In physical units: `imin + norm * (imax - imin)`.
+    pub raw: f64,
+}
+
+impl Peak {
+    /// A peak at `norm`, converted with the volume's physical range.
+    pub fn new(norm: f64, imin: f64, imax: f64) -> Self {
+        Peak {
+            norm,
+            raw: imin + norm * (imax - imin),
+        }
+    }
+}
+
+/// The three tissue modes; `None` = not present in the histogram.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct Peaks {
+    /// Cerebrospinal fluid.
+    pub csf: Option<Peak>,
+    /// Grey matter.
+    pub gm: Option<Peak>,
+    /// White matter.
+    pub wm: Option<Peak>,
+}
+
+/// Whether each detected peak lies inside the paper's fixed window; `None` when missing.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct InPaperWindow {
+    /// CSF peak in 0.05-0.12.
+    pub csf: Option<bool>,
+    /// GM peak in 0.12-0.18.
+    pub gm: Option<bool>,
+    /// WM peak above 0.18.
+    pub wm: Option<bool>,
+}
+
+/// What a significant mode of the smoothed histogram was taken for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ModeRole {
+    /// Below the background threshold.
+    Background,
+    /// Cerebrospinal fluid.
+    Csf,
+    /// Grey matter.
+    Gm,
+    /// White matter.
+    Wm,
+    /// Above the background but not a tissue (dark shell, bright tail, extra mode).
+    Other,
+}
+
+/// One significant mode of the smoothed histogram.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct ModeInfo {
+    /// Location.
+    pub peak: Peak,
+    /// Smoothed count at the top.
+    pub height: f64,
+    /// Topographic prominence in smoothed counts.
+    pub prominence: f64,
+    /// Role assigned.
+    pub role: ModeRole,
+}
+
+/// A single-bin spike (masked zeros, padding, saturation).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct SpikeInfo {
+    /// Histogram bin.
+    pub bin: usize,
+    /// Voxels in it.
+    pub count: u32,
+    /// Whether it counts as background (it lies below the tissue).
+    pub background: bool,
+}
+
+/// The full result of [`super::analyze`].
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct TissueReport {
+    /// All voxels of frame 0, as given.
+    pub total_voxels: usize,
+    /// Finite voxels at or above the background threshold (see the module doc).
+    pub used_voxels: u64,
+    /// NaN or infinite voxels, as given.
+    pub nonfinite_voxels: usize,
+    /// Finite voxels: the histogram's sum.
+    pub finite_voxels: u64,
+    /// Physical intensity mapped to `I_norm = 0`.
+    pub imin: f64,
+    /// Physical intensity mapped to `I_norm = 1`.
+    pub imax: f64,
+    /// CSF, GM and WM modes.
+    pub peaks: Peaks,
+    /// Background threshold in `I_norm`: a bin edge, `bin / 256`.
+    pub background_threshold: f64,
+    /// Whether each peak falls in the paper's window.
+    pub in_paper_window: InPaperWindow,
+    /// Windows placed around the detected peaks.
+    pub adaptive_windows: TissueWindows,
+    /// The paper's fixed windows.
+    pub paper_windows: TissueWindows,
+    /// Every significant mode, ascending, with its role.
+    pub modes: Vec<ModeInfo>,
+    /// Every spike, ascending.
+    pub spikes: Vec<SpikeInfo>,
+    /// Gaussian smoothing width actually used, in bins.
+    pub smoothing_sigma_bins: f64,
+    /// Parameters used.
+    pub params: AnalysisParams,
+}
+
+/// One row of the paper's Table 1, flat (one column per field, for CSV or JSON lines).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct Table1Row {
+    /// All voxels.
+    pub total_voxels: usize,
+    /// Finite voxels above the background threshold.
+    pub used_voxels: u64,
+    /// NaN or infinite voxels.
+    pub nonfinite_voxels: usize,
+    /// Physical minimum.
+    pub imin: f64,
+    /// Physical maximum.
+    pub imax: f64,
+    /// CSF peak in `I_norm`.
+    pub csf_norm: Option<f64>,
+    /// GM peak in `I_norm`.
+    pub gm_norm: Option<f64>,
+    /// WM peak in `I_norm`.
+    pub wm_norm: Option<f64>,
+    /// CSF peak in physical units.
+    pub csf_raw: Option<f64>,
+    /// GM peak in physical units.
+    pub gm_raw: Option<f64>,
+    /// WM peak in physical units.
+    pub wm_raw: Option<f64>,
+    /// Background threshold in `I_norm`.
+    pub background_threshold: f64,
+}
+
+impl TissueReport {
+    /// The flat Table-1 row.
+    pub fn table1(&self) -> Table1Row {
+        let p = &self.peaks;
+        Table1Row {
+            total_voxels: self.total_voxels,
+            used_voxels: self.used_voxels,
+            nonfinite_voxels: self.nonfinite_voxels,
+            imin: self.imin,
+            imax: self.imax,
+            csf_norm: p.csf.map(|x| x.norm),
+            gm_norm: p.gm.map(|x| x.norm),
+            wm_norm: p.wm.map(|x| x.norm),
+            csf_raw: p.csf.map(|x| x.raw),
+            gm_raw: p.gm.map(|x| x.raw),
+            wm_raw: p.wm.map(|x| x.raw),
+            background_threshold: self.background_threshold,
+        }
+    }
+}
