@@ -53,26 +53,19 @@ impl TissueClass {
     }
 }
 
-/// An intensity window in I_norm with smooth edges.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
-pub struct Window {
-    /// Lower bound (weight 0.5 there).
-    pub lo: f64,
-    /// Upper bound (weight 0.5 there).
-    pub hi: f64,
-    /// Half-width of each smooth edge (> 0).
-    pub edge: f64,
-}
+use crate::analysis::TissueWindows;
+pub use crate::analysis::Window;
 
-/// Smallest edge half-width: GLSL's smoothstep is undefined for edge0 >= edge1.
+/// Smallest edge half-width the renderer uses: GLSL's smoothstep is undefined for
+/// edge0 >= edge1, so a window with a (nearly) hard edge is drawn with this one.
 pub const MIN_EDGE: f64 = 1e-4;
 
-impl Window {
-    /// Weight of intensity `v` in this window, in [0, 1].
-    pub fn weight(&self, v: f64) -> f64 {
-        let e = self.edge.max(MIN_EDGE);
-        smoothstep(self.lo - e, self.lo + e, v) * (1.0 - smoothstep(self.hi - e, self.hi + e, v))
-    }
+/// The renderer's weight of intensity `v` in `window` (its edge raised to [`MIN_EDGE`]), in
+/// [0, 1]; exactly what the raymarch evaluates.
+pub fn render_weight(window: &Window, v: f64) -> f64 {
+    let e = window.edge.max(MIN_EDGE);
+    smoothstep(window.lo - e, window.lo + e, v)
+        * (1.0 - smoothstep(window.hi - e, window.hi + e, v))
 }
 
 /// GLSL's smoothstep in f64.
@@ -138,6 +131,11 @@ impl Classification {
         &mut self.tissues[tissue as usize]
     }
 
+    /// Default styles around an analysis result's windows (adaptive or paper preset).
+    pub fn from_tissue_windows(windows: &TissueWindows) -> Self {
+        Classification::with_windows([windows.csf, windows.gm, windows.wm, windows.pathology])
+    }
+
     /// Sets exactly these tissues visible.
     pub fn show_only(&mut self, visible: &[TissueClass]) {
         for t in TissueClass::ALL {
@@ -154,7 +152,7 @@ impl Classification {
             if !style.visible {
                 continue;
             }
-            let w = window.weight(v) * style.opacity as f64;
+            let w = render_weight(&window, v) * style.opacity as f64;
             total += w;
             for (c, s) in colour.iter_mut().zip(style.colour) {
                 *c += w * s as f64;
@@ -178,11 +176,20 @@ mod tests {
             hi: 0.4,
             edge: 0.02,
         };
-        assert!((w.weight(0.2) - 0.5).abs() < 1e-12);
-        assert!((w.weight(0.4) - 0.5).abs() < 1e-12);
-        assert_eq!(w.weight(0.3), 1.0);
-        assert_eq!(w.weight(0.1), 0.0);
-        assert_eq!(w.weight(0.5), 0.0);
+        assert!((render_weight(&w, 0.2) - 0.5).abs() < 1e-12);
+        assert!((render_weight(&w, 0.4) - 0.5).abs() < 1e-12);
+        assert_eq!(render_weight(&w, 0.3), 1.0);
+        assert_eq!(render_weight(&w, 0.1), 0.0);
+        assert_eq!(render_weight(&w, 0.5), 0.0);
+        let hard = Window {
+            lo: 0.2,
+            hi: 0.4,
+            edge: 0.0,
+        };
+        assert!(
+            (render_weight(&hard, 0.2) - 0.5).abs() < 1e-12,
+            "a hard edge gets MIN_EDGE"
+        );
     }
 
     #[test]

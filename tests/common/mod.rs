@@ -4,6 +4,8 @@
 //! passes silently.
 #![allow(dead_code)]
 
+pub mod volumes;
+
 use morphray::engine::{Engine, EngineConfig};
 use morphray::gpu::{DeviceConfig, Validation};
 

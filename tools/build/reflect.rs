@@ -89,10 +89,7 @@ pub fn reflect(shader: &CompiledShader) -> Result<ReflectedEntry, String> {
                     _ => None,
                 })
                 .collect();
-            if let Some([x, y, z]) = dims
-                .as_deref()
-                .and_then(|d| <[u32; 3]>::try_from(d).ok())
-            {
+            if let Some([x, y, z]) = dims.as_deref().and_then(|d| <[u32; 3]>::try_from(d).ok()) {
                 workgroup_size = Some([x, y, z]);
             }
         }
