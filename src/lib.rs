@@ -21,7 +21,9 @@
 )]
 
 pub mod analysis;
+pub mod cli;
 pub mod engine;
+pub mod error;
 pub mod gpu;
 pub mod passes;
 pub mod reference;

@@ -1,0 +1,110 @@
+//! `morphray peaks`: the paper's Table-1 row from the GPU histogram.
+
+use super::args::PeaksArgs;
+use super::output::{json, ms, print_line};
+use super::session::{self, engine_config};
+use crate::analysis::{Peak, TissueWindows};
+use crate::error::Error;
+use std::collections::BTreeMap;
+
+/// The JSON document of `peaks --json`.
+#[derive(serde::Serialize)]
+struct PeaksReport<'a> {
+    file: &'a str,
+    dims: [u32; 3],
+    total_voxels: usize,
+    used_voxels: u64,
+    used_voxels_definition: &'static str,
+    nonfinite_voxels: usize,
+    imin: f64,
+    imax: f64,
+    background_threshold: f64,
+    peaks: BTreeMap<&'static str, Option<Peak>>,
+    paper_windows: &'a TissueWindows,
+    in_paper_window: BTreeMap<&'static str, Option<bool>>,
+    windows: &'a TissueWindows,
+    device: String,
+    timings_ms: BTreeMap<String, f64>,
+}
+
+/// Runs the command.
+pub fn run(args: &PeaksArgs, device: Option<&str>, validation: bool) -> Result<(), Error> {
+    let opened = session::open(args.file.as_deref(), args.frame, false, engine_config(device, validation))?;
+    let r = &opened.report;
+    let mut timings = BTreeMap::new();
+    let t = &opened.timings;
+    for (name, value) in [
+        ("read", t.load.read_ms),
+        ("inflate", t.load.inflate_ms),
+        ("convert", t.load.convert_ms),
+        ("phantom", t.load.phantom_ms),
+        ("device", t.device_ms),
+        ("pipelines", t.pipelines_ms),
+        ("prepare_wall", t.prepare_ms),
+        ("peaks", t.peaks_ms),
+        ("total_wall", t.wall_ms),
+    ] {
+        timings.insert(name.to_string(), ms(value));
+    }
+    for pass in &opened.prepared.gpu_timings {
+        timings.insert(format!("gpu_{}", pass.name), ms(pass.gpu_ms));
+    }
+    let report = PeaksReport {
+        file: &opened.source.label,
+        dims: opened.prepared.dims,
+        total_voxels: r.total_voxels,
+        used_voxels: r.used_voxels,
+        used_voxels_definition: "finite voxels whose I_norm bin is at or above the background threshold",
+        nonfinite_voxels: r.nonfinite_voxels,
+        imin: r.imin,
+        imax: r.imax,
+        background_threshold: r.background_threshold,
+        peaks: BTreeMap::from([("csf", r.peaks.csf), ("gm", r.peaks.gm), ("wm", r.peaks.wm)]),
+        paper_windows: &r.paper_windows,
+        in_paper_window: BTreeMap::from([
+            ("csf", r.in_paper_window.csf),
+            ("gm", r.in_paper_window.gm),
+            ("wm", r.in_paper_window.wm),
+        ]),
+        windows: &r.adaptive_windows,
+        device: opened.engine.device().adapter().name.clone(),
+        timings_ms: timings,
+    };
+    if validation {
+        session::check_validation(&opened.engine)?;
+    }
+    if args.json {
+        print_line(&json(&report));
+        return Ok(());
+    }
+    let [x, y, z] = report.dims;
+    print_line(&format!("{}  {x}x{y}x{z}  on {}", report.file, report.device));
+    print_line(&format!(
+        "total voxels {}  used voxels {} (above background I_norm {:.4})  non-finite {}",
+        report.total_voxels, report.used_voxels, report.background_threshold, report.nonfinite_voxels
+    ));
+    print_line(&format!("Imin {}  Imax {}", report.imin, report.imax));
+    print_line("tissue  peak I_norm  peak raw      paper window   inside?");
+    let paper = [("csf", "0.05-0.12"), ("gm", "0.12-0.18"), ("wm", "> 0.18")];
+    for (name, window) in paper {
+        let peak = report.peaks.get(name).copied().flatten();
+        let inside = report.in_paper_window.get(name).copied().flatten();
+        match peak {
+            Some(p) => print_line(&format!(
+                "{:<7} {:<12.4} {:<13.2} {:<14} {}",
+                name.to_uppercase(),
+                p.norm,
+                p.raw,
+                window,
+                match inside {
+                    Some(true) => "yes",
+                    _ => "NO: outside the paper's fixed window",
+                }
+            )),
+            None => print_line(&format!("{:<7} missing (no distinct mode found)", name.to_uppercase())),
+        }
+    }
+    let gpu: Vec<String> = opened.prepared.gpu_timings.iter().map(|p| format!("{} {:.3} ms", p.name, p.gpu_ms)).collect();
+    print_line(&format!("GPU passes: {}", gpu.join(", ")));
+    Ok(())
+}

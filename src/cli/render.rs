@@ -1,0 +1,133 @@
+//! `morphray render`: one PNG (or a turntable of PNGs) of a volume, with provenance.
+
+use super::args::{GradientArg, ModeArg, ProjectionArg, RenderArgs, SceneArgs, WindowsArg};
+use super::output::{ms, print_line};
+use super::png::{Provenance, write_rgba8};
+use super::session::{self, engine_config};
+use crate::analysis::TissueReport;
+use crate::error::Error;
+use crate::scene::{Camera, Classification, GradientSource, Projection, RenderMode, Scene, TissueClass};
+use ash::vk;
+use std::path::{Path, PathBuf};
+
+/// Builds the scene the arguments describe, around a histogram analysis.
+pub fn scene_from_args(args: &SceneArgs, report: &TissueReport) -> Result<Scene, Error> {
+    let windows = match args.windows {
+        WindowsArg::Adaptive => &report.adaptive_windows,
+        WindowsArg::Paper => &report.paper_windows,
+    };
+    let mut classification = Classification::from_tissue_windows(windows);
+    let mut visible = Vec::new();
+    for name in &args.tissues {
+        if name.trim().is_empty() {
+            continue;
+        }
+        let tissue = TissueClass::parse(name).ok_or_else(|| {
+            Error::Usage(format!("unknown tissue `{name}` in --tissues; use csf, gm, wm, pathology"))
+        })?;
+        visible.push(tissue);
+    }
+    classification.show_only(&visible);
+    let mut scene = Scene::new(classification);
+    scene.camera = Camera {
+        azimuth_deg: args.azimuth,
+        elevation_deg: args.elevation,
+        zoom: args.zoom,
+        pan_mm: [args.pan.0, args.pan.1],
+        projection: match args.projection {
+            ProjectionArg::Perspective => Projection::Perspective { fov_y_deg: 30.0 },
+            ProjectionArg::Orthographic => Projection::Orthographic,
+        },
+    };
+    scene.effects.mode = match args.mode {
+        ModeArg::Dvr => RenderMode::Dvr,
+        ModeArg::Mip => RenderMode::Mip,
+        ModeArg::Minip => RenderMode::MinIp,
+    };
+    scene.effects.curvature = args.curvature.on();
+    scene.effects.shading = args.shading.on();
+    scene.effects.gradient_source = match args.gradient {
+        GradientArg::Precomputed => GradientSource::Precomputed,
+        GradientArg::OnTheFly => GradientSource::OnTheFly,
+    };
+    if !(args.step.is_finite() && args.step > 0.0 && args.step <= 16.0) {
+        return Err(Error::Usage(format!("--step {} must be a number of voxels in (0, 16]", args.step)));
+    }
+    if !(args.zoom.is_finite() && args.zoom > 0.0) {
+        return Err(Error::Usage(format!("--zoom {} must be a positive number", args.zoom)));
+    }
+    scene.step_voxels = args.step;
+    scene.jitter = !args.no_jitter;
+    scene.background = args.background;
+    scene.minip_floor = report.background_threshold as f32;
+    Ok(scene)
+}
+
+/// Tissues the user asked to see that this volume has no window for (peak not found).
+pub fn missing_tissues(scene: &Scene) -> Vec<&'static str> {
+    TissueClass::ALL
+        .into_iter()
+        .filter(|t| {
+            let style = scene.classification.style(*t);
+            style.visible && style.window.is_none()
+        })
+        .map(|t| t.name())
+        .collect()
+}
+
+fn frame_path(output: &Path, index: u32) -> PathBuf {
+    let stem = output.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "frame".into());
+    let name = format!("{stem}-{index:03}.png");
+    output.with_file_name(name)
+}
+
+/// Runs the command.
+pub fn run(args: &RenderArgs, device: Option<&str>, validation: bool) -> Result<(), Error> {
+    if args.turntable == Some(0) {
+        return Err(Error::Usage("--turntable needs at least 1 frame".into()));
+    }
+    let mut opened = session::open(args.file.as_deref(), args.frame, true, engine_config(device, validation))?;
+    let base = scene_from_args(&args.scene, &opened.report)?;
+    for name in missing_tissues(&base) {
+        eprintln!("morphray: note: no {name} peak was found in this volume, so {name} cannot be shown");
+    }
+    let derived = match base.effects.derivative_outputs() {
+        Some(outputs) => Some(opened.engine.derive(&opened.prepared, outputs)?),
+        None => None,
+    };
+    let (width, height) = args.scene.size;
+    let mut target = opened.engine.render_target(width, height, vk::Format::R8G8B8A8_UNORM)?;
+    let frames = args.turntable.unwrap_or(1);
+    let command = std::env::args().collect::<Vec<_>>().join(" ");
+    for index in 0..frames {
+        let mut scene = base;
+        if args.turntable.is_some() {
+            scene.camera.azimuth_deg = args.scene.azimuth + 360.0 * index as f64 / frames as f64;
+            scene.frame = index;
+        }
+        let frame = opened.engine.render(&mut target, &opened.prepared, derived.as_ref(), &scene)?;
+        let path = if args.turntable.is_some() { frame_path(&args.output, index) } else { args.output.clone() };
+        let parameters = serde_json::json!({
+            "engine": format!("morphray {}", env!("CARGO_PKG_VERSION")),
+            "input": opened.source.label,
+            "frame_of_4d_file": args.frame,
+            "arguments": args.scene,
+            "turntable_index": args.turntable.map(|_| index),
+            "scene": scene,
+            "device": opened.engine.device().adapter().name,
+        });
+        let provenance = Provenance {
+            input: opened.source.label.clone(),
+            input_sha256: opened.source.sha256.clone().unwrap_or_default(),
+            command: command.clone(),
+            parameters: parameters.to_string(),
+        };
+        write_rgba8(&path, frame.width, frame.height, &frame.rgba8, &provenance)?;
+        let gpu_ms: f64 = frame.gpu_timings.iter().map(|p| p.gpu_ms).sum();
+        print_line(&format!("wrote {} ({}x{}, raymarch {:.3} ms GPU)", path.display(), width, height, ms(gpu_ms)));
+    }
+    if validation {
+        session::check_validation(&opened.engine)?;
+    }
+    Ok(())
+}

@@ -1,0 +1,34 @@
+//! The library's top-level error: one variant per layer, each a sentence a person can act on.
+
+use crate::cli::png::PngError;
+use crate::gpu::GpuError;
+use crate::volume::nifti::NiftiError;
+use crate::volume::phantom::PhantomError;
+
+/// Any failure of a morphray command.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// Reading or decoding a NIfTI file.
+    #[error(transparent)]
+    Nifti(#[from] NiftiError),
+    /// Building the phantom.
+    #[error(transparent)]
+    Phantom(#[from] PhantomError),
+    /// Vulkan, device memory or shaders.
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+    /// Writing an image.
+    #[error(transparent)]
+    Png(#[from] PngError),
+    /// Writing another output file.
+    #[error("cannot write {path}: {source}")]
+    Write {
+        /// The file.
+        path: String,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// Arguments that parse but do not make sense together.
+    #[error("{0}")]
+    Usage(String),
+}
