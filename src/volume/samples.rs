@@ -63,7 +63,7 @@ pub struct RaggedSamples {
 impl Samples {
     /// Wraps little-endian bytes; fails if they are not a whole number of samples.
     pub fn from_le_bytes(kind: SampleKind, bytes: Vec<u8>) -> Result<Self, RaggedSamples> {
-        if bytes.len() % kind.size_bytes() != 0 {
+        if !bytes.len().is_multiple_of(kind.size_bytes()) {
             return Err(RaggedSamples { len: bytes.len(), kind });
         }
         Ok(Samples { kind, bytes })
