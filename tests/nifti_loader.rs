@@ -7,7 +7,7 @@
 
 use morphray::volume::nifti::{
     ByteOrder, Datatype, Extension, LoadOptions, LoadedNifti, NiftiError, RawHeader, Storage,
-    Version, inflate_if_gzip, load_path, parse, parse_pair,
+    Version, inflate_if_gzip, load_path, parse, parse_pair, write_nifti1,
 };
 use morphray::volume::stats::intensity_stats;
 use morphray::volume::{AffineSource, SampleKind};
@@ -1665,4 +1665,137 @@ fn inflate_phase_is_separate_and_counts_members() {
     let mut l = parse(inflated[..big.len()].to_vec(), "x", &LoadOptions::default()).unwrap();
     l.header.set_gzip_members(2);
     assert!(l.header.gzip);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Writer round trips
+
+fn round_trip(volume: &morphray::volume::Volume, gz: bool) -> LoadedNifti {
+    let dir = temp_dir("writer");
+    let path = dir.join(if gz { "rt.nii.gz" } else { "rt.nii" });
+    write_nifti1(volume, &path, gz).unwrap();
+    let bytes = std::fs::read(&path).unwrap();
+    assert_eq!(bytes.starts_with(&[0x1f, 0x8b]), gz);
+    let l = load_path(&path, &LoadOptions::default()).unwrap();
+    std::fs::remove_dir_all(&dir).unwrap();
+    l
+}
+
+#[test]
+fn writer_round_trip_phantom() {
+    let phantom =
+        morphray::volume::phantom::generate(&morphray::volume::phantom::PhantomSpec::cube(20))
+            .unwrap();
+    let v = &phantom.volume;
+    for gz in [false, true] {
+        let l = round_trip(v, gz);
+        assert_eq!(l.volume.dims, v.dims);
+        assert_eq!(l.volume.samples, v.samples);
+        assert_eq!(l.volume.spacing_mm, v.spacing_mm);
+        assert_eq!(l.volume.to_physical, v.to_physical);
+        assert_affine(&l.volume.orientation.affine, &v.orientation.affine, 0.0);
+        assert_eq!(l.volume.orientation.source, AffineSource::Sform);
+        assert_eq!((l.header.sform_code, l.header.qform_code), (2, 2));
+        assert_eq!(l.header.gzip, gz);
+        assert!(l.volume.warnings.is_empty(), "{:?}", l.volume.warnings);
+        assert_eq!(l.header.description, "morphray: phantom");
+    }
+}
+
+fn oblique_volume(affine: [[f64; 4]; 4], spacing: [f64; 3]) -> morphray::volume::Volume {
+    morphray::volume::Volume {
+        name: "oblique".into(),
+        dims: [3, 2, 2],
+        spacing_mm: spacing,
+        orientation: morphray::volume::Orientation {
+            affine,
+            source: AffineSource::Synthetic,
+        },
+        samples: morphray::volume::Samples::from_f32(&[
+            0.5,
+            f32::NAN,
+            -1.0,
+            2.0,
+            f32::INFINITY,
+            3.0,
+            4.0,
+            5.0,
+            6.0,
+            7.0,
+            8.0,
+            9.0,
+        ]),
+        to_physical: morphray::volume::LinearMap {
+            slope: 2.0,
+            intercept: -5.0,
+        },
+        warnings: vec![],
+    }
+}
+
+#[test]
+fn writer_round_trip_oblique_with_flip_derives_an_exact_qform() {
+    // Rotation of 30 degrees about z, voxel sizes 0.8 x 1.2 x 2, k flipped (qfac -1).
+    let (c, s) = (30f64.to_radians().cos(), 30f64.to_radians().sin());
+    let affine = [
+        [0.8 * c, -1.2 * s, 0.0, 12.5],
+        [0.8 * s, 1.2 * c, 0.0, -3.0],
+        [0.0, 0.0, -2.0, 40.0],
+        [0.0, 0.0, 0.0, 1.0],
+    ];
+    let v = oblique_volume(affine, [0.8, 1.2, 2.0]);
+    for gz in [false, true] {
+        let l = round_trip(&v, gz);
+        assert_eq!(l.header.qform_code, 2, "an orthogonal affine gets a qform");
+        assert!(
+            l.volume.warnings.is_empty(),
+            "qform must agree with sform: {:?}",
+            l.volume.warnings
+        );
+        assert_affine(&l.volume.orientation.affine, &affine, 1e-6);
+        assert_eq!(
+            l.volume.samples.as_bytes(),
+            v.samples.as_bytes(),
+            "NaN and Inf written bit-exactly"
+        );
+        assert_eq!(l.volume.to_physical, v.to_physical);
+        let st = intensity_stats(&l.volume);
+        assert_eq!((st.finite, st.nonfinite), (10, 2));
+        assert_eq!((st.imin, st.imax), (Some(-7.0), Some(13.0)));
+    }
+    // The qform alone reproduces the affine: drop the sform and reload.
+    let dir = temp_dir("qform-only");
+    let path = dir.join("q.nii");
+    write_nifti1(&v, &path, false).unwrap();
+    let mut bytes = std::fs::read(&path).unwrap();
+    bytes[254..256].copy_from_slice(&0i16.to_le_bytes());
+    let l = parse(bytes, "q.nii", &LoadOptions::default()).unwrap();
+    assert_eq!(l.volume.orientation.source, AffineSource::Qform);
+    assert_affine(&l.volume.orientation.affine, &affine, 1e-6);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn writer_skips_the_qform_for_a_sheared_affine_and_rejects_what_nifti1_cannot_hold() {
+    let affine = [
+        [1.0, 0.3, 0.0, 0.0],
+        [0.0, 1.0, 0.0, 0.0],
+        [0.0, 0.0, 1.0, 0.0],
+        [0.0, 0.0, 0.0, 1.0],
+    ];
+    let v = oblique_volume(affine, [1.0, 1.0, 1.0]);
+    let l = round_trip(&v, false);
+    assert_eq!((l.header.qform_code, l.header.sform_code), (0, 2));
+    assert_affine(&l.volume.orientation.affine, &affine, 1e-7);
+
+    let mut too_big = v.clone();
+    too_big.dims = [40000, 1, 1];
+    let e = write_nifti1(
+        &too_big,
+        &std::env::temp_dir().join("morphray-never-written.nii"),
+        false,
+    )
+    .unwrap_err();
+    assert!(matches!(e, NiftiError::Unwritable { .. }), "{e}");
+    assert!(e.to_string().contains("32767"), "{e}");
 }

@@ -1,4 +1,4 @@
-//! NIfTI-1, NIfTI-2 and ANALYZE 7.5 reader, per NIFTI.md's
+//! NIfTI-1, NIfTI-2 and ANALYZE 7.5 reader (and a small NIfTI-1 writer), per NIFTI.md's
 //! contract: every odd file gets a documented outcome, nothing a user feeds it can panic.
 //!
 //! Decisions:
@@ -29,6 +29,7 @@ pub mod extensions;
 pub mod gzip;
 pub mod header;
 pub mod orientation;
+mod writer;
 
 pub use datatype::Datatype;
 pub use error::NiftiError;
@@ -36,6 +37,7 @@ pub use extensions::Extension;
 pub use gzip::inflate_if_gzip;
 pub use header::{ByteOrder, RawHeader, Storage, Version};
 pub use orientation::{OrientationFields, ResolvedGeometry};
+pub use writer::write_nifti1;
 
 use crate::volume::Volume;
 use header::Decoded;
