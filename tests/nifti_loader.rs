@@ -749,6 +749,33 @@ fn cases() -> Vec<Case> {
         },
     ));
 
+    t.push(loads(
+        "nifti2 scl_slope 1e306 on int16 would overflow f64: not applied, with a warning",
+        &base_i16().nifti2().with(|h| h.scl_slope = 1e306),
+        |l| {
+            assert_eq!(l.volume.to_physical, morphray::volume::LinearMap::IDENTITY);
+            assert!(warned(l, "outside the f64 range"));
+        },
+    ));
+    t.push(loads(
+        "nifti2 scl_slope 1e300 on int16 fits f64: applied",
+        &base_i16().nifti2().with(|h| h.scl_slope = 1e300),
+        |l| {
+            assert_eq!(l.volume.to_physical.slope, 1e300);
+            assert!(l.volume.warnings.is_empty());
+        },
+    ));
+    t.push(loads(
+        "nifti2 int32 offset times a huge scl_slope: scaling dropped, offset kept",
+        &File::new(&[2], Data::I32(vec![2_000_000_000, 2_000_000_002]))
+            .nifti2()
+            .with(|h| h.scl_slope = -1e300),
+        |l| {
+            assert_eq!(physical(l), [2_000_000_000.0, 2_000_000_002.0]);
+            assert!(warned(l, "outside the f64 range"));
+        },
+    ));
+
     // --- vox_offset and file length (point 3) ---
     t.push(loads(
         "vox_offset 0 in a .nii means 352",

@@ -182,8 +182,16 @@ fn order_strategy() -> impl Strategy<Value = ByteOrder> {
     prop_oneof![Just(ByteOrder::LittleEndian), Just(ByteOrder::BigEndian)]
 }
 
+/// 512 cases per property unless `PROPTEST_CASES` asks for more (longer fuzzing runs).
+fn cases() -> u32 {
+    std::env::var("PROPTEST_CASES")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(512)
+}
+
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 512, .. ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: cases(), ..ProptestConfig::default() })]
 
     /// (a) Arbitrary bytes, with and without a plausible sizeof_hdr, never panic.
     #[test]

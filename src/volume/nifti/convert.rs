@@ -18,7 +18,9 @@
 //!   0.0722 B (alpha ignored), never scaled by scl_slope, with a warning.
 //! - Scaling (NIFTI.md point 5): scl_slope 0 or non-finite means no scaling at all (NaN and
 //!   infinities also warn; 0 is the standard's "unused"); a non-finite scl_inter with a usable
-//!   slope is replaced by 0 with a warning.
+//!   slope is replaced by 0 with a warning. A finite scaling that would push some stored value
+//!   outside the f64 range (only NIfTI-2's f64 fields can) is dropped with a warning, so the map
+//!   and every physical value stay finite.
 
 use super::datatype::Datatype;
 use super::error::NiftiError;
@@ -142,31 +144,79 @@ pub fn convert_frame(
                 _ => {}
             }
         }
+        let to_physical = safe_map(
+            LinearMap::IDENTITY,
+            file_map,
+            largest_stored(kind),
+            &mut warnings,
+        );
         let samples = samples(kind, buf)?;
         return Ok(Converted {
             samples,
-            to_physical: file_map,
+            to_physical,
             warnings,
         });
     }
 
     let src = buf.get(start..end).unwrap_or_default();
-    let (out, offset, scale) = match datatype {
+    let (out, offset, scale, reach) = match datatype {
         Datatype::Int32 => integers(src, |b: [u8; 4]| i128::from(read_i32(b, big)))?,
         Datatype::Uint32 => integers(src, |b: [u8; 4]| i128::from(read_u32(b, big)))?,
         Datatype::Int64 => integers(src, |b: [u8; 8]| i128::from(read_i64(b, big)))?,
         Datatype::Uint64 => integers(src, |b: [u8; 8]| i128::from(read_u64(b, big)))?,
         _ => floats(src, big)?,
     };
-    let to_physical = LinearMap {
-        slope: scale * file_map.slope,
-        intercept: offset * file_map.slope + file_map.intercept,
+    let conversion = LinearMap {
+        slope: scale,
+        intercept: offset,
     };
+    let to_physical = safe_map(conversion, file_map, reach, &mut warnings);
     Ok(Converted {
         samples: samples(SampleKind::F32, out)?,
         to_physical,
         warnings,
     })
+}
+
+/// Largest magnitude a stored sample of `kind` can have.
+fn largest_stored(kind: SampleKind) -> f64 {
+    match kind {
+        SampleKind::U8 => 255.0,
+        SampleKind::I8 => 128.0,
+        SampleKind::U16 => 65535.0,
+        SampleKind::I16 => 32768.0,
+        SampleKind::F32 => f64::from(f32::MAX),
+    }
+}
+
+/// Composes the conversion map (offset/scale of convert.rs, identity for native kinds) with the
+/// file's scaling. If the result could not represent every stored value in f64 (a NIfTI-2
+/// scl_slope near 1e308, say), the file's scaling is dropped with a warning: the map must stay
+/// finite with a non-zero slope, and physical values must stay finite.
+fn safe_map(
+    conversion: LinearMap,
+    file: LinearMap,
+    reach: f64,
+    warnings: &mut Vec<String>,
+) -> LinearMap {
+    let combined = LinearMap {
+        slope: conversion.slope * file.slope,
+        intercept: conversion.intercept * file.slope + file.intercept,
+    };
+    let largest = combined.slope.abs() * reach + combined.intercept.abs();
+    if combined.slope.is_finite()
+        && combined.slope != 0.0
+        && combined.intercept.is_finite()
+        && largest.is_finite()
+    {
+        combined
+    } else {
+        warnings.push(format!(
+            "scl_slope {} with scl_inter {} would take these voxels outside the f64 range, so no scaling is applied",
+            file.slope, file.intercept
+        ));
+        conversion
+    }
 }
 
 fn samples(kind: SampleKind, bytes: Vec<u8>) -> Result<Samples, NiftiError> {
@@ -217,11 +267,12 @@ fn arrays<const N: usize>(src: &[u8]) -> impl Iterator<Item = [u8; N]> + '_ {
     })
 }
 
-/// Integer datatypes to f32 with an exact integer offset. Returns (bytes, offset, scale).
+/// Integer datatypes to f32 with an exact integer offset. Returns (bytes, offset, scale, largest
+/// |stored|).
 fn integers<const N: usize>(
     src: &[u8],
     read: impl Fn([u8; N]) -> i128,
-) -> Result<(Vec<u8>, f64, f64), NiftiError> {
+) -> Result<(Vec<u8>, f64, f64, f64), NiftiError> {
     let (mut lo, mut hi) = (i128::MAX, i128::MIN);
     for x in arrays::<N>(src).map(&read) {
         lo = lo.min(x);
@@ -237,11 +288,17 @@ fn integers<const N: usize>(
     for x in arrays::<N>(src).map(&read) {
         out.extend_from_slice(&((x - offset) as f32).to_le_bytes());
     }
-    Ok((out, offset as f64, 1.0))
+    let reach = if lo > hi {
+        0
+    } else {
+        (hi - offset).abs().max((lo - offset).abs())
+    };
+    Ok((out, offset as f64, 1.0, reach as f64))
 }
 
-/// float64 to f32 with the offset/scale rule of the module doc. Returns (bytes, offset, scale).
-fn floats(src: &[u8], big: bool) -> Result<(Vec<u8>, f64, f64), NiftiError> {
+/// float64 to f32 with the offset/scale rule of the module doc. Returns (bytes, offset, scale,
+/// largest |stored|).
+fn floats(src: &[u8], big: bool) -> Result<(Vec<u8>, f64, f64, f64), NiftiError> {
     let read = |b: [u8; 8]| {
         if big {
             f64::from_be_bytes(b)
@@ -254,7 +311,7 @@ fn floats(src: &[u8], big: bool) -> Result<(Vec<u8>, f64, f64), NiftiError> {
         lo = lo.min(x);
         hi = hi.max(x);
     }
-    let (offset, scale) = if lo <= hi {
+    let (offset, scale, stored_reach) = if lo <= hi {
         // Halves first: (lo + hi) could overflow for values near f64::MAX.
         let mid = lo / 2.0 + hi / 2.0;
         let half = hi / 2.0 - lo / 2.0;
@@ -266,14 +323,14 @@ fn floats(src: &[u8], big: bool) -> Result<(Vec<u8>, f64, f64), NiftiError> {
         while reach.is_finite() && reach / scale > 1e36 {
             scale *= 65536.0;
         }
-        (offset, scale)
+        (offset, scale, reach / scale)
     } else {
-        (0.0, 1.0)
+        (0.0, 1.0, 0.0)
     };
     let mut out = alloc(src.len() / 8 * 4)?;
     for x in arrays::<8>(src).map(read) {
         let stored = ((x - offset) / scale) as f32;
         out.extend_from_slice(&stored.to_le_bytes());
     }
-    Ok((out, offset, scale))
+    Ok((out, offset, scale, stored_reach))
 }
