@@ -1826,3 +1826,28 @@ fn writer_skips_the_qform_for_a_sheared_affine_and_rejects_what_nifti1_cannot_ho
     assert!(matches!(e, NiftiError::Unwritable { .. }), "{e}");
     assert!(e.to_string().contains("32767"), "{e}");
 }
+
+#[test]
+fn header_summary_serialises_to_json() {
+    let l = load(gzip(
+        &base_i16().big().with(|h| h.scl_slope = f64::NAN).bytes(),
+    ))
+    .unwrap();
+    let json: serde_json::Value = serde_json::to_value(&l.header).unwrap();
+    assert_eq!(json["version"], "nifti1");
+    assert_eq!(json["byte_order"], "big_endian");
+    assert_eq!(json["storage"], "single_file");
+    assert_eq!(json["datatype"], "int16");
+    assert_eq!(json["dims"], serde_json::json!([3, 4, 5]));
+    assert_eq!(json["frames"], 1);
+    assert_eq!(json["vox_offset"], 352.0);
+    assert_eq!(
+        json["scl_slope"],
+        serde_json::Value::Null,
+        "NaN has no JSON number"
+    );
+    assert_eq!(
+        (json["gzip"].clone(), json["gzip_members"].clone()),
+        (true.into(), 1.into())
+    );
+}

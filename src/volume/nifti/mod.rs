@@ -74,7 +74,7 @@ pub struct HeaderSummary {
     pub bitpix: i16,
     /// `dim[1..=dim[0]]`.
     pub dims: Vec<usize>,
-    /// Product of dims 4..=dim[0] (1 for a 3-D file).
+    /// Product of dims 4..=`dim[0]` (1 for a 3-D file).
     pub frames: usize,
     /// Which frame was loaded.
     pub frame_loaded: usize,

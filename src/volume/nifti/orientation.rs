@@ -16,7 +16,7 @@
 //! - Quaternion: with s = b^2 + c^2 + d^2, a = sqrt(1 - s) when s < 1 - 1e-7; when s is within
 //!   (1 - 1e-7, 1 + 1e-5] (rounding of a unit quaternion stored in f32) a = 0 and (b, c, d) is
 //!   normalised silently (as nifti_clib does); when s > 1 + 1e-5 the quaternion is normalised
-//!   with a warning. qfac = pixdim[0]: 0 means 1 (the standard), otherwise its sign; NaN is 1
+//!   with a warning. qfac = `pixdim[0]`: 0 means 1 (the standard), otherwise its sign; NaN is 1
 //!   with a warning.
 //! - When both sform and qform are usable and differ by more than 1e-3 of the voxel size in the
 //!   3x3 part or 0.01 mm (+1e-6 relative) in the offset, a warning says so; the sform wins.

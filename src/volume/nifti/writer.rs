@@ -11,7 +11,7 @@
 //! - `scl_slope` / `scl_inter` come from `to_physical`, narrowed to f32 (NIfTI-1 has no wider
 //!   field): exact for the usual maps (identity, small integers, powers of two); a map that f32
 //!   cannot hold (for example a 1e30 offset from float64 data) is rounded.
-//! - `xyzt_units` = mm; `descrip` = "morphray: <name>" (79 bytes at most).
+//! - `xyzt_units` = mm; `descrip` = `"morphray: <name>"` (79 bytes at most).
 //! - gzip output is one member compressed by libdeflate at level 6.
 
 use super::datatype::Datatype;
