@@ -73,14 +73,6 @@ fn unit_factor(xyzt_units: i32, warnings: &mut Vec<String>) -> f64 {
     }
 }
 
-/// Repairs `pixdim[1..=3]` and converts it to mm.
-pub fn spacing_from_pixdim(pixdim: [f64; 3], xyzt_units: i32) -> ([f64; 3], Vec<String>) {
-    let mut warnings = Vec::new();
-    let factor = unit_factor(xyzt_units, &mut warnings);
-    let spacing = repaired_spacing(pixdim, factor, &mut warnings);
-    (spacing, warnings)
-}
-
 fn repaired_spacing(pixdim: [f64; 3], factor: f64, warnings: &mut Vec<String>) -> [f64; 3] {
     std::array::from_fn(|axis| {
         let p = pixdim[axis];
