@@ -1,1 +1,673 @@
-//! (in progress)
+//! The built-in digital phantom: a deterministic, brain-like T1 volume with known tissue labels,
+//! used wherever no file is given and as ground truth in tests.
+//!
+//! Decisions:
+//! - Nominal raw intensities (int16, T1 contrast order), see [`NOMINAL`]: background 0,
+//!   skull/fat shell 120 (dark, bone-like: between background and CSF so it falls outside every
+//!   tissue window and the pathology band and never hides the brain), CSF 250, GM 600, WM 850,
+//!   lesion 1350, vessels 1450. Peaks are 350 / 250 raw units apart (>= 12 noise sigmas), so a
+//!   histogram shows separate CSF, GM and WM modes; lesion and vessels are the only voxels above
+//!   about 1250.
+//! - Geometry is defined in coordinates normalised to the volume extent, so any size gives the
+//!   same (scaled) head. Brain: an ellipsoid with semi-axes 0.56 / 0.68 / 0.64 of the half-extent
+//!   (72 / 87 / 61 mm at cohort A: a 143 x 174 x 123 mm brain). Thin structures have a floor in voxels so small test
+//!   phantoms still contain every tissue: GM ribbon max(3 mm, 2 voxels), sulcus half-width
+//!   max(0.75 mm, 0.5 voxel), subarachnoid CSF max(3 mm, 1.5 voxels), interhemispheric fissure
+//!   half-width max(1.5 mm, 0.75 voxel), vessel radius max(1.25 mm, 1 voxel), lesion radius
+//!   max(4.5 mm, 2 voxels), skull + scalp max(14 mm, CSF + 2.5 voxels). "mm" here means
+//!   "cohort-A voxels", scaled by the smallest brain semi-axis in voxels / 61.44.
+//! - Folding: sulci are the zero set of S(n) = sum of four sinusoids of the direction n from the
+//!   brain centre (no poles, irregular like real gyri), cut from the hull down to 20 % of the
+//!   brain radius (12-17 mm at cohort A), filled with CSF; the distance to them is |S| / |grad S| (first order). The GM
+//!   ribbon is everything within the GM thickness of CSF (hull, sulci or fissure), so GM lines
+//!   sulcal walls and bottoms with a constant thickness; WM is inside. The sulcal frequency is
+//!   min(22, pi * smallest semi-axis / 7 voxels): about 9-12 mm between sulci at cohort A, and
+//!   lower on small grids so that gyri keep a WM core.
+//! - Other structures: two banana-shaped lateral ventricles (CSF) beside the midline; a
+//!   midline fissure (CSF) down to the corpus callosum in the middle and through the whole brain
+//!   at the front and back; a lesion sphere in the left hemisphere's WM (world x < 0, RAS);
+//!   vessels: the superior sagittal sinus along the top of the fissure in the CSF layer, a
+//!   pericallosal artery at the fissure bottom, and one Sylvian (MCA-like) artery on each side.
+//! - Partial volume: each structure has a signed distance in voxels; its weight is a linear ramp
+//!   over one voxel centred on the boundary, and structures are blended in nesting order
+//!   (head, CSF, GM, WM, ventricles, lesion, vessels). The label is the last structure whose
+//!   weight at the voxel centre is >= 0.5, which is also the dominant one in the blend.
+//! - Bias: smooth multiplicative field 1 + 0.07 f(p), |f| <= 1 (about +-7 %), applied to the
+//!   tissue signal. Noise (when `noise`): Rician magnitude sqrt((s + sigma n1)^2 + (sigma n2)^2)
+//!   with sigma = 20 (2.4 % of WM), so the background is a positive Rayleigh floor (mean ~25).
+//!   n1, n2 are Irwin-Hall sums of four 16-bit uniforms (close to Gaussian, bounded at
+//!   +-3.46 sigma) from a SplitMix64 hash of (seed, voxel index).
+//! - Deterministic: every voxel is a pure function of (spec, index), and only +, -, *, /, sqrt,
+//!   abs, min/max and round are used (sin/cos are a local polynomial, not the platform libm), so the
+//!   bytes are identical for any thread count and on any IEEE-754 platform.
+//! - Fast: slabs of k-planes in parallel with `std::thread::scope`; voxels outside the head
+//!   skip the anatomy; the sulcal field is evaluated only near the cortex.
+
+use crate::volume::{AffineSource, LinearMap, Orientation, Samples, Volume};
+
+/// Tissue classes of the phantom (the values of [`Phantom::labels`]).
+#[repr(u8)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Tissue {
+    /// Air outside the head.
+    Background = 0,
+    /// Skull and scalp shell (dark).
+    SkullFat = 1,
+    /// Cerebrospinal fluid: ventricles, sulci, fissure, subarachnoid layer.
+    Csf = 2,
+    /// Cortical grey matter.
+    Gm = 3,
+    /// White matter.
+    Wm = 4,
+    /// A bright lesion in the left hemisphere's white matter.
+    Lesion = 5,
+    /// Bright vessels (contrast-enhanced).
+    Vessel = 6,
+}
+
+impl Tissue {
+    /// Every class, in label order.
+    pub const ALL: [Tissue; 7] = [
+        Tissue::Background,
+        Tissue::SkullFat,
+        Tissue::Csf,
+        Tissue::Gm,
+        Tissue::Wm,
+        Tissue::Lesion,
+        Tissue::Vessel,
+    ];
+
+    /// The class with label value `label`.
+    pub fn from_label(label: u8) -> Option<Tissue> {
+        Tissue::ALL.get(usize::from(label)).copied()
+    }
+
+    /// Lowercase name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Tissue::Background => "background",
+            Tissue::SkullFat => "skull_fat",
+            Tissue::Csf => "csf",
+            Tissue::Gm => "gm",
+            Tissue::Wm => "wm",
+            Tissue::Lesion => "lesion",
+            Tissue::Vessel => "vessel",
+        }
+    }
+}
+
+/// Nominal raw (int16) intensity of each tissue, before bias, partial volume and noise.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct Nominal {
+    /// Air.
+    pub background: f64,
+    /// Skull and scalp shell.
+    pub skull_fat: f64,
+    /// Cerebrospinal fluid.
+    pub csf: f64,
+    /// Grey matter.
+    pub gm: f64,
+    /// White matter.
+    pub wm: f64,
+    /// Lesion.
+    pub lesion: f64,
+    /// Vessels.
+    pub vessel: f64,
+}
+
+impl Nominal {
+    /// Nominal intensity of `tissue`.
+    pub fn of(&self, tissue: Tissue) -> f64 {
+        match tissue {
+            Tissue::Background => self.background,
+            Tissue::SkullFat => self.skull_fat,
+            Tissue::Csf => self.csf,
+            Tissue::Gm => self.gm,
+            Tissue::Wm => self.wm,
+            Tissue::Lesion => self.lesion,
+            Tissue::Vessel => self.vessel,
+        }
+    }
+}
+
+/// The phantom's nominal intensities (module doc).
+pub const NOMINAL: Nominal = Nominal {
+    background: 0.0,
+    skull_fat: 120.0,
+    csf: 250.0,
+    gm: 600.0,
+    wm: 850.0,
+    lesion: 1350.0,
+    vessel: 1450.0,
+};
+
+/// Standard deviation of each noise component, in raw units (2.4 % of WM).
+pub const NOISE_SIGMA: f64 = 20.0;
+
+/// Amplitude of the multiplicative bias field (+-7 %).
+pub const BIAS_AMPLITUDE: f64 = 0.07;
+
+/// What to generate.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PhantomSpec {
+    /// Voxels along i, j, k.
+    pub dims: [usize; 3],
+    /// Voxel size in mm along i, j, k (used for the affine only; geometry is normalised).
+    pub spacing_mm: [f64; 3],
+    /// Seed of the noise.
+    pub seed: u64,
+    /// Add Rician noise (the bias field is always applied).
+    pub noise: bool,
+}
+
+impl PhantomSpec {
+    /// The default seed ("morphray" in ASCII).
+    pub const DEFAULT_SEED: u64 = 0x6d6f_7270_6872_6179;
+
+    /// The paper's cohort-A size: 256 x 256 x 192 voxels of 1 mm (12,582,912 voxels), with noise.
+    pub fn cohort_a() -> Self {
+        PhantomSpec {
+            dims: [256, 256, 192],
+            spacing_mm: [1.0; 3],
+            seed: Self::DEFAULT_SEED,
+            noise: true,
+        }
+    }
+
+    /// A small n x n x n phantom of 1 mm voxels, with noise (for tests).
+    pub fn cube(n: usize) -> Self {
+        PhantomSpec {
+            dims: [n; 3],
+            spacing_mm: [1.0; 3],
+            seed: Self::DEFAULT_SEED,
+            noise: true,
+        }
+    }
+}
+
+/// Why a phantom could not be generated.
+#[derive(Debug, thiserror::Error)]
+pub enum PhantomError {
+    /// A dimension is 0 or a spacing is not finite and positive.
+    #[error(
+        "a phantom needs dims of at least 1 and finite positive spacing, but got dims {dims:?} and spacing {spacing:?} mm"
+    )]
+    BadSpec {
+        /// The requested dims.
+        dims: [usize; 3],
+        /// The requested spacing.
+        spacing: [f64; 3],
+    },
+    /// The volume does not fit in memory.
+    #[error("a {dims:?} phantom needs more memory than could be allocated")]
+    TooLarge {
+        /// The requested dims.
+        dims: [usize; 3],
+    },
+}
+
+/// A generated phantom: the volume, a tissue label per voxel and the nominal intensities.
+#[derive(Clone, Debug)]
+pub struct Phantom {
+    /// i16 samples, name `phantom`, RAS+ affine centred on the volume, identity intensity map.
+    pub volume: Volume,
+    /// [`Tissue`] value per voxel, in the same order as the samples.
+    pub labels: Vec<u8>,
+    /// Nominal intensity per tissue.
+    pub nominal: Nominal,
+}
+
+impl Phantom {
+    /// Tissue of voxel `index` (None when out of range).
+    pub fn tissue(&self, index: usize) -> Option<Tissue> {
+        self.labels.get(index).copied().and_then(Tissue::from_label)
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Deterministic arithmetic helpers.
+
+const PI: f64 = std::f64::consts::PI;
+
+/// sin(x) from basic IEEE operations only (bit-identical on every platform). Accurate to about
+/// 1e-9 for |x| up to a few thousand, far below what the int16 rounding can see.
+fn det_sin(x: f64) -> f64 {
+    // Reduce to [-pi, pi], then fold to [-pi/2, pi/2].
+    let turns = (x / (2.0 * PI)).round();
+    let mut y = x - turns * (2.0 * PI);
+    if y > PI / 2.0 {
+        y = PI - y;
+    } else if y < -PI / 2.0 {
+        y = -PI - y;
+    }
+    let y2 = y * y;
+    // Taylor series to y^15 in Horner form (error < 1e-10 on [-pi/2, pi/2]); the coefficients
+    // are exact-rounded compile-time constants, so the result is the same everywhere.
+    const C: [f64; 7] = [
+        -1.0 / 6.0,
+        1.0 / 120.0,
+        -1.0 / 5040.0,
+        1.0 / 362_880.0,
+        -1.0 / 39_916_800.0,
+        1.0 / 6_227_020_800.0,
+        -1.0 / 1_307_674_368_000.0,
+    ];
+    let mut p = C[6];
+    for &c in C[..6].iter().rev() {
+        p = c + y2 * p;
+    }
+    y + y * y2 * p
+}
+
+fn det_cos(x: f64) -> f64 {
+    det_sin(x + PI / 2.0)
+}
+
+/// SplitMix64 finaliser.
+fn mix(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
+/// Approximately standard normal value from 64 random bits (Irwin-Hall, n = 4).
+fn normal(bits: u64) -> f64 {
+    let mut sum = 0.0;
+    for shift in [0, 16, 32, 48] {
+        sum += (((bits >> shift) & 0xffff) as f64 + 0.5) / 65536.0;
+    }
+    (sum - 2.0) * 3.0f64.sqrt()
+}
+
+/// Weight of a structure whose signed distance (voxels, positive inside) is `d`: a linear ramp
+/// over one voxel centred on the boundary.
+fn ramp(d: f64) -> f64 {
+    (d + 0.5).clamp(0.0, 1.0)
+}
+
+fn norm3(v: [f64; 3]) -> f64 {
+    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+}
+
+/// Normalised sulcal directions and phases (fixed anatomy; the seed only drives noise).
+const SULCUS_WAVES: [([f64; 3], f64); 4] = [
+    ([0.8, 0.3, 0.5], 0.3),
+    ([-0.2, 0.9, 0.4], 1.1),
+    ([0.5, -0.4, 0.8], 2.0),
+    ([0.3, 0.6, -0.7], 2.9),
+];
+
+/// Radial depth of the sulci, as a fraction of the brain radius.
+const SULCUS_DEPTH: f64 = 0.2;
+
+/// Brain semi-axes as fractions of the volume's half-extent.
+const BRAIN_SEMI: [f64; 3] = [0.56, 0.68, 0.64];
+
+/// Smallest brain semi-axis in voxels at cohort A (0.64 * 96): the unit of "mm" scaling.
+const COHORT_A_BMIN: f64 = 0.64 * 96.0;
+
+/// Everything about the anatomy that depends only on the spec.
+struct Geometry {
+    centre: [f64; 3],
+    half: [f64; 3],
+    brain: [f64; 3],
+    head: [f64; 3],
+    gm: f64,
+    sulcus_half: f64,
+    csf_layer: f64,
+    fissure_half: f64,
+    vessel_radius: f64,
+    lesion_radius: f64,
+    lesion_centre: [f64; 3],
+    waves: [([f64; 3], f64); 4],
+    frequency: f64,
+}
+
+impl Geometry {
+    fn new(dims: [usize; 3]) -> Geometry {
+        let d = dims.map(|n| n as f64);
+        let half = d.map(|n| n / 2.0);
+        let brain: [f64; 3] = std::array::from_fn(|a| BRAIN_SEMI[a] * half[a]);
+        let bmin = brain.iter().fold(f64::INFINITY, |m, &b| m.min(b));
+        let s = bmin / COHORT_A_BMIN;
+        let len = |mm: f64, floor: f64| (mm * s).max(floor);
+        let csf_layer = len(3.0, 1.5);
+        let head_t = len(14.0, csf_layer + 2.5);
+        let waves = SULCUS_WAVES.map(|(u, phase)| {
+            let n = norm3(u);
+            ([u[0] / n, u[1] / n, u[2] / n], phase)
+        });
+        Geometry {
+            centre: d.map(|n| (n - 1.0) / 2.0),
+            half,
+            brain,
+            head: brain.map(|b| b + head_t),
+            gm: len(3.0, 2.0),
+            sulcus_half: len(0.75, 0.5),
+            csf_layer,
+            fissure_half: len(1.5, 0.75),
+            vessel_radius: len(1.25, 1.0),
+            lesion_radius: len(4.5, 2.0),
+            lesion_centre: [-0.42 * brain[0], -0.08 * brain[1], 0.30 * brain[2]],
+            waves,
+            frequency: (PI * bmin / 7.0).min(22.0),
+        }
+    }
+
+    /// Height (q units) of the fissure bottom at anterior-posterior position `qy`.
+    fn fissure_bottom(qy: f64) -> f64 {
+        let a = qy.abs();
+        if a <= 0.45 {
+            0.42
+        } else {
+            0.42 - (a - 0.45) / 0.25 * 1.6
+        }
+    }
+
+    /// Signed distance (voxels, positive inside) to one lateral ventricle.
+    fn ventricle(&self, q: [f64; 3], side: f64) -> f64 {
+        let zc = 0.10 * (1.0 - (q[1] + 0.05) * (q[1] + 0.05) / 0.16).max(0.0);
+        let semi = [0.085, 0.40, 0.15];
+        let c = [side * 0.15, -0.05, zc];
+        let u: [f64; 3] = std::array::from_fn(|a| (q[a] - c[a]) / semi[a]);
+        let r = norm3(u);
+        let grad: [f64; 3] = std::array::from_fn(|a| u[a] / (semi[a] * self.brain[a]));
+        let g = norm3(grad) / r.max(1e-12);
+        (1.0 - r) / g.max(1e-12)
+    }
+
+    /// Signed distance to the CSF boundary of the cortex (voxels; > 0 inside tissue): the
+    /// nearest of the brain hull, a sulcus and the fissure.
+    fn cortex_distance(&self, v: [f64; 3], q: [f64; 3], r: f64, g_r: f64, hull: f64) -> f64 {
+        let mut dist = hull;
+        // Sulci reach from the hull down to radius 1 - depth; evaluate them only where the
+        // sheet could be within the GM thickness (plus the ramp) of this voxel.
+        let below = (1.0 - SULCUS_DEPTH - r) / g_r;
+        if below < self.gm + self.sulcus_half + 1.0 && r > 1e-9 {
+            let n = [q[0] / r, q[1] / r, q[2] / r];
+            let mut s = 0.0;
+            let mut ds = [0.0; 3];
+            for (u, phase) in &self.waves {
+                let arg = self.frequency * (n[0] * u[0] + n[1] * u[1] + n[2] * u[2]) + phase;
+                s += det_sin(arg);
+                let c = self.frequency * det_cos(arg);
+                for a in 0..3 {
+                    ds[a] += c * u[a];
+                }
+            }
+            // Tangential part of dS/dn, then chain rule to voxel coordinates.
+            let radial = ds[0] * n[0] + ds[1] * n[1] + ds[2] * n[2];
+            let grad: [f64; 3] =
+                std::array::from_fn(|a| (ds[a] - radial * n[a]) / (r * self.brain[a]));
+            let lateral = s.abs() / norm3(grad).max(1e-12);
+            let depth = below.max(0.0);
+            dist = dist.min((lateral * lateral + depth * depth).sqrt() - self.sulcus_half);
+        }
+        let below_f = ((Self::fissure_bottom(q[1]) - q[2]) * self.brain[2]).max(0.0);
+        dist.min((v[0] * v[0] + below_f * below_f).sqrt() - self.fissure_half)
+    }
+
+    /// Distance (voxels) to the nearest vessel centre line.
+    fn vessel_distance(&self, v: [f64; 3], q: [f64; 3], hull: f64) -> f64 {
+        // Depth of the vessel lines in the subarachnoid layer: its middle.
+        let layer = -hull - self.csf_layer / 2.0;
+        let mut best = f64::INFINITY;
+        // Superior sagittal sinus: midline, upper part of the hull.
+        if q[2] > -0.2 {
+            best = best.min((v[0] * v[0] + layer * layer).sqrt());
+        }
+        // Sylvian arteries, both sides, on the lateral hull.
+        if q[0].abs() > 0.3 && (-0.35..=0.45).contains(&q[1]) {
+            let dz = (q[2] - 0.05) * self.brain[2];
+            best = best.min((dz * dz + layer * layer).sqrt());
+        }
+        // Pericallosal artery: midline, just above the fissure bottom.
+        if q[1].abs() <= 0.45 {
+            let z = Self::fissure_bottom(q[1]) + (self.vessel_radius + 0.5) / self.brain[2];
+            let dz = (q[2] - z) * self.brain[2];
+            best = best.min((v[0] * v[0] + dz * dz).sqrt());
+        }
+        best
+    }
+
+    /// Multiplicative bias at normalised position `p`.
+    fn bias(p: [f64; 3]) -> f64 {
+        let f = 0.55 * p[0] + 0.45 * p[1] - 0.35 * p[2] + 0.25 * det_sin(2.2 * p[1] + 1.3 * p[2]);
+        1.0 + BIAS_AMPLITUDE * f.clamp(-1.0, 1.0)
+    }
+
+    /// Noise-free signal and label of the voxel at index (i, j, k).
+    fn voxel(&self, ijk: [f64; 3]) -> (f64, Tissue) {
+        let v: [f64; 3] = std::array::from_fn(|a| ijk[a] - self.centre[a]);
+        let mut signal = NOMINAL.background;
+        let mut label = Tissue::Background;
+        let layer = |signal: &mut f64, label: &mut Tissue, sd: f64, tissue: Tissue| {
+            let w = ramp(sd);
+            *signal += w * (NOMINAL.of(tissue) - *signal);
+            if w >= 0.5 {
+                *label = tissue;
+            }
+        };
+
+        // Head (skull and scalp): ellipsoid.
+        let qh: [f64; 3] = std::array::from_fn(|a| v[a] / self.head[a]);
+        let rh = norm3(qh);
+        let gh = norm3(std::array::from_fn(|a| qh[a] / self.head[a])) / rh.max(1e-12);
+        let head = (1.0 - rh) / gh.max(1e-12);
+        if head < -0.5 {
+            return (signal, label);
+        }
+        layer(&mut signal, &mut label, head, Tissue::SkullFat);
+
+        // Brain hull and the subarachnoid CSF layer around it.
+        let q: [f64; 3] = std::array::from_fn(|a| v[a] / self.brain[a]);
+        let r = norm3(q);
+        let g_r = (norm3(std::array::from_fn(|a| q[a] / self.brain[a])) / r.max(1e-12)).max(1e-12);
+        let hull = if r > 1e-9 {
+            (1.0 - r) / g_r
+        } else {
+            f64::INFINITY
+        };
+        if hull + self.csf_layer < -0.5 {
+            return (signal * Self::bias(self.normalised(v)), label);
+        }
+        layer(&mut signal, &mut label, hull + self.csf_layer, Tissue::Csf);
+
+        let cortex = self.cortex_distance(v, q, r, g_r, hull);
+        layer(&mut signal, &mut label, cortex, Tissue::Gm);
+        layer(&mut signal, &mut label, cortex - self.gm, Tissue::Wm);
+
+        let ventricles = self.ventricle(q, -1.0).max(self.ventricle(q, 1.0));
+        layer(&mut signal, &mut label, ventricles, Tissue::Csf);
+
+        let dl: [f64; 3] = std::array::from_fn(|a| v[a] - self.lesion_centre[a]);
+        layer(
+            &mut signal,
+            &mut label,
+            self.lesion_radius - norm3(dl),
+            Tissue::Lesion,
+        );
+
+        let vessel = self.vessel_distance(v, q, hull);
+        layer(
+            &mut signal,
+            &mut label,
+            self.vessel_radius - vessel,
+            Tissue::Vessel,
+        );
+
+        (signal * Self::bias(self.normalised(v)), label)
+    }
+
+    fn normalised(&self, v: [f64; 3]) -> [f64; 3] {
+        std::array::from_fn(|a| v[a] / self.half[a])
+    }
+}
+
+/// Generates the phantom described by `spec` (module doc) on all available cores. Identical
+/// bytes for the same spec on any thread count.
+pub fn generate(spec: &PhantomSpec) -> Result<Phantom, PhantomError> {
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    generate_with_threads(spec, threads)
+}
+
+/// [`generate`] on at most `threads` threads (at least one; at most one per k-plane), for
+/// benchmarks and for tests that check the output does not depend on the thread count.
+pub fn generate_with_threads(spec: &PhantomSpec, threads: usize) -> Result<Phantom, PhantomError> {
+    let dims = spec.dims;
+    if dims.contains(&0) || !spec.spacing_mm.iter().all(|s| s.is_finite() && *s > 0.0) {
+        return Err(PhantomError::BadSpec {
+            dims,
+            spacing: spec.spacing_mm,
+        });
+    }
+    let too_large = || PhantomError::TooLarge { dims };
+    let count = dims
+        .iter()
+        .try_fold(1usize, |a, &d| a.checked_mul(d))
+        .ok_or_else(too_large)?;
+    let bytes = count.checked_mul(2).ok_or_else(too_large)?;
+    let mut samples = Vec::new();
+    let mut labels = Vec::new();
+    samples.try_reserve_exact(bytes).map_err(|_| too_large())?;
+    labels.try_reserve_exact(count).map_err(|_| too_large())?;
+    samples.resize(bytes, 0u8);
+    labels.resize(count, 0u8);
+
+    let geometry = Geometry::new(dims);
+    let plane = dims[0] * dims[1];
+    let threads = threads.clamp(1, dims[2]);
+    let slab = dims[2].div_ceil(threads);
+    std::thread::scope(|scope| {
+        for (s, (sample_slab, label_slab)) in samples
+            .chunks_mut(slab * plane * 2)
+            .zip(labels.chunks_mut(slab * plane))
+            .enumerate()
+        {
+            let geometry = &geometry;
+            scope.spawn(move || fill(geometry, spec, s * slab * plane, sample_slab, label_slab));
+        }
+    });
+
+    let orientation = Orientation {
+        affine: {
+            let mut a = [[0.0; 4]; 4];
+            for (axis, row) in a.iter_mut().take(3).enumerate() {
+                row[axis] = spec.spacing_mm[axis];
+                row[3] = -geometry.centre[axis] * spec.spacing_mm[axis];
+            }
+            a[3][3] = 1.0;
+            a
+        },
+        source: AffineSource::Synthetic,
+    };
+    let samples =
+        Samples::from_le_bytes(crate::volume::SampleKind::I16, samples).map_err(|_| too_large())?;
+    let volume = Volume {
+        name: "phantom".to_string(),
+        dims,
+        spacing_mm: spec.spacing_mm,
+        orientation,
+        samples,
+        to_physical: LinearMap::IDENTITY,
+        warnings: Vec::new(),
+    };
+    Ok(Phantom {
+        volume,
+        labels,
+        nominal: NOMINAL,
+    })
+}
+
+/// Fills one slab: `samples` (i16 LE) and `labels` for voxels starting at linear index `first`.
+fn fill(
+    geometry: &Geometry,
+    spec: &PhantomSpec,
+    first: usize,
+    samples: &mut [u8],
+    labels: &mut [u8],
+) {
+    let [nx, ny, _] = spec.dims;
+    for (offset, (out, label)) in samples
+        .chunks_exact_mut(2)
+        .zip(labels.iter_mut())
+        .enumerate()
+    {
+        let index = first + offset;
+        let i = index % nx;
+        let j = (index / nx) % ny;
+        let k = index / (nx * ny);
+        let (signal, tissue) = geometry.voxel([i as f64, j as f64, k as f64]);
+        let value = if spec.noise {
+            let stream = spec.seed ^ (index as u64).wrapping_mul(0xd1b5_4a32_d192_ed03);
+            let n1 = normal(mix(stream));
+            let n2 = normal(mix(stream ^ 0x5851_f42d_4c95_7f2d));
+            let re = signal + NOISE_SIGMA * n1;
+            let im = NOISE_SIGMA * n2;
+            (re * re + im * im).sqrt()
+        } else {
+            signal
+        };
+        let stored = value
+            .round()
+            .clamp(f64::from(i16::MIN), f64::from(i16::MAX)) as i16;
+        out.copy_from_slice(&stored.to_le_bytes());
+        *label = tissue as u8;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn deterministic_sine_matches_libm() {
+        let mut worst = 0.0f64;
+        for i in -20_000..=20_000 {
+            let x = f64::from(i) * 0.003_7;
+            worst = worst
+                .max((det_sin(x) - x.sin()).abs())
+                .max((det_cos(x) - x.cos()).abs());
+        }
+        assert!(worst < 1e-9, "worst error {worst}");
+    }
+
+    #[test]
+    fn irwin_hall_noise_is_close_to_standard_normal() {
+        let n = 200_000u64;
+        let xs: Vec<f64> = (0..n).map(|i| normal(mix(i))).collect();
+        let mean = xs.iter().sum::<f64>() / n as f64;
+        let var = xs.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / n as f64;
+        assert!(mean.abs() < 0.01, "mean {mean}");
+        assert!((var - 1.0).abs() < 0.02, "variance {var}");
+        assert!(xs.iter().all(|x| x.abs() <= 2.0 * 3.0f64.sqrt()));
+    }
+
+    #[test]
+    fn ramp_is_a_one_voxel_linear_blend() {
+        assert_eq!(ramp(-0.5), 0.0);
+        assert_eq!(ramp(0.0), 0.5);
+        assert_eq!(ramp(0.25), 0.75);
+        assert_eq!(ramp(0.5), 1.0);
+        assert_eq!(ramp(f64::INFINITY), 1.0);
+        assert_eq!(ramp(f64::NEG_INFINITY), 0.0);
+    }
+
+    #[test]
+    fn bias_field_stays_within_its_amplitude() {
+        for i in -10..=10 {
+            for j in -10..=10 {
+                for k in -10..=10 {
+                    let b = Geometry::bias([
+                        f64::from(i) / 10.0,
+                        f64::from(j) / 10.0,
+                        f64::from(k) / 10.0,
+                    ]);
+                    assert!((b - 1.0).abs() <= BIAS_AMPLITUDE + 1e-12, "{b}");
+                }
+            }
+        }
+    }
+}

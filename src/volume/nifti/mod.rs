@@ -1,0 +1,529 @@
+//! NIfTI-1, NIfTI-2 and ANALYZE 7.5 reader (and a small NIfTI-1 writer), per NIFTI.md's
+//! contract: every odd file gets a documented outcome, nothing a user feeds it can panic.
+//!
+//! Decisions:
+//! - Three phases the engine can time and schedule separately: [`read_file`] (I/O),
+//!   [`inflate_if_gzip`] (CPU, on a worker thread), [`parse`] (header, validation, conversion of
+//!   one frame). [`load_path`] runs all three and also handles `.hdr`/`.img` pairs.
+//! - [`parse`] takes the buffer by value, so the voxels of the native kinds are moved to the
+//!   front of that same allocation and the volume owns it: the voxel bytes are copied at most
+//!   once after inflation (zero times for a pair whose `.img` starts at byte 0).
+//! - Validation order: header size/byte order/magic (header.rs), `dim[0]` 1..=7, datatype
+//!   (complex and float128 are named errors), dims >= 1 with checked size arithmetic, vox_offset
+//!   (finite, whole, >= 0; a single file's offset below 352 (NIfTI-1) or 544 (NIfTI-2) is raised
+//!   to that minimum with a warning, as the standard says), then offset + all frames' bytes must
+//!   fit in the data. Only then is memory for samples allocated, so no header can make the loader
+//!   allocate more than the file could hold.
+//! - Dims above `dim[0]` are ignored; missing spatial dims (1-D / 2-D images) are 1; dims 4..7
+//!   multiply into frames; one frame is loaded ([`LoadOptions::frame`], default 0) with a
+//!   warning when there are several.
+//! - ANALYZE 7.5: pixdim orientation, no scaling (`funused1`, SPM's scale factor, is reported but
+//!   not applied, with a warning when it is not 0 or 1).
+//! - Every repair is a sentence in `Volume::warnings`; [`HeaderSummary`] reports the fields as
+//!   read (JSON via serde), so a user can see both what the file says and what was shown.
+
+mod convert;
+pub mod datatype;
+mod error;
+pub mod extensions;
+pub mod gzip;
+pub mod header;
+pub mod orientation;
+mod writer;
+
+pub use datatype::Datatype;
+pub use error::NiftiError;
+pub use extensions::Extension;
+pub use gzip::inflate_if_gzip;
+pub use header::{ByteOrder, RawHeader, Storage, Version};
+pub use orientation::{OrientationFields, ResolvedGeometry};
+pub use writer::write_nifti1;
+
+use crate::volume::Volume;
+use header::Decoded;
+use std::path::{Path, PathBuf};
+
+/// Choices the caller makes when loading.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LoadOptions {
+    /// Which frame of a 4-D (or higher) file to load, from 0.
+    pub frame: usize,
+}
+
+/// A loaded frame and what the header said.
+#[derive(Clone, Debug)]
+pub struct LoadedNifti {
+    /// The frame, ready for the engine (repairs listed in `volume.warnings`).
+    pub volume: Volume,
+    /// The header fields as read.
+    pub header: HeaderSummary,
+}
+
+/// Header facts, as read from the file (before repairs), for reports and JSON output.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct HeaderSummary {
+    /// NIfTI-1, NIfTI-2 or ANALYZE 7.5.
+    pub version: Version,
+    /// Single `.nii` or `.hdr`/`.img` pair.
+    pub storage: Storage,
+    /// Byte order of header and voxels.
+    pub byte_order: ByteOrder,
+    /// The file's datatype (serialised by name, e.g. `"int16"`).
+    pub datatype: Datatype,
+    /// `bitpix` as read (may disagree with the datatype; the datatype wins).
+    pub bitpix: i16,
+    /// `dim[1..=dim[0]]`.
+    pub dims: Vec<usize>,
+    /// Product of dims 4..=`dim[0]` (1 for a 3-D file).
+    pub frames: usize,
+    /// Which frame was loaded.
+    pub frame_loaded: usize,
+    /// `vox_offset` as read.
+    pub vox_offset: f64,
+    /// Byte position the voxels were actually read from (after the minimum-offset rule).
+    pub data_offset: usize,
+    /// `scl_slope` as read (ANALYZE: `funused1`).
+    pub scl_slope: f64,
+    /// `scl_inter` as read (ANALYZE: `funused2`).
+    pub scl_inter: f64,
+    /// `qform_code` (0 for ANALYZE).
+    pub qform_code: i32,
+    /// `sform_code` (0 for ANALYZE).
+    pub sform_code: i32,
+    /// `xyzt_units` as read.
+    pub xyzt_units: i32,
+    /// `descrip`, trimmed, lossy UTF-8.
+    pub description: String,
+    /// Header extensions (code and size); empty when absent or ignored.
+    pub extensions: Vec<Extension>,
+    /// True when the file (or either file of a pair) was gzip-compressed.
+    pub gzip: bool,
+    /// gzip members inflated (summed over both files of a pair); 0 when not compressed.
+    pub gzip_members: usize,
+}
+
+impl HeaderSummary {
+    /// Records how many gzip members the data had (for callers that ran [`inflate_if_gzip`]
+    /// themselves before [`parse`]).
+    pub fn set_gzip_members(&mut self, members: usize) {
+        self.gzip_members = members;
+        self.gzip = members > 0;
+    }
+}
+
+/// Phase 1: reads a whole file. Errors name the path.
+pub fn read_file(path: &Path) -> Result<Vec<u8>, NiftiError> {
+    std::fs::read(path).map_err(|source| NiftiError::Io {
+        action: "read",
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+/// Phase 3: decodes a single-file NIfTI (`n+1` / `n+2`) from its (inflated) bytes and converts
+/// the selected frame. Bytes that are still gzip-compressed are inflated first (and counted in
+/// `header.gzip_members`); after a separate [`inflate_if_gzip`], record the member count with
+/// [`HeaderSummary::set_gzip_members`]. `name` becomes `Volume::name`.
+///
+/// A header whose voxels live in a separate `.img` (magic `ni1`/`ni2`, or ANALYZE) gives
+/// [`NiftiError::SeparateImageFile`]: use [`parse_pair`] or [`load_path`].
+pub fn parse(bytes: Vec<u8>, name: &str, opts: &LoadOptions) -> Result<LoadedNifti, NiftiError> {
+    let (bytes, members) = inflate_if_gzip(bytes)?;
+    let decoded = header::decode(&bytes)?;
+    if decoded.storage == Storage::Pair {
+        let version = match decoded.version {
+            Version::Nifti1 => "NIfTI-1 (ni1)",
+            Version::Nifti2 => "NIfTI-2 (ni2)",
+            Version::Analyze75 => "ANALYZE 7.5",
+        };
+        return Err(NiftiError::SeparateImageFile { version });
+    }
+    let ext_start = decoded.version.header_len() + 4;
+    build(
+        decoded,
+        ExtensionArea::SameFile { start: ext_start },
+        bytes,
+        name,
+        opts,
+        members,
+    )
+}
+
+/// Phase 3 for a `.hdr`/`.img` pair: `header` holds the `.hdr` bytes, `image` the `.img` bytes
+/// (either may still be gzip-compressed). `vox_offset` counts from the start of `image`.
+pub fn parse_pair(
+    header: &[u8],
+    image: Vec<u8>,
+    name: &str,
+    opts: &LoadOptions,
+) -> Result<LoadedNifti, NiftiError> {
+    let inflated_header;
+    let mut members = 0;
+    let header: &[u8] = if gzip::is_gzip(header) {
+        let (bytes, m) = inflate_if_gzip(header.to_vec())?;
+        members += m;
+        inflated_header = bytes;
+        &inflated_header
+    } else {
+        header
+    };
+    let (image, image_members) = inflate_if_gzip(image)?;
+    members += image_members;
+    let mut decoded = header::decode(header)?;
+    if decoded.storage == Storage::SingleFile {
+        decoded.warnings.push(format!(
+            "the {} header has the single-file magic, but it came with a separate image file; the voxels are read from the image file",
+            decoded.version.label()
+        ));
+    }
+    build(
+        decoded,
+        ExtensionArea::HeaderFile(header),
+        image,
+        name,
+        opts,
+        members,
+    )
+}
+
+/// Where the extension bytes are.
+enum ExtensionArea<'a> {
+    /// In the data buffer, from `start` up to the voxel offset.
+    SameFile { start: usize },
+    /// In a separate header buffer, from byte 352/544 to its end.
+    HeaderFile(&'a [u8]),
+}
+
+/// Validated sizes.
+struct Layout {
+    dims: Vec<usize>,
+    dims3: [usize; 3],
+    frames: usize,
+    frame_bytes: usize,
+    offset: usize,
+}
+
+fn layout(
+    decoded: &Decoded,
+    datatype: Datatype,
+    bytes_per_voxel: usize,
+    data_len: usize,
+    pair: bool,
+    warnings: &mut Vec<String>,
+) -> Result<Layout, NiftiError> {
+    let h = &decoded.header;
+    let dim0 = usize::try_from(h.dim[0]).unwrap_or(0).min(7);
+    let mut dims = Vec::with_capacity(dim0);
+    for axis in 1..=dim0 {
+        let value = h.dim.get(axis).copied().unwrap_or(0);
+        if value < 1 {
+            return Err(NiftiError::BadDim { axis, value });
+        }
+        dims.push(value);
+    }
+    let overflow = || NiftiError::SizeOverflow {
+        dims: dims.clone(),
+        bytes_per_voxel,
+    };
+    let as_usize: Vec<usize> = dims
+        .iter()
+        .map(|&d| usize::try_from(d))
+        .collect::<Result<_, _>>()
+        .map_err(|_| overflow())?;
+    let dims3 = [
+        as_usize.first().copied().unwrap_or(1),
+        as_usize.get(1).copied().unwrap_or(1),
+        as_usize.get(2).copied().unwrap_or(1),
+    ];
+    let product = |v: &[usize]| v.iter().try_fold(1usize, |acc, &d| acc.checked_mul(d));
+    let voxels = product(&dims3).ok_or_else(overflow)?;
+    let frames = product(as_usize.get(3..).unwrap_or_default()).ok_or_else(overflow)?;
+    let frame_bytes = voxels.checked_mul(bytes_per_voxel).ok_or_else(overflow)?;
+    let total = frame_bytes.checked_mul(frames).ok_or_else(overflow)?;
+
+    if h.bitpix != datatype.bitpix() {
+        warnings.push(format!(
+            "bitpix is {} but datatype {} has {} bits per voxel; the datatype is trusted",
+            h.bitpix,
+            datatype.name(),
+            datatype.bitpix()
+        ));
+    }
+
+    let raw = h.vox_offset;
+    if !raw.is_finite() || raw.fract() != 0.0 || raw < 0.0 {
+        return Err(NiftiError::BadVoxOffset { value: raw });
+    }
+    let minimum = if pair {
+        0
+    } else {
+        decoded.version.header_len() + 4
+    };
+    // Offsets beyond 2^63 cannot fit any file; saturate and let the length check report it.
+    let read = if raw >= 9.2e18 {
+        usize::MAX
+    } else {
+        usize::try_from(raw as u64).unwrap_or(usize::MAX)
+    };
+    let offset = if read < minimum {
+        warnings.push(format!(
+            "vox_offset {raw} is below {minimum}, the first byte after a {} header and its extender; the voxels are read from byte {minimum}",
+            decoded.version.label()
+        ));
+        minimum
+    } else {
+        read
+    };
+    let end = offset.checked_add(total);
+    if end.is_none_or(|end| end > data_len) {
+        return Err(NiftiError::TruncatedData {
+            file: if pair { "image file" } else { "file" },
+            len: data_len,
+            needed: total,
+            offset,
+        });
+    }
+    Ok(Layout {
+        dims: as_usize,
+        dims3,
+        frames,
+        frame_bytes,
+        offset,
+    })
+}
+
+/// Shared tail of [`parse`] and [`parse_pair`]: validation, extensions, conversion, geometry.
+fn build(
+    decoded: Decoded,
+    extensions: ExtensionArea,
+    data: Vec<u8>,
+    name: &str,
+    opts: &LoadOptions,
+    gzip_members: usize,
+) -> Result<LoadedNifti, NiftiError> {
+    let h = &decoded.header;
+    let mut warnings = decoded.warnings.clone();
+    let datatype =
+        Datatype::from_code(h.datatype).ok_or(NiftiError::UnknownDatatype { code: h.datatype })?;
+    let bytes_per_voxel = datatype
+        .bytes_per_voxel()
+        .ok_or(NiftiError::UnsupportedDatatype {
+            name: datatype.name(),
+            code: h.datatype,
+        })?;
+    let pair = matches!(extensions, ExtensionArea::HeaderFile(_));
+    let lay = layout(
+        &decoded,
+        datatype,
+        bytes_per_voxel,
+        data.len(),
+        pair,
+        &mut warnings,
+    )?;
+
+    if opts.frame >= lay.frames {
+        return Err(NiftiError::FrameOutOfRange {
+            frame: opts.frame,
+            frames: lay.frames,
+        });
+    }
+    if lay.frames > 1 {
+        warnings.push(format!(
+            "{}-D file with {} frames: showing frame {}",
+            lay.dims.len(),
+            lay.frames,
+            opts.frame
+        ));
+    }
+
+    let header_len = decoded.version.header_len();
+    let ext_list = if h.extender[0] != 0 {
+        let region = match extensions {
+            ExtensionArea::SameFile { start } => data.get(start..lay.offset).unwrap_or_default(),
+            ExtensionArea::HeaderFile(hdr) => hdr.get(header_len + 4..).unwrap_or_default(),
+        };
+        let (list, warning) = extensions::parse(region, decoded.byte_order);
+        warnings.extend(warning);
+        list
+    } else {
+        Vec::new()
+    };
+
+    let (slope, inter) = if decoded.version == Version::Analyze75 {
+        if h.scl_slope.is_finite() && h.scl_slope != 0.0 && h.scl_slope != 1.0 {
+            warnings.push(format!(
+                "ANALYZE field funused1 is {} (SPM's scale factor); it is not applied",
+                h.scl_slope
+            ));
+        }
+        (0.0, 0.0)
+    } else {
+        (h.scl_slope, h.scl_inter)
+    };
+
+    let geometry = orientation::resolve(&OrientationFields {
+        qform_code: h.qform_code,
+        sform_code: h.sform_code,
+        quatern: h.quatern,
+        qoffset: h.qoffset,
+        pixdim: spatial_pixdim(h, lay.dims.len()),
+        srow: h.srow,
+        xyzt_units: h.xyzt_units,
+    });
+    warnings.extend(geometry.warnings);
+
+    let summary = HeaderSummary {
+        version: decoded.version,
+        storage: decoded.storage,
+        byte_order: decoded.byte_order,
+        datatype,
+        bitpix: h.bitpix,
+        dims: lay.dims.clone(),
+        frames: lay.frames,
+        frame_loaded: opts.frame,
+        vox_offset: h.vox_offset,
+        data_offset: lay.offset,
+        scl_slope: h.scl_slope,
+        scl_inter: h.scl_inter,
+        qform_code: h.qform_code,
+        sform_code: h.sform_code,
+        xyzt_units: h.xyzt_units,
+        description: h.description(),
+        extensions: ext_list,
+        gzip: gzip_members > 0,
+        gzip_members,
+    };
+
+    // In range because frame < frames and offset + frames * frame_bytes <= data.len() (layout);
+    // checked anyway so that no arithmetic on header values can overflow.
+    let start = opts
+        .frame
+        .checked_mul(lay.frame_bytes)
+        .and_then(|skip| skip.checked_add(lay.offset))
+        .ok_or(NiftiError::FrameOutOfRange {
+            frame: opts.frame,
+            frames: lay.frames,
+        })?;
+    let converted = convert::convert_frame(
+        data,
+        start,
+        lay.frame_bytes,
+        datatype,
+        decoded.byte_order,
+        slope,
+        inter,
+    )?;
+    warnings.extend(converted.warnings);
+
+    let volume = Volume {
+        name: name.to_string(),
+        dims: lay.dims3,
+        spacing_mm: geometry.spacing_mm,
+        orientation: geometry.orientation,
+        samples: converted.samples,
+        to_physical: converted.to_physical,
+        warnings,
+    };
+    Ok(LoadedNifti {
+        volume,
+        header: summary,
+    })
+}
+
+/// `pixdim[0..=3]` for the orientation: the size of an axis beyond `dim[0]` (for example
+/// `pixdim[3]` of a 2-D image) is an unused field that is often 0, so it becomes 1 silently
+/// instead of being reported as a repair.
+fn spatial_pixdim(h: &RawHeader, used_dims: usize) -> [f64; 4] {
+    std::array::from_fn(|i| {
+        let p = h.pixdim[i];
+        if i > used_dims && !(p.is_finite() && p > 0.0) {
+            1.0
+        } else {
+            p
+        }
+    })
+}
+
+/// The file name without directories, for `Volume::name`.
+fn file_name(path: &Path) -> String {
+    path.file_name().map_or_else(
+        || path.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    )
+}
+
+/// Strips `.gz` and one more extension, case-insensitively: `a/b.hdr.gz` -> `a/b`.
+fn stem_path(path: &Path) -> (PathBuf, bool) {
+    let name = file_name(path);
+    let lower = name.to_ascii_lowercase();
+    let gz = lower.ends_with(".gz");
+    let base = if gz {
+        name.get(..name.len() - 3).unwrap_or(&name)
+    } else {
+        &name
+    };
+    let base = match base.rfind('.') {
+        Some(dot) if dot > 0 => base.get(..dot).unwrap_or(base),
+        _ => base,
+    };
+    let upper = name
+        .chars()
+        .rev()
+        .find(|c| c.is_ascii_alphabetic())
+        .is_some_and(|c| c.is_ascii_uppercase());
+    (path.with_file_name(base), upper)
+}
+
+/// Finds the other file of a pair next to `path`: `.img` for a header, `.hdr` for an image,
+/// with or without `.gz`, matching the case of the given extension first.
+fn companion(path: &Path, want_image: bool) -> Result<PathBuf, NiftiError> {
+    let (stem, upper) = stem_path(path);
+    let ext = if want_image { "img" } else { "hdr" };
+    let exts = if upper {
+        [ext.to_ascii_uppercase(), ext.to_string()]
+    } else {
+        [ext.to_string(), ext.to_ascii_uppercase()]
+    };
+    let stem_text = stem.as_os_str().to_owned();
+    for e in &exts {
+        for gz in ["", ".gz"] {
+            let mut candidate = stem_text.clone();
+            candidate.push(format!(".{e}{gz}"));
+            let candidate = PathBuf::from(candidate);
+            if candidate.is_file() {
+                return Ok(candidate);
+            }
+        }
+    }
+    Err(NiftiError::MissingCompanion {
+        path: path.to_path_buf(),
+        wanted: if want_image { ".img" } else { ".hdr" },
+    })
+}
+
+/// All three phases for a file on disk: `.nii`, `.nii.gz`, or either file of a `.hdr`/`.img`
+/// pair (gzip is detected by content, never by name). `Volume::name` is the given file's name.
+pub fn load_path(path: &Path, opts: &LoadOptions) -> Result<LoadedNifti, NiftiError> {
+    let name = file_name(path);
+    let lower = name.to_ascii_lowercase();
+    let (header_path, image_path) = if lower.ends_with(".img") || lower.ends_with(".img.gz") {
+        (companion(path, false)?, Some(path.to_path_buf()))
+    } else {
+        (path.to_path_buf(), None)
+    };
+    let (bytes, members) = inflate_if_gzip(read_file(&header_path)?)?;
+    let decoded = header::decode(&bytes)?;
+    if decoded.storage == Storage::SingleFile && image_path.is_none() {
+        let mut loaded = parse(bytes, &name, opts)?;
+        loaded.header.set_gzip_members(members);
+        return Ok(loaded);
+    }
+    let image_path = match image_path {
+        Some(p) => p,
+        None => companion(path, true)?,
+    };
+    let (image, image_members) = inflate_if_gzip(read_file(&image_path)?)?;
+    let mut loaded = parse_pair(&bytes, image, &name, opts)?;
+    loaded.header.set_gzip_members(members + image_members);
+    Ok(loaded)
+}
