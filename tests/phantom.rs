@@ -166,7 +166,9 @@ fn intensities_follow_the_documented_nominal_values() {
                 t.name()
             );
         };
-        near(Tissue::SkullFat, 0.10);
+        // Rician noise (sigma 20) lifts a dark mean (sqrt(80^2 + 20^2) = 82.5) and the shell's
+        // inner voxels blend with CSF: 15 %.
+        near(Tissue::SkullFat, 0.15);
         near(Tissue::Csf, 0.20); // partial volume with the thin sulci and the GM around them
         near(Tissue::Gm, 0.06);
         near(Tissue::Wm, 0.04);
@@ -325,7 +327,7 @@ fn generation_is_deterministic_across_runs_and_thread_counts() {
     assert_ne!(other.volume.samples, reference.volume.samples);
 }
 
-const EXPECTED_CHECKSUM: u64 = 0xe78e_5b79_227e_231d;
+const EXPECTED_CHECKSUM: u64 = 0x7ee2_0a11_0581_c0f3;
 
 #[test]
 fn histogram_has_csf_gm_and_wm_modes_near_their_nominal_values() {

@@ -10,7 +10,9 @@
 //!    background zero, `r = (p - zero) / (wm - zero)`:
 //!    - GM: `r >= gm_min_ratio` (0.5); the most prominent such candidate;
 //!    - CSF: `csf_min_ratio <= r < gm_min_ratio` (0.12-0.5), below GM when GM exists; the
-//!      brightest such candidate (a dark shell or partial-volume bump lies below CSF).
+//!      most prominent such candidate. Partial-volume voxels between CSF and GM form small
+//!      bumps on either side of the CSF mode (seen in the phantom at about halfway to GM), and
+//!      the CSF mode itself is broad and prominent; dark shells (bone) sit below 0.12.
 //!
 //!    So with two modes, the one that is missing follows from their ratio: a second mode at
 //!    `r >= 0.5` is GM (CSF missing), one at `0.12 <= r < 0.5` is CSF (GM missing, for example
@@ -64,7 +66,11 @@ pub fn assign(candidates: &[Mode], zero: f64, params: &AnalysisParams) -> Assign
         });
     let csf = (0..gm.unwrap_or(wm))
         .filter(|&i| (params.csf_min_ratio..params.gm_min_ratio).contains(&ratio(i)))
-        .max_by(|&a, &b| candidates[a].position.total_cmp(&candidates[b].position));
+        .max_by(|&a, &b| {
+            candidates[a]
+                .prominence
+                .total_cmp(&candidates[b].prominence)
+        });
     Assignment {
         csf,
         gm,
@@ -153,13 +159,22 @@ mod tests {
         );
         assert_eq!(assign(&tail[2..3], 0.0, &p), Assignment::default());
         assert_eq!(assign(&[], 0.0, &p), Assignment::default());
-        // CSF is the brightest candidate in its range (a dark shell lies below it).
+        // A dark (bone) shell below 0.12 of WM is not CSF, however tall.
         let shell = [
-            mode(15.0, 800.0),
+            mode(8.0, 800.0),
             mode(30.0, 100.0),
             mode(75.0, 900.0),
             mode(100.0, 1000.0),
         ];
         assert_eq!(assign(&shell, 0.0, &p).csf, Some(1));
+        // A small partial-volume bump between CSF and GM is not CSF (the phantom has one at
+        // about half of WM).
+        let bump = [
+            mode(30.0, 300.0),
+            mode(49.0, 20.0),
+            mode(75.0, 900.0),
+            mode(100.0, 1000.0),
+        ];
+        assert_eq!(assign(&bump, 0.0, &p).csf, Some(0));
     }
 }

@@ -200,15 +200,24 @@ fn parse_size(text: &str) -> Result<(u32, u32), String> {
     let (w, h) = text
         .split_once(['x', 'X'])
         .ok_or_else(|| format!("`{text}` is not WIDTHxHEIGHT (for example 1024x768)"))?;
-    let parse = |s: &str| s.trim().parse::<u32>().ok().filter(|&v| (1..=16384).contains(&v));
+    let parse = |s: &str| {
+        s.trim()
+            .parse::<u32>()
+            .ok()
+            .filter(|&v| (1..=16384).contains(&v))
+    };
     match (parse(w), parse(h)) {
         (Some(w), Some(h)) => Ok((w, h)),
-        _ => Err(format!("`{text}`: width and height must be whole numbers from 1 to 16384")),
+        _ => Err(format!(
+            "`{text}`: width and height must be whole numbers from 1 to 16384"
+        )),
     }
 }
 
 fn parse_pair(text: &str) -> Result<(f64, f64), String> {
-    let (a, b) = text.split_once(',').ok_or_else(|| format!("`{text}` is not X,Y"))?;
+    let (a, b) = text
+        .split_once(',')
+        .ok_or_else(|| format!("`{text}` is not X,Y"))?;
     match (a.trim().parse::<f64>(), b.trim().parse::<f64>()) {
         (Ok(a), Ok(b)) if a.is_finite() && b.is_finite() => Ok((a, b)),
         _ => Err(format!("`{text}` is not two finite numbers X,Y")),
@@ -218,17 +227,24 @@ fn parse_pair(text: &str) -> Result<(f64, f64), String> {
 fn parse_colour(text: &str) -> Result<[f32; 3], String> {
     let text = text.trim();
     if let Some(hex) = text.strip_prefix('#') {
-        if hex.len() == 6 {
-            if let Ok(v) = u32::from_str_radix(hex, 16) {
-                return Ok([(v >> 16) as f32 / 255.0, ((v >> 8) & 0xff) as f32 / 255.0, (v & 0xff) as f32 / 255.0]);
-            }
+        if let Some(v) = (hex.len() == 6)
+            .then(|| u32::from_str_radix(hex, 16).ok())
+            .flatten()
+        {
+            return Ok([
+                (v >> 16) as f32 / 255.0,
+                ((v >> 8) & 0xff) as f32 / 255.0,
+                (v & 0xff) as f32 / 255.0,
+            ]);
         }
         return Err(format!("`{text}` is not a #RRGGBB colour"));
     }
     let parts: Vec<_> = text.split(',').map(|p| p.trim().parse::<u8>()).collect();
     match parts.as_slice() {
         [Ok(r), Ok(g), Ok(b)] => Ok([*r as f32 / 255.0, *g as f32 / 255.0, *b as f32 / 255.0]),
-        _ => Err(format!("`{text}` is neither #RRGGBB nor R,G,B with values 0..255")),
+        _ => Err(format!(
+            "`{text}` is neither #RRGGBB nor R,G,B with values 0..255"
+        )),
     }
 }
 
@@ -239,7 +255,11 @@ mod tests {
     #[test]
     fn sizes_pairs_and_colours_parse_or_explain() {
         assert_eq!(parse_size("1920x1080"), Ok((1920, 1080)));
-        assert!(parse_size("0x10").is_err() && parse_size("big").is_err() && parse_size("99999x2").is_err());
+        assert!(
+            parse_size("0x10").is_err()
+                && parse_size("big").is_err()
+                && parse_size("99999x2").is_err()
+        );
         assert_eq!(parse_pair("-3,4.5"), Ok((-3.0, 4.5)));
         assert!(parse_pair("nan,1").is_err());
         assert_eq!(parse_colour("#ff0000"), Ok([1.0, 0.0, 0.0]));

@@ -13,8 +13,19 @@ pub fn run() -> Result<(), Error> {
         return Err(crate::gpu::GpuError::NoDevices.into());
     }
     for (_, a) in adapters {
-        let status = if a.is_suitable() { "usable".to_string() } else { format!("rejected: {}", a.rejections.join("; ")) };
-        print_line(&format!("#{} {} ({}, {}, subgroup {}): {status}", a.index, a.name, a.type_name(), a.driver, a.subgroup_size));
+        let status = if a.is_suitable() {
+            "usable".to_string()
+        } else {
+            format!("rejected: {}", a.rejections.join("; "))
+        };
+        print_line(&format!(
+            "#{} {} ({}, {}, subgroup {}): {status}",
+            a.index,
+            a.name,
+            a.type_name(),
+            a.driver,
+            a.subgroup_size
+        ));
     }
     Ok(())
 }

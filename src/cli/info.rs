@@ -78,21 +78,43 @@ pub fn run(args: &InfoArgs) -> Result<(), Error> {
         report.version,
         report.byte_order,
         if report.gzip { "gzip" } else { "uncompressed" },
-        if report.gzip_members > 1 { format!(", {} members", report.gzip_members) } else { String::new() }
+        if report.gzip_members > 1 {
+            format!(", {} members", report.gzip_members)
+        } else {
+            String::new()
+        }
     ));
-    print_line(&format!("datatype      {} (bitpix {})", report.datatype, report.bitpix));
-    print_line(&format!("dims          {} ({} frame(s), showing frame {})", dims.join(" x "), report.frames, report.frame_loaded));
+    print_line(&format!(
+        "datatype      {} (bitpix {})",
+        report.datatype, report.bitpix
+    ));
+    print_line(&format!(
+        "dims          {} ({} frame(s), showing frame {})",
+        dims.join(" x "),
+        report.frames,
+        report.frame_loaded
+    ));
     print_line(&format!(
         "spacing       {:.4} x {:.4} x {:.4} mm",
         report.spacing_mm[0], report.spacing_mm[1], report.spacing_mm[2]
     ));
     print_line(&format!("affine        from {:?}", report.affine_source));
     for row in &report.affine {
-        print_line(&format!("              [{:>10.4} {:>10.4} {:>10.4} {:>10.4}]", row[0], row[1], row[2], row[3]));
+        print_line(&format!(
+            "              [{:>10.4} {:>10.4} {:>10.4} {:>10.4}]",
+            row[0], row[1], row[2], row[3]
+        ));
     }
-    print_line(&format!("scaling       slope {} intercept {}", report.scl_slope, report.scl_inter));
+    print_line(&format!(
+        "scaling       slope {} intercept {}",
+        report.scl_slope, report.scl_inter
+    ));
     print_line(&format!("intensity     {range} (physical, finite voxels)"));
-    print_line(&format!("non-finite    {} of {} voxels", report.nonfinite_voxels, report.finite_voxels + report.nonfinite_voxels));
+    print_line(&format!(
+        "non-finite    {} of {} voxels",
+        report.nonfinite_voxels,
+        report.finite_voxels + report.nonfinite_voxels
+    ));
     if !report.description.is_empty() {
         print_line(&format!("description   {}", report.description));
     }

@@ -29,7 +29,12 @@ struct PeaksReport<'a> {
 
 /// Runs the command.
 pub fn run(args: &PeaksArgs, device: Option<&str>, validation: bool) -> Result<(), Error> {
-    let opened = session::open(args.file.as_deref(), args.frame, false, engine_config(device, validation))?;
+    let opened = session::open(
+        args.file.as_deref(),
+        args.frame,
+        false,
+        engine_config(device, validation),
+    )?;
     let r = &opened.report;
     let mut timings = BTreeMap::new();
     let t = &opened.timings;
@@ -78,10 +83,16 @@ pub fn run(args: &PeaksArgs, device: Option<&str>, validation: bool) -> Result<(
         return Ok(());
     }
     let [x, y, z] = report.dims;
-    print_line(&format!("{}  {x}x{y}x{z}  on {}", report.file, report.device));
+    print_line(&format!(
+        "{}  {x}x{y}x{z}  on {}",
+        report.file, report.device
+    ));
     print_line(&format!(
         "total voxels {}  used voxels {} (above background I_norm {:.4})  non-finite {}",
-        report.total_voxels, report.used_voxels, report.background_threshold, report.nonfinite_voxels
+        report.total_voxels,
+        report.used_voxels,
+        report.background_threshold,
+        report.nonfinite_voxels
     ));
     print_line(&format!("Imin {}  Imax {}", report.imin, report.imax));
     print_line("tissue  peak I_norm  peak raw      paper window   inside?");
@@ -101,10 +112,18 @@ pub fn run(args: &PeaksArgs, device: Option<&str>, validation: bool) -> Result<(
                     _ => "NO: outside the paper's fixed window",
                 }
             )),
-            None => print_line(&format!("{:<7} missing (no distinct mode found)", name.to_uppercase())),
+            None => print_line(&format!(
+                "{:<7} missing (no distinct mode found)",
+                name.to_uppercase()
+            )),
         }
     }
-    let gpu: Vec<String> = opened.prepared.gpu_timings.iter().map(|p| format!("{} {:.3} ms", p.name, p.gpu_ms)).collect();
+    let gpu: Vec<String> = opened
+        .prepared
+        .gpu_timings
+        .iter()
+        .map(|p| format!("{} {:.3} ms", p.name, p.gpu_ms))
+        .collect();
     print_line(&format!("GPU passes: {}", gpu.join(", ")));
     Ok(())
 }

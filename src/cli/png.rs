@@ -44,10 +44,22 @@ pub enum PngError {
 }
 
 /// Writes an RGBA8 image with provenance chunks.
-pub fn write_rgba8(path: &Path, width: u32, height: u32, rgba: &[u8], provenance: &Provenance) -> Result<(), PngError> {
+pub fn write_rgba8(
+    path: &Path,
+    width: u32,
+    height: u32,
+    rgba: &[u8],
+    provenance: &Provenance,
+) -> Result<(), PngError> {
     let shown = path.display().to_string();
-    let encode = |e: png::EncodingError| PngError::Encode { path: shown.clone(), message: e.to_string() };
-    let file = std::fs::File::create(path).map_err(|source| PngError::Io { path: shown.clone(), source })?;
+    let encode = |e: png::EncodingError| PngError::Encode {
+        path: shown.clone(),
+        message: e.to_string(),
+    };
+    let file = std::fs::File::create(path).map_err(|source| PngError::Io {
+        path: shown.clone(),
+        source,
+    })?;
     let mut encoder = png::Encoder::new(BufWriter::new(file), width, height);
     encoder.set_color(png::ColorType::Rgba);
     encoder.set_depth(png::BitDepth::Eight);
@@ -59,7 +71,9 @@ pub fn write_rgba8(path: &Path, width: u32, height: u32, rgba: &[u8], provenance
         ("morphray:command", provenance.command.as_str()),
         ("morphray:parameters", provenance.parameters.as_str()),
     ] {
-        encoder.add_text_chunk(key.to_string(), value.to_string()).map_err(encode)?;
+        encoder
+            .add_text_chunk(key.to_string(), value.to_string())
+            .map_err(encode)?;
     }
     let mut writer = encoder.write_header().map_err(encode)?;
     writer.write_image_data(rgba).map_err(encode)?;
@@ -69,16 +83,30 @@ pub fn write_rgba8(path: &Path, width: u32, height: u32, rgba: &[u8], provenance
 /// Reads the tEXt chunks of a PNG (for tests and for `render --from` style reuse).
 pub fn read_text_chunks(path: &Path) -> Result<Vec<(String, String)>, PngError> {
     let shown = path.display().to_string();
-    let file = std::fs::File::open(path).map_err(|source| PngError::Io { path: shown.clone(), source })?;
+    let file = std::fs::File::open(path).map_err(|source| PngError::Io {
+        path: shown.clone(),
+        source,
+    })?;
     let decoder = png::Decoder::new(std::io::BufReader::new(file));
-    let reader = decoder.read_info().map_err(|e| PngError::Encode { path: shown.clone(), message: e.to_string() })?;
-    Ok(reader.info().uncompressed_latin1_text.iter().map(|c| (c.keyword.clone(), c.text.clone())).collect())
+    let reader = decoder.read_info().map_err(|e| PngError::Encode {
+        path: shown.clone(),
+        message: e.to_string(),
+    })?;
+    Ok(reader
+        .info()
+        .uncompressed_latin1_text
+        .iter()
+        .map(|c| (c.keyword.clone(), c.text.clone()))
+        .collect())
 }
 
 /// SHA-256 of bytes, as lowercase hex.
 pub fn sha256_hex(bytes: &[u8]) -> String {
     use sha2::Digest;
-    sha2::Sha256::digest(bytes).iter().map(|b| format!("{b:02x}")).collect()
+    sha2::Sha256::digest(bytes)
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
 }
 
 #[cfg(test)]
@@ -96,13 +124,21 @@ mod tests {
         };
         write_rgba8(&path, 2, 1, &[255, 0, 0, 255, 0, 255, 0, 255], &provenance).unwrap();
         let chunks = read_text_chunks(&path).unwrap();
-        let get = |k: &str| chunks.iter().find(|(key, _)| key == k).map(|(_, v)| v.clone());
+        let get = |k: &str| {
+            chunks
+                .iter()
+                .find(|(key, _)| key == k)
+                .map(|(_, v)| v.clone())
+        };
         assert_eq!(get("morphray:input").as_deref(), Some("scan.nii.gz"));
         assert_eq!(
             get("morphray:input-sha256").as_deref(),
             Some("ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad")
         );
-        assert_eq!(get("morphray:parameters").as_deref(), Some("{\"step\":0.5}"));
+        assert_eq!(
+            get("morphray:parameters").as_deref(),
+            Some("{\"step\":0.5}")
+        );
         assert!(get("Software").unwrap().starts_with("morphray "));
         let _ = std::fs::remove_file(path);
     }

@@ -6,7 +6,9 @@ use super::png::{Provenance, write_rgba8};
 use super::session::{self, engine_config};
 use crate::analysis::TissueReport;
 use crate::error::Error;
-use crate::scene::{Camera, Classification, GradientSource, Projection, RenderMode, Scene, TissueClass};
+use crate::scene::{
+    Camera, Classification, GradientSource, Projection, RenderMode, Scene, TissueClass,
+};
 use ash::vk;
 use std::path::{Path, PathBuf};
 
@@ -23,7 +25,9 @@ pub fn scene_from_args(args: &SceneArgs, report: &TissueReport) -> Result<Scene,
             continue;
         }
         let tissue = TissueClass::parse(name).ok_or_else(|| {
-            Error::Usage(format!("unknown tissue `{name}` in --tissues; use csf, gm, wm, pathology"))
+            Error::Usage(format!(
+                "unknown tissue `{name}` in --tissues; use csf, gm, wm, pathology"
+            ))
         })?;
         visible.push(tissue);
     }
@@ -51,10 +55,16 @@ pub fn scene_from_args(args: &SceneArgs, report: &TissueReport) -> Result<Scene,
         GradientArg::OnTheFly => GradientSource::OnTheFly,
     };
     if !(args.step.is_finite() && args.step > 0.0 && args.step <= 16.0) {
-        return Err(Error::Usage(format!("--step {} must be a number of voxels in (0, 16]", args.step)));
+        return Err(Error::Usage(format!(
+            "--step {} must be a number of voxels in (0, 16]",
+            args.step
+        )));
     }
     if !(args.zoom.is_finite() && args.zoom > 0.0) {
-        return Err(Error::Usage(format!("--zoom {} must be a positive number", args.zoom)));
+        return Err(Error::Usage(format!(
+            "--zoom {} must be a positive number",
+            args.zoom
+        )));
     }
     scene.step_voxels = args.step;
     scene.jitter = !args.no_jitter;
@@ -76,7 +86,10 @@ pub fn missing_tissues(scene: &Scene) -> Vec<&'static str> {
 }
 
 fn frame_path(output: &Path, index: u32) -> PathBuf {
-    let stem = output.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "frame".into());
+    let stem = output
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "frame".into());
     let name = format!("{stem}-{index:03}.png");
     output.with_file_name(name)
 }
@@ -86,17 +99,26 @@ pub fn run(args: &RenderArgs, device: Option<&str>, validation: bool) -> Result<
     if args.turntable == Some(0) {
         return Err(Error::Usage("--turntable needs at least 1 frame".into()));
     }
-    let mut opened = session::open(args.file.as_deref(), args.frame, true, engine_config(device, validation))?;
+    let mut opened = session::open(
+        args.file.as_deref(),
+        args.frame,
+        true,
+        engine_config(device, validation),
+    )?;
     let base = scene_from_args(&args.scene, &opened.report)?;
     for name in missing_tissues(&base) {
-        eprintln!("morphray: note: no {name} peak was found in this volume, so {name} cannot be shown");
+        eprintln!(
+            "morphray: note: no {name} peak was found in this volume, so {name} cannot be shown"
+        );
     }
     let derived = match base.effects.derivative_outputs() {
         Some(outputs) => Some(opened.engine.derive(&opened.prepared, outputs)?),
         None => None,
     };
     let (width, height) = args.scene.size;
-    let mut target = opened.engine.render_target(width, height, vk::Format::R8G8B8A8_UNORM)?;
+    let mut target = opened
+        .engine
+        .render_target(width, height, vk::Format::R8G8B8A8_UNORM)?;
     let frames = args.turntable.unwrap_or(1);
     let command = std::env::args().collect::<Vec<_>>().join(" ");
     for index in 0..frames {
@@ -105,8 +127,15 @@ pub fn run(args: &RenderArgs, device: Option<&str>, validation: bool) -> Result<
             scene.camera.azimuth_deg = args.scene.azimuth + 360.0 * index as f64 / frames as f64;
             scene.frame = index;
         }
-        let frame = opened.engine.render(&mut target, &opened.prepared, derived.as_ref(), &scene)?;
-        let path = if args.turntable.is_some() { frame_path(&args.output, index) } else { args.output.clone() };
+        let frame =
+            opened
+                .engine
+                .render(&mut target, &opened.prepared, derived.as_ref(), &scene)?;
+        let path = if args.turntable.is_some() {
+            frame_path(&args.output, index)
+        } else {
+            args.output.clone()
+        };
         let parameters = serde_json::json!({
             "engine": format!("morphray {}", env!("CARGO_PKG_VERSION")),
             "input": opened.source.label,
@@ -124,7 +153,13 @@ pub fn run(args: &RenderArgs, device: Option<&str>, validation: bool) -> Result<
         };
         write_rgba8(&path, frame.width, frame.height, &frame.rgba8, &provenance)?;
         let gpu_ms: f64 = frame.gpu_timings.iter().map(|p| p.gpu_ms).sum();
-        print_line(&format!("wrote {} ({}x{}, raymarch {:.3} ms GPU)", path.display(), width, height, ms(gpu_ms)));
+        print_line(&format!(
+            "wrote {} ({}x{}, raymarch {:.3} ms GPU)",
+            path.display(),
+            width,
+            height,
+            ms(gpu_ms)
+        ));
     }
     if validation {
         session::check_validation(&opened.engine)?;

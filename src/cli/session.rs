@@ -48,23 +48,34 @@ pub fn engine_config(device: Option<&str>, validation: bool) -> EngineConfig {
     EngineConfig {
         device: DeviceConfig {
             selector: device.map(DeviceSelector::parse).unwrap_or_default(),
-            validation: if validation { Validation::Required } else { Validation::from_build_and_env() },
+            validation: if validation {
+                Validation::Required
+            } else {
+                Validation::from_build_and_env()
+            },
         },
         ..EngineConfig::default()
     }
 }
 
 /// Loads `file` (or the phantom), creates the engine, and analyses the volume on the GPU.
-pub fn open(file: Option<&Path>, frame: usize, want_hash: bool, config: EngineConfig) -> Result<Opened, Error> {
+pub fn open(
+    file: Option<&Path>,
+    frame: usize,
+    want_hash: bool,
+    config: EngineConfig,
+) -> Result<Opened, Error> {
     let start = Instant::now();
     let (loaded, engine, device_ms) = std::thread::scope(|scope| {
         let loader = scope.spawn(move || source::load(file, frame, want_hash));
         let device_start = Instant::now();
         let engine = Engine::new(config);
         let device_ms = device_start.elapsed().as_secs_f64() * 1e3;
-        let loaded = loader
-            .join()
-            .unwrap_or_else(|_| Err(Error::Usage("the loading thread stopped unexpectedly".into())));
+        let loaded = loader.join().unwrap_or_else(|_| {
+            Err(Error::Usage(
+                "the loading thread stopped unexpectedly".into(),
+            ))
+        });
         (loaded, engine, device_ms)
     });
     // A bad file is the more useful message when both fail.
@@ -94,7 +105,13 @@ pub fn open(file: Option<&Path>, frame: usize, want_hash: bool, config: EngineCo
         peaks_ms,
         wall_ms: start.elapsed().as_secs_f64() * 1e3,
     };
-    Ok(Opened { source, engine, prepared, report, timings })
+    Ok(Opened {
+        source,
+        engine,
+        prepared,
+        report,
+        timings,
+    })
 }
 
 /// Fails when the validation layer reported errors (used with `--validation`).

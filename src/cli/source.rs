@@ -45,7 +45,13 @@ pub fn load(file: Option<&Path>, frame: usize, want_hash: bool) -> Result<Source
         let generated = phantom::generate(&PhantomSpec::cohort_a())?;
         timings.phantom_ms = start.elapsed().as_secs_f64() * 1e3;
         let sha256 = want_hash.then(|| super::png::sha256_hex(generated.volume.samples.as_bytes()));
-        return Ok(Source { label: "phantom".into(), volume: generated.volume, header: None, sha256, timings });
+        return Ok(Source {
+            label: "phantom".into(),
+            volume: generated.volume,
+            header: None,
+            sha256,
+            timings,
+        });
     };
     let start = Instant::now();
     let bytes = nifti::read_file(path)?;
@@ -55,9 +61,14 @@ pub fn load(file: Option<&Path>, frame: usize, want_hash: bool) -> Result<Source
     let (bytes, members) = nifti::inflate_if_gzip(bytes)?;
     timings.inflate_ms = start.elapsed().as_secs_f64() * 1e3;
     let start = Instant::now();
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| path.display().to_string());
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| path.display().to_string());
     let loaded = match nifti::parse(bytes, &name, &LoadOptions { frame }) {
-        Err(nifti::NiftiError::SeparateImageFile { .. }) => nifti::load_path(path, &LoadOptions { frame })?,
+        Err(nifti::NiftiError::SeparateImageFile { .. }) => {
+            nifti::load_path(path, &LoadOptions { frame })?
+        }
         other => other?,
     };
     timings.convert_ms = start.elapsed().as_secs_f64() * 1e3;
@@ -65,5 +76,11 @@ pub fn load(file: Option<&Path>, frame: usize, want_hash: bool) -> Result<Source
     if members > 0 {
         header.set_gzip_members(members);
     }
-    Ok(Source { label: name, volume: loaded.volume, header: Some(header), sha256, timings })
+    Ok(Source {
+        label: name,
+        volume: loaded.volume,
+        header: Some(header),
+        sha256,
+        timings,
+    })
 }

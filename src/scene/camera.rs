@@ -7,8 +7,10 @@
 //!   facing a person; azimuth 90 puts the camera on the patient's right; elevation 90 looks down
 //!   from superior. At exactly +-90 degrees the up vector is the limit of the orbit (no flip
 //!   while dragging over the pole): posterior is up for azimuth 0, anterior for azimuth 180.
-//! - zoom 1 fits the volume's bounding sphere in the view; pan moves the look-at point in the
-//!   image plane, in millimetres.
+//! - zoom 1 fits a sphere whose diameter is the largest side of the volume's world bounding box
+//!   (not its diagonal: scans pad the head with air, and the diagonal sphere left the brain at a
+//!   third of the image); the fit does not depend on the view direction, so a turntable keeps
+//!   its scale. Pan moves the look-at point in the image plane, in millimetres.
 
 use glam::DVec3;
 
@@ -94,7 +96,7 @@ impl Camera {
     pub fn rays(&self, bounds: (DVec3, DVec3), width: u32, height: u32) -> CameraRays {
         let (lo, hi) = bounds;
         let centre = (lo + hi) * 0.5;
-        let radius = ((hi - lo).length() * 0.5).max(1e-6);
+        let radius = ((hi - lo).max_element() * 0.5).max(1e-6);
         let zoom = if self.zoom.is_finite() && self.zoom > 0.0 {
             self.zoom
         } else {
@@ -214,9 +216,9 @@ mod tests {
     }
 
     #[test]
-    fn zoom_one_fits_the_bounding_sphere() {
+    fn zoom_one_fits_the_sphere_of_the_largest_side() {
         let rays = Camera::default().rays(unit_box(), 64, 64);
-        let radius = 50.0 * 3f64.sqrt();
+        let radius = 50.0;
         let distance = rays.origin.length();
         // The sphere's silhouette half-angle equals the half field of view.
         assert!(((radius / distance).asin() - 15f64.to_radians()).abs() < 1e-9);

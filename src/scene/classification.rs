@@ -99,9 +99,9 @@ impl Classification {
     /// pathology red; all visible except pathology.
     pub fn with_windows(windows: [Option<Window>; 4]) -> Self {
         let styles = [
-            ([0.30, 0.55, 1.00], 0.35, true),
-            ([1.00, 0.55, 0.35], 0.70, true),
-            ([0.96, 0.94, 0.82], 0.85, true),
+            ([0.30, 0.55, 1.00], 0.20, true),
+            ([1.00, 0.55, 0.35], 0.30, true),
+            ([0.96, 0.94, 0.82], 0.90, true),
             ([1.00, 0.12, 0.08], 1.00, false),
         ];
         let mut tissues = [TissueStyle {

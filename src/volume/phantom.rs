@@ -3,7 +3,7 @@
 //!
 //! Decisions:
 //! - Nominal raw intensities (int16, T1 contrast order), see [`NOMINAL`]: background 0,
-//!   skull/fat shell 120 (dark, bone-like: between background and CSF so it falls outside every
+//!   skull/fat shell 80 (dark, bone-like: between background and CSF so it falls outside every
 //!   tissue window and the pathology band and never hides the brain), CSF 250, GM 600, WM 850,
 //!   lesion 1350, vessels 1450. Peaks are 350 / 250 raw units apart (>= 12 noise sigmas), so a
 //!   histogram shows separate CSF, GM and WM modes; lesion and vessels are the only voxels above
@@ -134,7 +134,7 @@ impl Nominal {
 /// The phantom's nominal intensities (module doc).
 pub const NOMINAL: Nominal = Nominal {
     background: 0.0,
-    skull_fat: 120.0,
+    skull_fat: 80.0,
     csf: 250.0,
     gm: 600.0,
     wm: 850.0,
