@@ -39,9 +39,11 @@ pub fn volume(dims: [usize; 3], spacing: [f64; 3], samples: Samples) -> Volume {
 /// A volume with a full affine.
 pub fn volume_with_affine(dims: [usize; 3], affine: [[f64; 4]; 4], samples: Samples) -> Volume {
     let mut v = volume(dims, [1.0; 3], samples);
-    for axis in 0..3 {
-        v.spacing_mm[axis] = (0..3)
-            .map(|r| affine[r][axis] * affine[r][axis])
+    for (axis, spacing) in v.spacing_mm.iter_mut().enumerate() {
+        *spacing = affine
+            .iter()
+            .take(3)
+            .map(|row| row[axis] * row[axis])
             .sum::<f64>()
             .sqrt();
     }
@@ -62,7 +64,7 @@ pub fn smooth_field(dims: [usize; 3], rng: &mut Rng, lo: f64, hi: f64) -> Vec<f6
                     rng.range(0.05, 0.5),
                     rng.range(0.05, 0.5),
                 ],
-                rng.range(0.0, 6.28),
+                rng.range(0.0, std::f64::consts::TAU),
             )
         })
         .collect();
