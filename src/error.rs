@@ -8,9 +8,17 @@ use crate::volume::phantom::PhantomError;
 /// Any failure of a morphray command.
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
-    /// Reading or decoding a NIfTI file.
+    /// Reading or decoding a NIfTI file (I/O errors name the path themselves).
     #[error(transparent)]
     Nifti(#[from] NiftiError),
+    /// Decoding the contents of a named file.
+    #[error("{file}: {source}")]
+    Input {
+        /// The file's name.
+        file: String,
+        /// What is wrong with it.
+        source: NiftiError,
+    },
     /// Building the phantom.
     #[error(transparent)]
     Phantom(#[from] PhantomError),

@@ -57,19 +57,23 @@ pub fn load(file: Option<&Path>, frame: usize, want_hash: bool) -> Result<Source
     let bytes = nifti::read_file(path)?;
     timings.read_ms = start.elapsed().as_secs_f64() * 1e3;
     let sha256 = want_hash.then(|| super::png::sha256_hex(&bytes));
-    let start = Instant::now();
-    let (bytes, members) = nifti::inflate_if_gzip(bytes)?;
-    timings.inflate_ms = start.elapsed().as_secs_f64() * 1e3;
-    let start = Instant::now();
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| path.display().to_string());
+    let in_file = |source| Error::Input {
+        file: name.clone(),
+        source,
+    };
+    let start = Instant::now();
+    let (bytes, members) = nifti::inflate_if_gzip(bytes).map_err(in_file)?;
+    timings.inflate_ms = start.elapsed().as_secs_f64() * 1e3;
+    let start = Instant::now();
     let loaded = match nifti::parse(bytes, &name, &LoadOptions { frame }) {
         Err(nifti::NiftiError::SeparateImageFile { .. }) => {
-            nifti::load_path(path, &LoadOptions { frame })?
+            nifti::load_path(path, &LoadOptions { frame }).map_err(in_file)?
         }
-        other => other?,
+        other => other.map_err(in_file)?,
     };
     timings.convert_ms = start.elapsed().as_secs_f64() * 1e3;
     let mut header = loaded.header;

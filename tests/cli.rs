@@ -1,0 +1,262 @@
+//! The command-line tool as a user runs it: exit codes, one-line errors, JSON keys, the
+//! phantom's peaks at its true intensities, PNG provenance. Uses the built binary on lavapipe
+//! (or whatever Vulkan device the machine has) with the validation layer on.
+
+use morphray::volume::nifti::write_nifti1;
+use morphray::volume::phantom::{NOMINAL, PhantomSpec, generate};
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+fn morphray(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_morphray"))
+        .args(args)
+        .env("MORPHRAY_VALIDATION", "required")
+        .output()
+        .expect("the morphray binary runs")
+}
+
+fn temp(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("morphray-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// A failure is exactly one line on stderr, starts with `morphray:`, and is not a panic.
+fn assert_one_line_failure(o: &Output, needle: &str) {
+    assert_eq!(o.status.code(), Some(1), "stderr: {}", stderr(o));
+    let err = stderr(o);
+    assert_eq!(
+        err.trim_end().lines().count(),
+        1,
+        "one line expected: {err}"
+    );
+    assert!(err.starts_with("morphray: "), "{err}");
+    assert!(
+        !err.contains("internal error") && !err.contains("panicked"),
+        "{err}"
+    );
+    assert!(
+        err.to_lowercase().contains(&needle.to_lowercase()),
+        "`{needle}` not in: {err}"
+    );
+}
+
+#[test]
+fn help_explains_every_command() {
+    let o = morphray(&["--help"]);
+    assert!(o.status.success());
+    let text = String::from_utf8_lossy(&o.stdout);
+    for command in ["info", "peaks", "render", "devices"] {
+        assert!(text.contains(command), "{command} missing from --help");
+    }
+    let o = morphray(&["render", "--help"]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    for option in [
+        "--size",
+        "--azimuth",
+        "--elevation",
+        "--zoom",
+        "--mode",
+        "--tissues",
+        "--windows",
+        "--step",
+        "--curvature",
+        "--shading",
+        "--background",
+        "--turntable",
+    ] {
+        assert!(text.contains(option), "{option} missing from render --help");
+    }
+}
+
+#[test]
+fn bad_arguments_exit_with_usage_status() {
+    assert_eq!(morphray(&["render"]).status.code(), Some(2), "missing -o");
+    assert_eq!(
+        morphray(&["render", "-o", "x.png", "--size", "12"])
+            .status
+            .code(),
+        Some(2)
+    );
+    assert_eq!(morphray(&["frobnicate"]).status.code(), Some(2));
+}
+
+#[test]
+fn unreadable_and_malformed_files_fail_with_one_readable_line() {
+    let missing = temp("does-not-exist.nii");
+    assert_one_line_failure(
+        &morphray(&["info", missing.to_str().unwrap()]),
+        "does-not-exist.nii",
+    );
+    let junk = temp("junk.nii");
+    std::fs::write(&junk, b"this is not a NIfTI file at all, just text").unwrap();
+    assert_one_line_failure(&morphray(&["info", junk.to_str().unwrap()]), "junk.nii");
+    let truncated_gz = temp("truncated.nii.gz");
+    std::fs::write(&truncated_gz, [0x1f, 0x8b, 8, 0, 0, 0, 0, 0, 0, 3, 1, 2, 3]).unwrap();
+    assert_one_line_failure(
+        &morphray(&["peaks", truncated_gz.to_str().unwrap()]),
+        "gzip",
+    );
+}
+
+#[test]
+fn info_json_has_the_documented_keys() {
+    let phantom = generate(&PhantomSpec::cube(24)).unwrap();
+    let path = temp("small.nii.gz");
+    write_nifti1(&phantom.volume, &path, true).unwrap();
+    let o = morphray(&["info", path.to_str().unwrap(), "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    for key in [
+        "dims",
+        "datatype",
+        "spacing_mm",
+        "affine",
+        "affine_source",
+        "imin",
+        "imax",
+        "nonfinite_voxels",
+        "warnings",
+    ] {
+        assert!(v.get(key).is_some(), "key {key} missing");
+    }
+    assert_eq!(v["dims"], serde_json::json!([24, 24, 24]));
+    assert_eq!(v["datatype"], "int16");
+    assert_eq!(v["nonfinite_voxels"], 0);
+}
+
+#[test]
+fn peaks_on_the_phantom_find_csf_gm_wm_at_their_true_intensities() {
+    let o = morphray(&["peaks", "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    for key in [
+        "file",
+        "dims",
+        "total_voxels",
+        "used_voxels",
+        "nonfinite_voxels",
+        "imin",
+        "imax",
+        "peaks",
+        "paper_windows",
+        "in_paper_window",
+        "windows",
+        "device",
+        "timings_ms",
+    ] {
+        assert!(v.get(key).is_some(), "key {key} missing");
+    }
+    assert_eq!(v["total_voxels"], 256 * 256 * 192);
+    let raw = |t: &str| {
+        v["peaks"][t]["raw"]
+            .as_f64()
+            .unwrap_or_else(|| panic!("{t} peak missing: {v}"))
+    };
+    let (csf, gm, wm) = (raw("csf"), raw("gm"), raw("wm"));
+    assert!(csf < gm && gm < wm);
+    // Within 5 % of the nominal intensities (bias field +-7 % averages out; noise sigma 20).
+    for (found, nominal) in [(csf, NOMINAL.csf), (gm, NOMINAL.gm), (wm, NOMINAL.wm)] {
+        assert!(
+            (found - nominal).abs() <= 0.05 * nominal,
+            "peak {found} vs nominal {nominal}"
+        );
+    }
+}
+
+#[test]
+fn render_writes_a_png_with_provenance_and_unmasks_pathology() {
+    let phantom = generate(&PhantomSpec::cube(48)).unwrap();
+    let input = temp("phantom48.nii.gz");
+    write_nifti1(&phantom.volume, &input, true).unwrap();
+    let out = temp("all.png");
+    let o = morphray(&[
+        "render",
+        input.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--size",
+        "48x40",
+        "--azimuth",
+        "30",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let chunks = morphray::cli::png::read_text_chunks(&out).unwrap();
+    let get = |k: &str| {
+        chunks
+            .iter()
+            .find(|(key, _)| key == k)
+            .map(|(_, v)| v.clone())
+            .unwrap_or_default()
+    };
+    assert_eq!(get("morphray:input"), "phantom48.nii.gz");
+    assert_eq!(
+        get("morphray:input-sha256"),
+        morphray::cli::png::sha256_hex(&std::fs::read(&input).unwrap())
+    );
+    let parameters: serde_json::Value = serde_json::from_str(&get("morphray:parameters")).unwrap();
+    assert_eq!(parameters["arguments"]["azimuth"], 30.0);
+    assert_eq!(parameters["arguments"]["size"], serde_json::json!([48, 40]));
+
+    let pathology = temp("pathology.png");
+    let o = morphray(&[
+        "render",
+        input.to_str().unwrap(),
+        "-o",
+        pathology.to_str().unwrap(),
+        "--size",
+        "48x48",
+        "--tissues",
+        "pathology",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let decoder = png::Decoder::new(std::io::BufReader::new(
+        std::fs::File::open(&pathology).unwrap(),
+    ));
+    let mut reader = decoder.read_info().unwrap();
+    let mut pixels = vec![0; reader.output_buffer_size().unwrap()];
+    reader.next_frame(&mut pixels).unwrap();
+    let red = pixels
+        .chunks(4)
+        .filter(|p| p[0] > 60 && p[0] as u32 > 2 * p[2] as u32)
+        .count();
+    assert!(red > 0, "the lesion and vessels show in red");
+
+    let o = morphray(&[
+        "render",
+        input.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--tissues",
+        "bone",
+    ]);
+    assert_one_line_failure(&o, "unknown tissue");
+}
+
+#[test]
+fn turntable_writes_numbered_frames() {
+    let phantom = generate(&PhantomSpec::cube(24)).unwrap();
+    let input = temp("phantom24.nii");
+    write_nifti1(&phantom.volume, &input, false).unwrap();
+    let out = temp("spin.png");
+    let o = morphray(&[
+        "render",
+        input.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--size",
+        "16x16",
+        "--turntable",
+        "3",
+        "--mode",
+        "mip",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    for i in 0..3 {
+        assert!(temp(&format!("spin-{i:03}.png")).exists(), "frame {i}");
+    }
+}
