@@ -1376,6 +1376,11 @@ mod tests {
             assert!(plan.parameter(plan.count - 1) <= t_far);
             assert!(plan.parameter(plan.count) > t_far);
         }
+        // 10 mm at 1e-4 voxel would be 100000 samples: capped at MAX_STEPS.
+        scene.step_voxels = 1e-4;
+        let r = ReferenceRaymarch::new(&scene, &g, &STATS, &vol, &ReferenceDerived::NONE, 5, 5)
+            .unwrap();
+        assert_eq!(r.ray(2, 2).count, MAX_STEPS);
         // Jittered starts use the hash of (x, y, frame).
         scene.jitter = true;
         scene.frame = 9;
