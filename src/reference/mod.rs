@@ -21,6 +21,7 @@ pub mod derivatives;
 pub mod histogram;
 pub mod minmax;
 pub mod normalize;
+pub mod raymarch;
 
 pub use derivatives::{
     DEFAULT_TAU, DerivativeError, DerivativeOptions, Derivatives, IndexToWorld, Sym3,
