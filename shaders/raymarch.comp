@@ -33,7 +33,7 @@ layout(set = 0, binding = 4, std140) uniform Params {
     vec4 camera_up;         // w: half extent
     vec4 camera_forward;
     vec4 dims;              // w: step length (mm)
-    vec4 march;             // x: opacity exponent r, y: ERT threshold, z: jitter on, w: 1/|g|max
+    vec4 march;             // x: opacity exponent r (step mm / 1 mm), y: ERT threshold, z: jitter on, w: 1/|g|max
     vec4 curvature;         // x: strength s, y: 1/k_ref, z: tau
     vec4 background;
     vec4 windows[4];        // lo, hi, edge, visible
@@ -53,15 +53,16 @@ const uint MODE_DVR = 0u;
 const uint MODE_MIP = 1u;
 const uint MODE_MINIP = 2u;
 
-// Headlight Phong: ambient + diffuse on |n . l| (two-sided) + a white highlight. Without a
-// reliable normal (|n| tiny: flat regions) the sample keeps its unshaded colour.
+// Headlight Phong: ambient + diffuse on |n . l| (two-sided) + a white highlight, clamped to 1 so
+// a sample never emits more than white (early termination then changes no pixel by more than
+// 1 - threshold). Without a reliable normal (|n| tiny: flat regions) the sample keeps its colour.
 vec3 shade(vec3 colour, vec3 normal, vec3 view_direction) {
     float len = length(normal);
     if (len < 1e-3) {
         return colour;
     }
     float ndl = abs(dot(normal / len, view_direction));
-    return colour * (0.35 + 0.65 * ndl) + vec3(0.25 * pow(ndl, 24.0));
+    return min(colour * (0.35 + 0.65 * ndl) + vec3(0.25 * pow(ndl, 24.0)), vec3(1.0));
 }
 
 void main() {

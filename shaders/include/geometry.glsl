@@ -19,23 +19,28 @@ void camera_ray_world(uvec2 pixel, out vec3 origin, out vec3 direction) {
     }
 }
 
-// Slab test against [-0.5, dims - 0.5] in index space. Zero direction components become
-// +-1e-20 with their sign (no 0 * inf); returns false on a miss or a box behind the ray.
+// Slab test against the closed box [-0.5, dims - 0.5] in index space. An axis whose direction
+// component is below 1e-20 in magnitude (+-0 included: GPUs need not keep the sign of zero) is a
+// containment test instead of a division (no 0 * inf): inside the slab, boundary included,
+// constrains nothing; outside misses. Returns false on a miss or a box behind the ray.
 bool intersect_box(vec3 origin, vec3 direction, vec3 dims, out float t_near, out float t_far) {
-    vec3 d = direction;
+    t_near = -3.0e38;
+    t_far = 3.0e38;
+    bool inside_parallel_slabs = true;
     for (int a = 0; a < 3; a++) {
-        if (abs(d[a]) < MIN_DIRECTION) {
-            d[a] = d[a] < 0.0 ? -MIN_DIRECTION : MIN_DIRECTION;
+        float lo_face = -0.5;
+        float hi_face = dims[a] - 0.5;
+        if (abs(direction[a]) < MIN_DIRECTION) {
+            inside_parallel_slabs = inside_parallel_slabs && origin[a] >= lo_face && origin[a] <= hi_face;
+            continue;
         }
+        float inv = 1.0 / direction[a];
+        float t_lo = (lo_face - origin[a]) * inv;
+        float t_hi = (hi_face - origin[a]) * inv;
+        t_near = max(t_near, min(t_lo, t_hi));
+        t_far = min(t_far, max(t_lo, t_hi));
     }
-    vec3 inv = 1.0 / d;
-    vec3 t_lo = (vec3(-0.5) - origin) * inv;
-    vec3 t_hi = (dims - vec3(0.5) - origin) * inv;
-    vec3 t_min = min(t_lo, t_hi);
-    vec3 t_max = max(t_lo, t_hi);
-    t_near = max(max(t_min.x, t_min.y), t_min.z);
-    t_far = min(min(t_max.x, t_max.y), t_max.z);
-    bool hit = t_near <= t_far && t_far >= 0.0;
+    bool hit = inside_parallel_slabs && t_near <= t_far && t_far >= 0.0;
     t_near = max(t_near, 0.0);
     return hit;
 }

@@ -8,7 +8,7 @@
 //!   (direction not normalized, so the ray parameter stays in mm) and meet the box through
 //!   `scene::geometry::intersect_box`. Samples sit at `start + i * dt` for
 //!   `i < clamp(floor((t_far - start) / dt) + 1, 0, MAX_STEPS)`, with `dt = step_voxels *
-//!   voxel_mm` and `start = t_near + offset * dt` (offset 0.5, or the jitter hash). Per sample the
+//!   voxel_mm` (mm) and `start = t_near + offset * dt` (offset 0.5, or the jitter hash). Per sample the
 //!   shader's order is kept: classify, skip `f <= 0`, gradient magnitude, opacity
 //!   `clamp(f |g| / |g|max, 0, 1)`, curvature weight, opacity correction, shading, compositing,
 //!   then the early-termination test. Where the shader has a choice of formula for speed, the
@@ -41,12 +41,13 @@
 //! - Non-finite scene or gradient parameters, and a negative `tau`, are rejected with
 //!   [`ReferenceError`] instead of producing NaN.
 //!
-//! Known difference inherited from `scene::geometry::intersect_box`: a direction component of
-//! exactly -0.0 becomes -1e-20 there (`copysign`) but +1e-20 in `geometry.glsl`
-//! (`d < 0.0 ? -MIN : MIN`). It only matters for a ray lying exactly in a face plane, which
-//! counts as inside when its replaced component points into the box (+ on the low face, - on
-//! the high face); such rays can hit in one implementation and miss in the other, and GPUs need
-//! not preserve the sign of zero at all, so GPU comparisons should not rely on them.
+//! Ray/box: `scene::geometry::intersect_box` and `geometry.glsl` share one rule for direction
+//! components below 1e-20 (a containment test on the closed slab, whatever the zero's sign), so
+//! rays lying in either face plane hit in both.
+//!
+//! Opacity: the correction exponent is the step length in mm over `scene::REFERENCE_LENGTH_MM`
+//! (1 mm), so tissue opacities are per millimetre and a world-space object renders alike on any
+//! grid.
 
 use crate::scene::camera::CameraRays;
 use crate::scene::geometry::{VolumeGeometry, intersect_box};
@@ -314,7 +315,7 @@ pub fn curvature_weight(k: f64, strength: f64, k_ref: f64) -> f64 {
     1.0 + strength * (k.abs() / k_ref).tanh()
 }
 
-/// The shader's headlight Phong: `colour * (0.35 + 0.65 ndl) + 0.25 ndl^24` with
+/// The shader's headlight Phong: `min(colour * (0.35 + 0.65 ndl) + 0.25 ndl^24, 1)` with
 /// `ndl = |n / |n| . view|` (two-sided); the colour unchanged when `|n| < 1e-3`.
 pub fn shade(colour: [f64; 3], normal: DVec3, view_direction: DVec3) -> [f64; 3] {
     let len = normal.length();
@@ -323,7 +324,7 @@ pub fn shade(colour: [f64; 3], normal: DVec3, view_direction: DVec3) -> [f64; 3]
     }
     let ndl = (normal / len).dot(view_direction).abs();
     let highlight = 0.25 * ndl.powi(24);
-    colour.map(|c| c * (0.35 + 0.65 * ndl) + highlight)
+    colour.map(|c| (c * (0.35 + 0.65 * ndl) + highlight).min(1.0))
 }
 
 /// World-space gradient at index position `p` from central differences of trilinear samples one
@@ -376,14 +377,14 @@ pub fn curvature_on_the_fly(
     v.dot(h * v)
 }
 
-/// `Scene::step_voxels` as the raymarch uses it: non-finite or non-positive steps become 0.5,
-/// the same rule as `RaymarchUniforms::new`.
+/// `Scene::step_voxels` as the raymarch uses it (`Scene::sanitized_step_voxels`, the rule the
+/// GPU uniforms use too).
 pub fn sanitized_step_voxels(step_voxels: f64) -> f64 {
-    if step_voxels.is_finite() && step_voxels > 0.0 {
-        step_voxels
-    } else {
-        0.5
-    }
+    let probe = Scene {
+        step_voxels,
+        ..Scene::new(Classification::with_windows([None; 4]))
+    };
+    probe.sanitized_step_voxels()
 }
 
 /// Where one pixel's samples are: `position(i)` for `i < count`.
@@ -459,7 +460,7 @@ pub struct ReferenceRaymarch<'a> {
     curvature_on: bool,
     shading: bool,
     on_the_fly: bool,
-    step_voxels: f64,
+    opacity_exponent: f64,
     step_mm: f64,
     early_termination: f64,
     jitter: bool,
@@ -606,7 +607,7 @@ impl<'a> ReferenceRaymarch<'a> {
             });
         }
 
-        let step_voxels = sanitized_step_voxels(scene.step_voxels);
+        let step_voxels = scene.sanitized_step_voxels();
         let rays = scene.camera.rays(geometry.world_bounds(), width, height);
         Ok(ReferenceRaymarch {
             volume: *volume,
@@ -620,7 +621,7 @@ impl<'a> ReferenceRaymarch<'a> {
             curvature_on,
             shading,
             on_the_fly,
-            step_voxels,
+            opacity_exponent: scene.opacity_exponent(voxel_mm),
             step_mm: step_voxels * voxel_mm,
             early_termination,
             jitter: scene.jitter,
@@ -651,9 +652,9 @@ impl<'a> ReferenceRaymarch<'a> {
         self.step_mm
     }
 
-    /// The opacity-correction exponent r (the sanitized step in voxels).
+    /// The opacity-correction exponent r (the step length in mm over 1 mm).
     pub fn opacity_exponent(&self) -> f64 {
-        self.step_voxels
+        self.opacity_exponent
     }
 
     /// `k_ref` of the curvature weight (`GradientStats::k_ref(voxel_mm)`).
@@ -779,7 +780,7 @@ impl<'a> ReferenceRaymarch<'a> {
             opacity = (opacity * curvature_weight(curvature, self.curvature_strength, self.k_ref))
                 .min(1.0);
         }
-        let corrected = opacity_correct(opacity, self.step_voxels);
+        let corrected = opacity_correct(opacity, self.opacity_exponent);
         let shaded = if self.shading {
             shade(colour, normal, view_direction)
         } else {

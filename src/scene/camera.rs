@@ -34,7 +34,7 @@ pub struct Camera {
     pub azimuth_deg: f64,
     /// Angle above the axial plane, degrees (90 = from superior).
     pub elevation_deg: f64,
-    /// Magnification (1 fits the whole volume).
+    /// Magnification (1 fits the whole volume); clamped to [0.001, 1000].
     pub zoom: f64,
     /// Look-at offset in the image plane (right, up), millimetres.
     pub pan_mm: [f64; 2],

@@ -5,7 +5,7 @@
 //!
 //! ```text
 //! w_t(v) = smoothstep(lo_t - e_t, lo_t + e_t, v) * (1 - smoothstep(hi_t - e_t, hi_t + e_t, v))
-//! f(v)   = min(1, sum_t visible_t * w_t(v) * opacity_t)
+//! f(v)   = min(1, sum_t visible_t * w_t(v) * opacity_t)        (opacity_t clamped to [0, 1])
 //! C_s(v) = sum_t visible_t * w_t(v) * opacity_t * colour_t / sum_t visible_t * w_t(v) * opacity_t
 //! ```
 //!
@@ -81,7 +81,7 @@ pub struct TissueStyle {
     pub window: Option<Window>,
     /// Display colour, RGB in [0, 1].
     pub colour: [f32; 3],
-    /// Opacity per voxel-length step at full window weight and maximal gradient.
+    /// Opacity per millimetre of ray at full window weight and maximal gradient, in [0, 1].
     pub opacity: f32,
     /// On/off switch ("pathological unmasking" toggles these).
     pub visible: bool,
@@ -152,7 +152,7 @@ impl Classification {
             if !style.visible {
                 continue;
             }
-            let w = render_weight(&window, v) * style.opacity as f64;
+            let w = render_weight(&window, v) * style.opacity.clamp(0.0, 1.0) as f64;
             total += w;
             for (c, s) in colour.iter_mut().zip(style.colour) {
                 *c += w * s as f64;

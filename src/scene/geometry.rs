@@ -90,26 +90,32 @@ impl VolumeGeometry {
     }
 }
 
-/// Smallest |direction component| the slab test divides by; keeps 0 * inf out (NUMERICS.md).
+/// Smallest |direction component| the slab test divides by; smaller ones are treated as
+/// parallel to the slab (NUMERICS.md: no 0 * inf).
 pub const MIN_DIRECTION: f64 = 1e-20;
 
-/// Robust ray/box intersection in index space against `[-0.5, dim - 0.5]`: `(t_near, t_far)`
-/// with `t_near <= t_far` on a hit, or None on a miss. Zero direction components are replaced by
-/// +-1e-20 with their sign, so rays parallel to a face, on a face, grazing an edge, or starting
-/// inside the box are all handled without NaN. The GLSL twin is `shaders/include/geometry.glsl`.
+/// Robust ray/box intersection in index space against the closed box `[-0.5, dim - 0.5]`:
+/// `(t_near, t_far)` with `t_near <= t_far` (t_near clamped at 0) on a hit, or None on a miss.
+/// A direction component smaller than 1e-20 in magnitude (including +-0, whose sign GPUs need
+/// not keep) makes that axis a containment test instead of a division: inside the slab
+/// (boundary included) constrains nothing, outside misses. So rays parallel to a face, lying on
+/// either face, grazing an edge, or starting inside are all handled without 0 * inf, the same
+/// way on both faces. The GLSL twin is `shaders/include/geometry.glsl`.
 pub fn intersect_box(origin: DVec3, direction: DVec3, dims: [u32; 3]) -> Option<(f64, f64)> {
     let mut t_near = f64::NEG_INFINITY;
     let mut t_far = f64::INFINITY;
     for axis in 0..3 {
         let d = direction[axis];
-        let d = if d.abs() < MIN_DIRECTION {
-            MIN_DIRECTION.copysign(d)
-        } else {
-            d
-        };
+        let (lo_face, hi_face) = (-0.5, dims[axis] as f64 - 0.5);
+        if d.abs() < MIN_DIRECTION {
+            if origin[axis] < lo_face || origin[axis] > hi_face {
+                return None;
+            }
+            continue;
+        }
         let inv = 1.0 / d;
-        let lo = (-0.5 - origin[axis]) * inv;
-        let hi = (dims[axis] as f64 - 0.5 - origin[axis]) * inv;
+        let lo = (lo_face - origin[axis]) * inv;
+        let hi = (hi_face - origin[axis]) * inv;
         t_near = t_near.max(lo.min(hi));
         t_far = t_far.min(lo.max(hi));
     }
@@ -151,6 +157,13 @@ mod tests {
         assert!(intersect_box(DVec3::splat(-1.5), d, dims).is_some());
         // Just outside a face: a miss, not NaN.
         assert!(intersect_box(DVec3::new(-0.5001, -5.0, 1.0), DVec3::Y, dims).is_none());
+        // Both faces behave alike, whatever the sign of the zero component.
+        for zero in [0.0, -0.0] {
+            for x in [-0.5, 3.5] {
+                let hit = intersect_box(DVec3::new(x, -5.0, 1.0), DVec3::new(zero, 1.0, 0.0), dims);
+                assert_eq!(hit, Some((4.5, 8.5)), "face x = {x}, zero {zero}");
+            }
+        }
     }
 
     #[test]

@@ -14,6 +14,10 @@ pub use camera::{Camera, Projection};
 pub use classification::{Classification, TissueClass, TissueStyle, Window};
 pub use geometry::VolumeGeometry;
 
+/// The path length a tissue's opacity refers to: 1 mm, so opacities mean the same on a 0.5 mm
+/// and a 3 mm grid (a per-voxel definition would make finer grids look denser).
+pub const REFERENCE_LENGTH_MM: f64 = 1.0;
+
 /// What a ray computes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
@@ -105,6 +109,22 @@ pub struct Scene {
 }
 
 impl Scene {
+    /// The sampling distance the raymarch uses: `step_voxels`, or 0.5 when it is not a finite
+    /// positive number (the one rule shared by the GPU uniforms and the f64 reference).
+    pub fn sanitized_step_voxels(&self) -> f64 {
+        if self.step_voxels.is_finite() && self.step_voxels > 0.0 {
+            self.step_voxels
+        } else {
+            0.5
+        }
+    }
+
+    /// Opacities are defined per millimetre of ray: the opacity-correction exponent of a step is
+    /// its length in mm, so the same world-space object absorbs the same on any voxel grid.
+    pub fn opacity_exponent(&self, voxel_mm: f64) -> f64 {
+        self.sanitized_step_voxels() * voxel_mm / REFERENCE_LENGTH_MM
+    }
+
     /// The default scene around the given classification: anterior view, DVR, step 0.5 voxel,
     /// early termination at 1 - 1/255, jitter on, black background.
     pub fn new(classification: Classification) -> Self {

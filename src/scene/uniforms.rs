@@ -29,7 +29,7 @@ pub struct RaymarchUniforms {
     pub camera_forward: [f32; 4],
     /// xyz = dims; w = step length in mm.
     pub dims: [f32; 4],
-    /// x = opacity-correction exponent r (step / one voxel), y = early-termination threshold,
+    /// x = opacity-correction exponent r (step length / 1 mm), y = early-termination threshold,
     /// z = jitter on (1) / off (0), w = 1 / |grad I|max.
     pub march: [f32; 4],
     /// x = curvature strength s, y = 1 / k_ref, z = tau (zero-gradient threshold), w unused.
@@ -80,11 +80,7 @@ impl RaymarchUniforms {
         height: u32,
     ) -> Self {
         let rays: CameraRays = scene.camera.rays(geometry.world_bounds(), width, height);
-        let step_voxels = if scene.step_voxels.is_finite() && scene.step_voxels > 0.0 {
-            scene.step_voxels
-        } else {
-            0.5
-        };
+        let step_voxels = scene.sanitized_step_voxels();
         let step_mm = step_voxels * geometry.voxel_mm;
         let mut windows = [[0.0f32; 4]; 4];
         let mut colours = [[0.0f32; 4]; 4];
@@ -128,7 +124,7 @@ impl RaymarchUniforms {
                 step_mm as f32,
             ],
             march: [
-                step_voxels as f32,
+                scene.opacity_exponent(geometry.voxel_mm) as f32,
                 scene.early_termination,
                 scene.jitter as u32 as f32,
                 inv_gmax as f32,
