@@ -503,7 +503,7 @@ fn a_transparent_scene_is_the_background_and_hiding_a_tissue_removes_exactly_it(
     );
     // GM and pathology vs GM alone: every pixel whose ray meets no lesion/vessel voxel is the
     // same to f32 rounding.
-    assert!(labels.iter().any(|&l| l == Tissue::Lesion as u8));
+    assert!(labels.contains(&(Tissue::Lesion as u8)));
     scene
         .classification
         .show_only(&[TissueClass::Gm, TissueClass::Pathology]);
