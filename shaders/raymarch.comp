@@ -13,6 +13,8 @@
 // in mm (geometry.glsl); ray starts are jittered per pixel against wood-grain banding.
 // The f64 twin of this whole shader is src/reference/raymarch.rs.
 #extension GL_GOOGLE_include_directive : require
+#extension GL_KHR_shader_subgroup_basic : require
+#extension GL_KHR_shader_subgroup_arithmetic : require
 
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
@@ -20,6 +22,7 @@ layout(constant_id = 0) const uint MODE = 0u;                 // 0 DVR, 1 MIP, 2
 layout(constant_id = 1) const bool CURVATURE = false;         // multiply by w(k)
 layout(constant_id = 2) const bool SHADING = false;           // Phong with gradient normals
 layout(constant_id = 3) const bool GRADIENT_ON_THE_FLY = false; // derivatives per sample
+layout(constant_id = 4) const bool COUNT_SAMPLES = false;     // benchmark counters (off: no cost)
 
 layout(set = 0, binding = 0) uniform sampler3D volume;          // I_norm, trilinear
 layout(set = 0, binding = 1) uniform sampler3D gradient_volume; // .r |g| per mm, .g k per mm^2
@@ -43,6 +46,12 @@ layout(set = 0, binding = 4, std140) uniform Params {
     uvec4 image;            // width, height, jitter seed, max steps
 } params;
 
+// Benchmark counters (COUNT_SAMPLES only): samples marched and samples that passed
+// classification (each of those fetches the derived volumes too), summed per subgroup and spread
+// over 512 slot pairs by workgroup so no 32-bit slot overflows; the host adds them in u64.
+const uint COUNTER_SLOTS = 512u;
+layout(set = 0, binding = 5, std430) buffer Counters { uint slots[]; } counters;
+
 #include "geometry.glsl"
 #include "jitter.glsl"
 #include "classification.glsl"
@@ -65,11 +74,27 @@ vec3 shade(vec3 colour, vec3 normal, vec3 view_direction) {
     return min(colour * (0.35 + 0.65 * ndl) + vec3(0.25 * pow(ndl, 24.0)), vec3(1.0));
 }
 
+void count_samples(uint marched, uint classified) {
+    uint subgroup_marched = subgroupAdd(marched);
+    uint subgroup_classified = subgroupAdd(classified);
+    if (subgroupElect()) {
+        uint slot = (gl_WorkGroupID.x + gl_WorkGroupID.y * gl_NumWorkGroups.x) % COUNTER_SLOTS;
+        atomicAdd(counters.slots[2u * slot], subgroup_marched);
+        atomicAdd(counters.slots[2u * slot + 1u], subgroup_classified);
+    }
+}
+
 void main() {
     uvec2 pixel = gl_GlobalInvocationID.xy;
-    if (pixel.x >= params.image.x || pixel.y >= params.image.y) {
+    bool in_image = pixel.x < params.image.x && pixel.y < params.image.y;
+    if (!in_image) {
+        if (COUNT_SAMPLES) {
+            count_samples(0u, 0u);
+        }
         return;
     }
+    uint marched = 0u;
+    uint classified = 0u;
     vec3 origin_world;
     vec3 direction_world;
     camera_ray_world(pixel, origin_world, direction_world);
@@ -94,10 +119,12 @@ void main() {
         for (uint i = 0u; i < steps; i++) {
             vec3 p = origin + direction * (start + float(i) * dt);
             float v = sample_volume(p);
+            marched++;
             vec4 cls = classify(v);
             if (cls.a <= 0.0) {
                 continue;
             }
+            classified++;
             float magnitude;
             float k = 0.0;
             vec3 normal = vec3(0.0);
@@ -144,6 +171,7 @@ void main() {
         if (MODE == MODE_MIP) {
             extreme = 0.0;
         }
+        marched = steps;
         for (uint i = 0u; i < steps; i++) {
             float v = sample_volume(origin + direction * (start + float(i) * dt));
             if (MODE == MODE_MIP) {
@@ -160,4 +188,7 @@ void main() {
         }
     }
     imageStore(target, ivec2(pixel), result);
+    if (COUNT_SAMPLES) {
+        count_samples(marched, classified);
+    }
 }

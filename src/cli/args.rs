@@ -34,6 +34,9 @@ pub enum Command {
     Peaks(PeaksArgs),
     /// Render a volume to a PNG (with provenance), or a turntable of PNGs.
     Render(RenderArgs),
+    /// Measure: per-pass GPU times with bytes moved and bandwidth, raymarch frame times and
+    /// samples over an orbit, a projection onto an Intel Xe-LP; JSON for tools.
+    Bench(BenchArgs),
     /// List the Vulkan devices and why any of them cannot run morphray.
     Devices,
 }
@@ -126,9 +129,9 @@ pub enum GradientArg {
 /// Everything that defines a rendered image.
 #[derive(Debug, Clone, Args, serde::Serialize)]
 pub struct SceneArgs {
-    /// Image size in pixels, WIDTHxHEIGHT.
-    #[arg(long, default_value = "1024x1024", value_parser = parse_size)]
-    pub size: (u32, u32),
+    /// Image size in pixels, WIDTHxHEIGHT [default: 1024x1024 for render, 1920x1080 for bench].
+    #[arg(long, value_parser = parse_size)]
+    pub size: Option<(u32, u32)>,
     /// Camera rotation about the superior axis in degrees: 0 = anterior view (patient's left on
     /// the image's right), 90 = from the patient's right, 180 = posterior.
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
@@ -189,6 +192,28 @@ pub struct RenderArgs {
     #[arg(long, value_name = "N")]
     pub turntable: Option<u32>,
     /// Frame of a 4-D file to render (0-based).
+    #[arg(long, default_value_t = 0)]
+    pub frame: usize,
+    /// Scene.
+    #[command(flatten)]
+    pub scene: SceneArgs,
+}
+
+/// Options of `bench`.
+#[derive(Debug, Args)]
+pub struct BenchArgs {
+    /// NIfTI-1/2 file; without one, the built-in digital phantom.
+    pub file: Option<PathBuf>,
+    /// Frames of the orbit (azimuth advancing 360/N degrees per frame).
+    #[arg(long, default_value_t = 200)]
+    pub frames: u32,
+    /// Repetitions of each analysis and derivative pass (medians are reported).
+    #[arg(long, default_value_t = 10)]
+    pub repeat: u32,
+    /// Also write the full report as JSON to this file.
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
+    /// Frame of a 4-D file (0-based).
     #[arg(long, default_value_t = 0)]
     pub frame: usize,
     /// Scene.

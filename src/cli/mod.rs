@@ -5,6 +5,7 @@
 //! A panic, which would be a bug, is also reported as one line.
 
 pub mod args;
+mod bench;
 mod devices;
 mod info;
 pub mod output;
@@ -55,6 +56,7 @@ pub fn run(cli: &Cli) -> Result<(), Error> {
         Command::Info(args) => info::run(args),
         Command::Peaks(args) => peaks::run(args, device, cli.validation),
         Command::Render(args) => render::run(args, device, cli.validation),
+        Command::Bench(args) => bench::run(args, device, cli.validation),
         Command::Devices => devices::run(),
     }
 }

@@ -115,7 +115,7 @@ pub fn run(args: &RenderArgs, device: Option<&str>, validation: bool) -> Result<
         Some(outputs) => Some(opened.engine.derive(&opened.prepared, outputs)?),
         None => None,
     };
-    let (width, height) = args.scene.size;
+    let (width, height) = args.scene.size.unwrap_or((1024, 1024));
     let mut target = opened
         .engine
         .render_target(width, height, vk::Format::R8G8B8A8_UNORM)?;

@@ -11,13 +11,14 @@
 
 mod derive;
 mod prepare;
+mod probe;
 pub mod readback;
 mod render;
 pub mod upload;
 
 pub use derive::Derived;
 pub use prepare::{PrepareTimings, PreparedVolume};
-pub use render::{FRAMES_IN_FLIGHT, Frame, RenderTarget};
+pub use render::{FRAMES_IN_FLIGHT, Frame, RenderTarget, SampleCounts};
 
 use crate::gpu::{
     Access, Device, DeviceConfig, Filter, GpuResult, Image, ImageDesc, Recording, Sampler,
@@ -71,7 +72,7 @@ pub struct Engine {
     config: EngineConfig,
     kind_passes: HashMap<SampleKind, KindPasses>,
     derivative_passes: HashMap<DerivativeOutputs, DerivativePass>,
-    raymarch_passes: HashMap<Effects, RaymarchPass>,
+    raymarch_passes: HashMap<(Effects, bool), RaymarchPass>,
     nearest: Arc<Sampler>,
     linear: Arc<Sampler>,
     placeholders: Placeholders,

@@ -14,7 +14,7 @@ use super::prepare::PreparedVolume;
 use crate::gpu::{
     Access, Buffer, BufferDesc, GpuError, GpuResult, Image, ImageDesc, PassTiming, Recording,
 };
-use crate::passes::raymarch::{RaymarchInputs, RaymarchPass};
+use crate::passes::raymarch::{COUNTER_WORDS, RaymarchInputs, RaymarchPass};
 use crate::scene::uniforms::{GradientStats, RaymarchUniforms};
 use crate::scene::{Effects, GradientSource, RenderMode, Scene, VolumeGeometry};
 use ash::vk;
@@ -33,6 +33,22 @@ pub struct RenderTarget {
     readback: Arc<Buffer>,
     uniforms: [Arc<Buffer>; FRAMES_IN_FLIGHT],
     next_uniforms: usize,
+    counters: Arc<Buffer>,
+    counters_host: Arc<Buffer>,
+    /// Compile in and read the benchmark counters (samples marched / classified) each frame.
+    pub count_samples: bool,
+    /// Copy each frame back to the host (off for frame-rate measurements: `Frame` is then
+    /// empty of pixels).
+    pub read_back: bool,
+}
+
+/// Samples one frame took (benchmark counters).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct SampleCounts {
+    /// Volume samples taken (trilinear fetches of I_norm).
+    pub marched: u64,
+    /// Samples that passed classification (each also fetched the derived volumes).
+    pub classified: u64,
 }
 
 /// One rendered frame, read back.
@@ -48,6 +64,8 @@ pub struct Frame {
     pub values: Vec<f32>,
     /// GPU time of the raymarch.
     pub gpu_timings: Vec<PassTiming>,
+    /// Sample counts, when the target counts samples.
+    pub samples: Option<SampleCounts>,
 }
 
 impl Engine {
@@ -92,6 +110,15 @@ impl Engine {
                 BufferDesc::uniform("raymarch uniforms (frame 1)", size),
             )?,
         ];
+        let counter_bytes = (COUNTER_WORDS * 4) as u64;
+        let counters = Buffer::new(
+            &self.device,
+            BufferDesc::gpu_storage("raymarch sample counters", counter_bytes),
+        )?;
+        let counters_host = Buffer::new(
+            &self.device,
+            BufferDesc::readback("raymarch sample counters (host)", counter_bytes),
+        )?;
         Ok(RenderTarget {
             width,
             height,
@@ -99,13 +126,17 @@ impl Engine {
             readback,
             uniforms,
             next_uniforms: 0,
+            counters,
+            counters_host,
+            count_samples: false,
+            read_back: true,
         })
     }
 
-    fn raymarch_pass(&mut self, effects: Effects) -> GpuResult<&RaymarchPass> {
-        let key = normalized_effects(effects);
+    fn raymarch_pass(&mut self, effects: Effects, count_samples: bool) -> GpuResult<&RaymarchPass> {
+        let key = (normalized_effects(effects), count_samples);
         if !self.raymarch_passes.contains_key(&key) {
-            let pass = RaymarchPass::new(&self.device, key, self.pipeline_cache)?;
+            let pass = RaymarchPass::new(&self.device, key.0, count_samples, self.pipeline_cache)?;
             self.raymarch_passes.insert(key, pass);
         }
         self.raymarch_passes
@@ -165,7 +196,8 @@ impl Engine {
         let linear = self.linear.clone();
         let gradient = gradient.unwrap_or_else(|| self.placeholders.gradient.clone());
         let normal = normal.unwrap_or_else(|| self.placeholders.normal.clone());
-        let pass = self.raymarch_pass(effects)?;
+        let count = target.count_samples;
+        let pass = self.raymarch_pass(effects, count)?;
         let inputs = RaymarchInputs {
             volume: &prepared.normalized,
             gradient: &gradient,
@@ -173,30 +205,80 @@ impl Engine {
             linear: &linear,
         };
         let mut rec = Recording::new(&device, "raymarch")?;
+        if count {
+            rec.fill_buffer(&target.counters, 0, (COUNTER_WORDS * 4) as u64, 0);
+            // Orders the zeroing before the shader's counter atomics.
+            rec.barriers(
+                &[(
+                    &target.counters,
+                    Access::TransferWrite,
+                    Access::ComputeWriteBuffer,
+                )],
+                &[],
+            );
+        }
         rec.begin_pass("raymarch");
-        pass.record(&mut rec, &inputs, &uniforms, &target.image)?;
+        pass.record(
+            &mut rec,
+            &inputs,
+            &uniforms,
+            &target.image,
+            &target.counters,
+        )?;
         rec.end_pass();
-        // Orders the raymarch's writes before the copy to host memory.
-        rec.barriers(
-            &[],
-            &[(
-                &target.image,
-                Access::ComputeWriteImage,
-                Access::TransferRead,
-            )],
-        );
-        rec.copy_image_to_buffer(&target.image, &target.readback);
-        // Makes the copied pixels visible to the host.
-        rec.barriers(
-            &[(&target.readback, Access::TransferWrite, Access::HostRead)],
-            &[],
-        );
+        if count {
+            // Orders the counter atomics before the copy to host memory, and the copy before
+            // the host reads it.
+            rec.barriers(
+                &[(
+                    &target.counters,
+                    Access::ComputeWriteBuffer,
+                    Access::TransferRead,
+                )],
+                &[],
+            );
+            rec.copy_buffer(
+                &target.counters,
+                &target.counters_host,
+                (COUNTER_WORDS * 4) as u64,
+            );
+            rec.barriers(
+                &[(
+                    &target.counters_host,
+                    Access::TransferWrite,
+                    Access::HostRead,
+                )],
+                &[],
+            );
+        }
+        if target.read_back {
+            // Orders the raymarch's writes before the copy to host memory.
+            rec.barriers(
+                &[],
+                &[(
+                    &target.image,
+                    Access::ComputeWriteImage,
+                    Access::TransferRead,
+                )],
+            );
+            rec.copy_image_to_buffer(&target.image, &target.readback);
+            // Makes the copied pixels visible to the host.
+            rec.barriers(
+                &[(&target.readback, Access::TransferWrite, Access::HostRead)],
+                &[],
+            );
+        }
         rec.keep(uniforms);
         let gpu_timings = rec.submit()?.wait()?;
 
-        let mut bytes = vec![0u8; target.readback.size() as usize];
-        target.readback.read(0, &mut bytes)?;
-        let (rgba8, values) = if target.image.format() == vk::Format::R8G8B8A8_UNORM {
+        let mut bytes = Vec::new();
+        if target.read_back {
+            bytes = vec![0u8; target.readback.size() as usize];
+            target.readback.read(0, &mut bytes)?;
+        }
+        let (rgba8, values) = if !target.read_back {
+            (Vec::new(), Vec::new())
+        } else if target.image.format() == vk::Format::R8G8B8A8_UNORM {
             (bytes, Vec::new())
         } else {
             (
@@ -204,12 +286,29 @@ impl Engine {
                 super::readback::decode(target.image.format(), &bytes)?,
             )
         };
+        let samples = if count {
+            let mut words = vec![0u8; COUNTER_WORDS * 4];
+            target.counters_host.read(0, &mut words)?;
+            let mut counts = SampleCounts::default();
+            for (i, w) in words.chunks_exact(4).enumerate() {
+                let v = u32::from_le_bytes([w[0], w[1], w[2], w[3]]) as u64;
+                if i % 2 == 0 {
+                    counts.marched += v;
+                } else {
+                    counts.classified += v;
+                }
+            }
+            Some(counts)
+        } else {
+            None
+        };
         Ok(Frame {
             width: target.width,
             height: target.height,
             rgba8,
             values,
             gpu_timings,
+            samples,
         })
     }
 }

@@ -15,6 +15,9 @@ use crate::scene::{Effects, GradientSource, RenderMode};
 use ash::vk;
 use std::sync::Arc;
 
+/// u32 counter slots of the benchmark counters (512 pairs; see raymarch.comp).
+pub const COUNTER_WORDS: usize = 1024;
+
 /// Sampled inputs of one raymarch (all in `Access::ComputeSampled`).
 pub struct RaymarchInputs<'a> {
     /// I_norm.
@@ -33,8 +36,14 @@ pub struct RaymarchPass {
 }
 
 impl RaymarchPass {
-    /// Creates the pipeline specialized for `effects`.
-    pub fn new(device: &Device, effects: Effects, cache: vk::PipelineCache) -> GpuResult<Self> {
+    /// Creates the pipeline specialized for `effects`; `count_samples` compiles in the benchmark
+    /// counters.
+    pub fn new(
+        device: &Device,
+        effects: Effects,
+        count_samples: bool,
+        cache: vk::PipelineCache,
+    ) -> GpuResult<Self> {
         let mode = match effects.mode {
             RenderMode::Dvr => 0,
             RenderMode::Mip => 1,
@@ -52,6 +61,7 @@ impl RaymarchPass {
                     "GRADIENT_ON_THE_FLY",
                     SpecValue::Bool(effects.gradient_source == GradientSource::OnTheFly),
                 ),
+                ("COUNT_SAMPLES", SpecValue::Bool(count_samples)),
             ],
             cache,
         )?;
@@ -59,13 +69,15 @@ impl RaymarchPass {
     }
 
     /// Records the raymarch into `target` (previous contents discarded); afterwards the target
-    /// was last accessed as `Access::ComputeWriteImage`.
+    /// was last accessed as `Access::ComputeWriteImage`. `counters` (2 x 512 u32, zeroed by the
+    /// caller when counting) is written only by a counting pipeline.
     pub fn record(
         &self,
         rec: &mut Recording,
         inputs: &RaymarchInputs<'_>,
         uniforms: &Arc<Buffer>,
         target: &Arc<Image>,
+        counters: &Arc<Buffer>,
     ) -> GpuResult<()> {
         let set = DescriptorSet::new(
             &self.pipeline,
@@ -85,6 +97,7 @@ impl RaymarchPass {
                 ),
                 ("target", Resource::StorageImage(target.clone())),
                 ("params", Resource::Buffer(uniforms.clone())),
+                ("counters", Resource::Buffer(counters.clone())),
             ],
         )?;
         // Moves the target to GENERAL for storage writes; the last frame's pixels are not needed.

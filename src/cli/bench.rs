@@ -1,0 +1,413 @@
+//! `morphray bench`: what each pass costs on this device, against what it must move.
+//!
+//! Method (METHOD.md): every pass time is a GPU timestamp median over repeated runs; each pass
+//! is compared with its floor (bytes read + written once over the device-copy bandwidth measured
+//! in the same run, and texture fetches over the texel rate), and the same counts are projected
+//! onto an Intel Xe-LP as a model. The raymarch is timed over an orbit of frames without
+//! readback; a second, untimed pass over the same frames counts the samples each frame took.
+
+use super::args::BenchArgs;
+use super::output::{json, ms, print_line};
+use super::render::scene_from_args;
+use super::session::{self, OpenTimings, engine_config};
+use crate::error::Error;
+use crate::passes::cost::{self, DeviceModel, H100, PassCost, XE_LP};
+use crate::passes::derivatives::DerivativeOutputs;
+use crate::scene::{GradientSource, RenderMode};
+use ash::vk;
+use std::time::Instant;
+
+/// Median, 5th and 95th percentile of a sample.
+#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
+pub struct Spread {
+    /// Median.
+    pub median: f64,
+    /// 5th percentile.
+    pub p5: f64,
+    /// 95th percentile.
+    pub p95: f64,
+    /// Number of values.
+    pub n: usize,
+}
+
+impl Spread {
+    /// Spread of `values` (empty: all zero).
+    pub fn of(values: &[f64]) -> Spread {
+        let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
+        if v.is_empty() {
+            return Spread::default();
+        }
+        v.sort_by(f64::total_cmp);
+        let at = |q: f64| v[((v.len() - 1) as f64 * q).round() as usize];
+        Spread {
+            median: at(0.5),
+            p5: at(0.05),
+            p95: at(0.95),
+            n: v.len(),
+        }
+    }
+}
+
+/// One pass's measurement against its floor.
+#[derive(Clone, Debug, serde::Serialize)]
+struct PassReport {
+    name: String,
+    gpu_ms: Spread,
+    cost: PassCost,
+    achieved_gb_per_s: f64,
+    fraction_of_measured_copy: Option<f64>,
+    achieved_gtexel_per_s: f64,
+    fraction_of_documented_texel_rate: Option<f64>,
+    xe_lp_model_ms: f64,
+    xe_lp_bound: &'static str,
+}
+
+#[derive(Clone, Debug, serde::Serialize)]
+struct RaymarchReport {
+    gpu_ms: Spread,
+    cpu_wall_ms: Spread,
+    fps_from_gpu_median: f64,
+    samples_per_frame: Spread,
+    classified_per_frame: Spread,
+    samples_per_second: f64,
+    pass: PassReport,
+}
+
+#[derive(serde::Serialize)]
+struct BenchReport<'a> {
+    engine: String,
+    device: String,
+    driver: String,
+    device_type: &'static str,
+    subgroup_size: u32,
+    input: &'a str,
+    dims: [u32; 3],
+    sample_kind: crate::volume::SampleKind,
+    image: [u32; 2],
+    frames: u32,
+    repeat: u32,
+    scene: &'a super::args::SceneArgs,
+    open_ms: OpenTimings,
+    measured_copy_gb_per_s: Option<f64>,
+    documented_device: Option<DeviceModel>,
+    projection_device: DeviceModel,
+    passes: Vec<PassReport>,
+    raymarch: RaymarchReport,
+}
+
+fn pass_report(
+    name: &str,
+    times: &[f64],
+    cost: PassCost,
+    copy: Option<f64>,
+    documented: Option<DeviceModel>,
+) -> PassReport {
+    let gpu_ms = Spread::of(times);
+    let seconds = (gpu_ms.median * 1e-3).max(1e-12);
+    let achieved_gb_per_s = cost.bytes() / seconds / 1e9;
+    let achieved_gtexel_per_s = cost.texel_units() / seconds / 1e9;
+    let (bw_bound, tex_bound) = (
+        cost.bytes() / XE_LP.bandwidth,
+        cost.texel_units() / XE_LP.texel_rate,
+    );
+    PassReport {
+        name: name.to_string(),
+        gpu_ms,
+        cost,
+        achieved_gb_per_s,
+        fraction_of_measured_copy: copy.map(|c| achieved_gb_per_s * 1e9 / c),
+        achieved_gtexel_per_s,
+        fraction_of_documented_texel_rate: documented
+            .map(|d| achieved_gtexel_per_s * 1e9 / d.texel_rate),
+        xe_lp_model_ms: bw_bound.max(tex_bound) * 1e3,
+        xe_lp_bound: if bw_bound >= tex_bound {
+            "bandwidth"
+        } else {
+            "texel rate"
+        },
+    }
+}
+
+fn times_of(timings: &[crate::gpu::PassTiming], name: &str) -> Option<f64> {
+    timings.iter().find(|t| t.name == name).map(|t| t.gpu_ms)
+}
+
+/// Runs the command.
+pub fn run(args: &BenchArgs, device: Option<&str>, validation: bool) -> Result<(), Error> {
+    if args.frames == 0 || args.repeat == 0 {
+        return Err(Error::Usage(
+            "--frames and --repeat must be at least 1".into(),
+        ));
+    }
+    let mut opened = session::open(
+        args.file.as_deref(),
+        args.frame,
+        false,
+        engine_config(device, validation),
+    )?;
+    let scene = scene_from_args(&args.scene, &opened.report)?;
+    let (width, height) = args.scene.size.unwrap_or((1920, 1080));
+    let adapter = opened.engine.device().adapter().clone();
+    let documented = adapter.name.contains("H100").then_some(H100);
+    let volume = &opened.source.volume;
+    let voxels = volume.voxel_count() as f64;
+    let sample_bytes = volume.samples.as_bytes().len() as f64;
+    let raw_f32 = volume.samples.kind() == crate::volume::SampleKind::F32;
+
+    // The ceiling: a device-local copy, sized to the device (CPU devices copy slowly).
+    let probe_bytes: u64 = if adapter.type_name() == "cpu" {
+        32 << 20
+    } else {
+        1 << 30
+    };
+    let copy = opened.engine.copy_bandwidth(probe_bytes, 5)?;
+
+    // Analysis passes, repeated.
+    let (mut minmax, mut normalize, mut histogram) = (Vec::new(), Vec::new(), Vec::new());
+    for _ in 0..args.repeat {
+        let prepared = opened.engine.prepare(volume)?;
+        minmax.extend(times_of(&prepared.gpu_timings, "minmax"));
+        normalize.extend(times_of(&prepared.gpu_timings, "normalize"));
+        histogram.extend(times_of(&prepared.gpu_timings, "histogram"));
+    }
+    let mut passes = vec![
+        pass_report(
+            "minmax",
+            &minmax,
+            cost::minmax(sample_bytes),
+            copy,
+            documented,
+        ),
+        pass_report(
+            "normalize",
+            &normalize,
+            cost::normalize(sample_bytes, voxels, 2.0),
+            copy,
+            documented,
+        ),
+        pass_report(
+            "histogram",
+            &histogram,
+            cost::histogram(voxels, 2.0, raw_f32),
+            copy,
+            documented,
+        ),
+    ];
+
+    // Derivative variants, repeated.
+    let variants = [
+        (
+            "derivatives |g|",
+            DerivativeOutputs {
+                magnitude: true,
+                curvature: false,
+                normal: false,
+            },
+        ),
+        (
+            "derivatives |g|,k",
+            DerivativeOutputs {
+                magnitude: true,
+                curvature: true,
+                normal: false,
+            },
+        ),
+        (
+            "derivatives |g|,k,normals",
+            DerivativeOutputs {
+                magnitude: true,
+                curvature: true,
+                normal: true,
+            },
+        ),
+        ("derivatives max only", DerivativeOutputs::default()),
+    ];
+    for (name, outputs) in variants {
+        let mut times = Vec::new();
+        for _ in 0..args.repeat {
+            let derived = opened.engine.derive(&opened.prepared, outputs)?;
+            times.extend(times_of(&derived.gpu_timings, "derivatives"));
+        }
+        let stored = outputs.magnitude || outputs.curvature;
+        let c = cost::derivatives(voxels, 2.0, outputs.curvature, outputs.normal, stored);
+        passes.push(pass_report(name, &times, c, copy, documented));
+    }
+
+    // Raymarch over an orbit: warm-up, timed frames without readback, then counted frames.
+    let derived = match scene.effects.derivative_outputs() {
+        Some(outputs) => Some(opened.engine.derive(&opened.prepared, outputs)?),
+        None => None,
+    };
+    let mut target = opened
+        .engine
+        .render_target(width, height, vk::Format::R8G8B8A8_UNORM)?;
+    target.read_back = false;
+    let frame_scene = |i: u32| {
+        let mut s = scene;
+        s.camera.azimuth_deg = args.scene.azimuth + 360.0 * i as f64 / args.frames as f64;
+        s.frame = i;
+        s
+    };
+    for i in 0..3 {
+        opened.engine.render(
+            &mut target,
+            &opened.prepared,
+            derived.as_ref(),
+            &frame_scene(i),
+        )?;
+    }
+    let (mut gpu, mut cpu) = (Vec::new(), Vec::new());
+    for i in 0..args.frames {
+        let start = Instant::now();
+        let frame = opened.engine.render(
+            &mut target,
+            &opened.prepared,
+            derived.as_ref(),
+            &frame_scene(i),
+        )?;
+        cpu.push(start.elapsed().as_secs_f64() * 1e3);
+        gpu.extend(times_of(&frame.gpu_timings, "raymarch"));
+    }
+    target.count_samples = true;
+    let (mut marched, mut classified) = (Vec::new(), Vec::new());
+    for i in 0..args.frames {
+        let frame = opened.engine.render(
+            &mut target,
+            &opened.prepared,
+            derived.as_ref(),
+            &frame_scene(i),
+        )?;
+        if let Some(s) = frame.samples {
+            marched.push(s.marched as f64);
+            classified.push(s.classified as f64);
+        }
+    }
+    let gpu_ms = Spread::of(&gpu);
+    let samples = Spread::of(&marched);
+    let classified_spread = Spread::of(&classified);
+    let per_classified = match (scene.effects.mode, scene.effects.gradient_source) {
+        (RenderMode::Dvr, GradientSource::Precomputed) => 1.0 + scene.effects.shading as u32 as f64,
+        (RenderMode::Dvr, GradientSource::OnTheFly) => {
+            if scene.effects.curvature {
+                19.0
+            } else {
+                6.0
+            }
+        }
+        _ => 0.0,
+    };
+    let raymarch_cost = cost::raymarch(
+        width as f64 * height as f64,
+        samples.median,
+        classified_spread.median,
+        per_classified,
+    );
+    let raymarch_pass = pass_report("raymarch", &gpu, raymarch_cost, copy, documented);
+    let raymarch = RaymarchReport {
+        gpu_ms,
+        cpu_wall_ms: Spread::of(&cpu),
+        fps_from_gpu_median: 1e3 / gpu_ms.median.max(1e-9),
+        samples_per_frame: samples,
+        classified_per_frame: classified_spread,
+        samples_per_second: samples.median / (gpu_ms.median * 1e-3).max(1e-12),
+        pass: raymarch_pass,
+    };
+    if validation {
+        session::check_validation(&opened.engine)?;
+    }
+    let report = BenchReport {
+        engine: format!("morphray {}", env!("CARGO_PKG_VERSION")),
+        device: adapter.name.clone(),
+        driver: adapter.driver.clone(),
+        device_type: adapter.type_name(),
+        subgroup_size: adapter.subgroup_size,
+        input: &opened.source.label,
+        dims: opened.prepared.dims,
+        sample_kind: volume.samples.kind(),
+        image: [width, height],
+        frames: args.frames,
+        repeat: args.repeat,
+        scene: &args.scene,
+        open_ms: opened.timings.clone(),
+        measured_copy_gb_per_s: copy.map(|c| c / 1e9),
+        documented_device: documented,
+        projection_device: XE_LP,
+        passes,
+        raymarch,
+    };
+    if let Some(path) = &args.json {
+        std::fs::write(path, json(&report)).map_err(|source| Error::Write {
+            path: path.display().to_string(),
+            source,
+        })?;
+    }
+    print_text(&report);
+    Ok(())
+}
+
+fn print_text(r: &BenchReport<'_>) {
+    let [x, y, z] = r.dims;
+    print_line(&format!(
+        "{} on {} ({}, subgroup {})",
+        r.engine, r.device, r.driver, r.subgroup_size
+    ));
+    print_line(&format!(
+        "input {} {x}x{y}x{z} {:?}; image {}x{}; {} frames; {} repeats",
+        r.input, r.sample_kind, r.image[0], r.image[1], r.frames, r.repeat
+    ));
+    if let Some(c) = r.measured_copy_gb_per_s {
+        print_line(&format!("measured device copy: {c:.1} GB/s (read + write)"));
+    }
+    print_line(
+        "pass                        median ms    p5..p95 ms          MB moved   GB/s   of copy  Gtexel/s  Xe-LP model ms (bound)",
+    );
+    for p in r.passes.iter().chain(std::iter::once(&r.raymarch.pass)) {
+        print_line(&format!(
+            "{:<27} {:>10.4}  {:>8.4}..{:<8.4}  {:>9.1}  {:>6.1}  {:>7}  {:>8.1}  {:>8.3} ({})",
+            p.name,
+            p.gpu_ms.median,
+            p.gpu_ms.p5,
+            p.gpu_ms.p95,
+            p.cost.bytes() / 1e6,
+            p.achieved_gb_per_s,
+            p.fraction_of_measured_copy
+                .map(|f| format!("{:.0}%", f * 100.0))
+                .unwrap_or_else(|| "-".into()),
+            p.achieved_gtexel_per_s,
+            p.xe_lp_model_ms,
+            p.xe_lp_bound
+        ));
+    }
+    let rm = &r.raymarch;
+    print_line(&format!(
+        "raymarch: {:.3} ms GPU median ({:.0} FPS), CPU wall {:.3} ms median; {:.1} M samples/frame ({:.1} M classified), {:.1} G samples/s",
+        rm.gpu_ms.median,
+        rm.fps_from_gpu_median,
+        rm.cpu_wall_ms.median,
+        rm.samples_per_frame.median / 1e6,
+        rm.classified_per_frame.median / 1e6,
+        rm.samples_per_second / 1e9
+    ));
+    if let Some(d) = &r.documented_device {
+        if let Some(f) = rm.pass.fraction_of_documented_texel_rate {
+            print_line(&format!(
+                "raymarch texel rate: {:.0}% of {}'s documented {:.0} GTexel/s (trilinear = 2 texels)",
+                f * 100.0,
+                d.name,
+                d.texel_rate / 1e9
+            ));
+        }
+    }
+    print_line(&format!(
+        "first pixel path (host): load {:.1} ms | device {:.1} ms | pipelines {:.1} ms | prepare {:.1} ms | wall {:.1} ms",
+        r.open_ms.load.read_ms
+            + r.open_ms.load.inflate_ms
+            + r.open_ms.load.convert_ms
+            + r.open_ms.load.phantom_ms,
+        r.open_ms.device_ms,
+        r.open_ms.pipelines_ms,
+        r.open_ms.prepare_ms,
+        r.open_ms.wall_ms
+    ));
+    let _ = ms(0.0);
+}
