@@ -7,7 +7,7 @@
 //! readback; a second, untimed pass over the same frames counts the samples each frame took.
 
 use super::args::BenchArgs;
-use super::output::{json, ms, print_line};
+use super::output::{json, print_line};
 use super::render::scene_from_args;
 use super::session::{self, OpenTimings, engine_config};
 use crate::error::Error;
@@ -388,15 +388,16 @@ fn print_text(r: &BenchReport<'_>) {
         rm.classified_per_frame.median / 1e6,
         rm.samples_per_second / 1e9
     ));
-    if let Some(d) = &r.documented_device {
-        if let Some(f) = rm.pass.fraction_of_documented_texel_rate {
-            print_line(&format!(
-                "raymarch texel rate: {:.0}% of {}'s documented {:.0} GTexel/s (trilinear = 2 texels)",
-                f * 100.0,
-                d.name,
-                d.texel_rate / 1e9
-            ));
-        }
+    if let (Some(d), Some(f)) = (
+        &r.documented_device,
+        rm.pass.fraction_of_documented_texel_rate,
+    ) {
+        print_line(&format!(
+            "raymarch texel rate: {:.0}% of {}'s documented {:.0} GTexel/s (trilinear = 2 texels)",
+            f * 100.0,
+            d.name,
+            d.texel_rate / 1e9
+        ));
     }
     print_line(&format!(
         "first pixel path (host): load {:.1} ms | device {:.1} ms | pipelines {:.1} ms | prepare {:.1} ms | wall {:.1} ms",
@@ -409,5 +410,4 @@ fn print_text(r: &BenchReport<'_>) {
         r.open_ms.prepare_ms,
         r.open_ms.wall_ms
     ));
-    let _ = ms(0.0);
 }

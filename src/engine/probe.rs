@@ -33,10 +33,8 @@ impl Engine {
             rec.copy_buffer(&src, &dst, bytes);
             rec.end_pass();
             let timings = rec.submit()?.wait()?;
-            if let Some(t) = timings.iter().find(|t| t.name == "copy") {
-                if t.gpu_ms > 0.0 {
-                    rates.push(2.0 * bytes as f64 / (t.gpu_ms * 1e-3));
-                }
+            if let Some(t) = timings.iter().find(|t| t.name == "copy" && t.gpu_ms > 0.0) {
+                rates.push(2.0 * bytes as f64 / (t.gpu_ms * 1e-3));
             }
         }
         rates.sort_by(f64::total_cmp);
