@@ -260,3 +260,51 @@ fn turntable_writes_numbered_frames() {
         assert!(temp(&format!("spin-{i:03}.png")).exists(), "frame {i}");
     }
 }
+
+#[test]
+fn a_tiny_bench_reports_every_pass_as_json() {
+    let phantom = generate(&PhantomSpec::cube(24)).unwrap();
+    let input = temp("bench24.nii.gz");
+    write_nifti1(&phantom.volume, &input, true).unwrap();
+    let json = temp("bench.json");
+    let o = morphray(&[
+        "bench",
+        input.to_str().unwrap(),
+        "--size",
+        "16x12",
+        "--frames",
+        "2",
+        "--repeat",
+        "2",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    let names: Vec<&str> = v["passes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| p["name"].as_str().unwrap())
+        .collect();
+    for pass in [
+        "minmax",
+        "normalize",
+        "histogram",
+        "derivatives |g|",
+        "derivatives |g|,k",
+    ] {
+        assert!(names.contains(&pass), "{pass} missing from {names:?}");
+    }
+    for p in v["passes"].as_array().unwrap() {
+        assert!(p["gpu_ms"]["median"].as_f64().unwrap() > 0.0, "{p}");
+        assert!(p["xe_lp_model_ms"].as_f64().unwrap() > 0.0, "{p}");
+    }
+    let rm = &v["raymarch"];
+    assert_eq!(rm["gpu_ms"]["n"], 2);
+    assert!(
+        rm["samples_per_frame"]["median"].as_f64().unwrap() > 0.0,
+        "samples were counted"
+    );
+    assert_eq!(v["image"], serde_json::json!([16, 12]));
+}

@@ -496,3 +496,63 @@ fn derived_outputs_are_only_those_requested() {
     let _ = Buffer::new(engine.device(), BufferDesc::readback("probe", 4)).unwrap();
     common::assert_no_validation_errors(&engine);
 }
+
+#[test]
+fn plateaus_and_constant_volumes_have_zero_gradient_curvature_and_normal() {
+    let mut engine = common::engine();
+    // Two exact plateaus (0 and 100) meeting at x = 10: away from the step every derivative is
+    // exactly zero, and nothing anywhere is NaN.
+    let dims = [21usize, 9, 7];
+    let values: Vec<f32> = (0..dims.iter().product::<usize>())
+        .map(|i| if i % 21 < 10 { 0.0 } else { 100.0 })
+        .collect();
+    let v = volume(dims, [1.0, 2.0, 0.5], Samples::from_f32(&values));
+    let prepared = engine.prepare(&v).unwrap();
+    let all = DerivativeOutputs {
+        magnitude: true,
+        curvature: true,
+        normal: true,
+    };
+    let derived = engine.derive(&prepared, all).unwrap();
+    let device = engine.device();
+    let grad = read_image(
+        device,
+        derived.volumes.gradient.as_ref().unwrap(),
+        Access::ComputeSampled,
+    )
+    .unwrap();
+    let normals = read_image(
+        device,
+        derived.volumes.normal.as_ref().unwrap(),
+        Access::ComputeSampled,
+    )
+    .unwrap();
+    for i in 0..values.len() {
+        let x = i % 21;
+        assert!(grad.values[2 * i].is_finite() && grad.values[2 * i + 1].is_finite());
+        if !(8..=11).contains(&x) {
+            assert_eq!(
+                (grad.values[2 * i], grad.values[2 * i + 1]),
+                (0.0, 0.0),
+                "voxel {i}"
+            );
+            assert!(
+                normals.values[4 * i..4 * i + 3].iter().all(|&c| c == 0.0),
+                "voxel {i}: no direction on a plateau"
+            );
+        }
+    }
+    // A constant volume: I_norm = 0 everywhere, so everything is zero and max |g| is 0.
+    let constant = volume([5, 4, 3], [1.0; 3], Samples::from_i16(&[42; 60]));
+    let prepared = engine.prepare(&constant).unwrap();
+    let derived = engine.derive(&prepared, all).unwrap();
+    assert_eq!(derived.stats.max_magnitude, 0.0);
+    let grad = read_image(
+        engine.device(),
+        derived.volumes.gradient.as_ref().unwrap(),
+        Access::ComputeSampled,
+    )
+    .unwrap();
+    assert!(grad.values.iter().all(|&v| v == 0.0));
+    common::assert_no_validation_errors(&engine);
+}

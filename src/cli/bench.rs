@@ -1,6 +1,7 @@
 //! `morphray bench`: what each pass costs on this device, against what it must move.
 //!
-//! Method (METHOD.md): every pass time is a GPU timestamp median over repeated runs; each pass
+//! Method (METHOD.md): the GPU is warmed up for 0.5 s first (clocks ramp from idle); every pass
+//! time is a GPU timestamp median over repeated runs; each pass
 //! is compared with its floor (bytes read + written once over the device-copy bandwidth measured
 //! in the same run, and texture fetches over the texel rate), and the same counts are projected
 //! onto an Intel Xe-LP as a model. The raymarch is timed over an orbit of frames without

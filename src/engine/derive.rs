@@ -3,7 +3,7 @@
 use super::Engine;
 use super::prepare::PreparedVolume;
 use crate::gpu::{Access, Buffer, BufferDesc, GpuResult, PassTiming, Recording};
-use crate::passes::derivatives::{DEFAULT_TAU, DerivativeOutputs, DerivedVolumes};
+use crate::passes::derivatives::{DEFAULT_TAU, DerivativeOutputs, DerivedVolumes, STAT_BYTES};
 use crate::scene::uniforms::GradientStats;
 
 /// Derived volumes and the GPU time they took.
@@ -26,8 +26,14 @@ impl Engine {
         let device = self.device.clone();
         let nearest = self.nearest.clone();
         let pass = self.derivative_pass(outputs)?;
-        let stats_gpu = Buffer::new(&device, BufferDesc::gpu_storage("gradient maximum", 4))?;
-        let stats_host = Buffer::new(&device, BufferDesc::readback("gradient maximum (host)", 4))?;
+        let stats_gpu = Buffer::new(
+            &device,
+            BufferDesc::gpu_storage("gradient maximum", STAT_BYTES),
+        )?;
+        let stats_host = Buffer::new(
+            &device,
+            BufferDesc::readback("gradient maximum (host)", STAT_BYTES),
+        )?;
         let mut rec = Recording::new(&device, "derivatives")?;
         rec.begin_pass("derivatives");
         let volumes = pass.record(
@@ -56,16 +62,22 @@ impl Engine {
             &[(&stats_gpu, Access::ComputeWriteBuffer, Access::TransferRead)],
             &[],
         );
-        rec.copy_buffer(&stats_gpu, &stats_host, 4);
+        rec.copy_buffer(&stats_gpu, &stats_host, STAT_BYTES);
         // Makes the copy visible to the host.
         rec.barriers(
             &[(&stats_host, Access::TransferWrite, Access::HostRead)],
             &[],
         );
         let gpu_timings = rec.submit()?.wait()?;
-        let mut bits = [0u8; 4];
-        stats_host.read(0, &mut bits)?;
-        let max_magnitude = f32::from_bits(u32::from_le_bytes(bits)) as f64;
+        let mut bytes = vec![0u8; STAT_BYTES as usize];
+        stats_host.read(0, &mut bytes)?;
+        // Non-negative floats order like their bits: the largest slot is the maximum.
+        let max_bits = bytes
+            .chunks_exact(4)
+            .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+            .max()
+            .unwrap_or(0);
+        let max_magnitude = f32::from_bits(max_bits) as f64;
         let stats = GradientStats {
             max_magnitude,
             tau: DEFAULT_TAU as f64,

@@ -2,11 +2,13 @@
 //! run on the same device (METHOD.md: measure the ceiling, don't trust the datasheet).
 
 use super::Engine;
-use crate::gpu::{Buffer, BufferDesc, GpuResult, Recording};
+use crate::gpu::{Access, Buffer, BufferDesc, GpuResult, Recording};
+use crate::passes::bandwidth::CopyPass;
 
 impl Engine {
     /// Median bandwidth (bytes read + written per second) of `repeats` device-local copies of
-    /// `bytes` bytes, from timestamps. None when the device has no timestamps.
+    /// `bytes` bytes by a compute kernel (the path compute passes use), from timestamps. None
+    /// when the device has no timestamps.
     pub fn copy_bandwidth(&self, bytes: u64, repeats: u32) -> GpuResult<Option<f64>> {
         let src = Buffer::new(
             &self.device,
@@ -16,6 +18,7 @@ impl Engine {
             &self.device,
             BufferDesc::gpu_storage("bandwidth probe (target)", bytes),
         )?;
+        let kernel = CopyPass::new(&self.device, self.pipeline_cache)?;
         let mut rates = Vec::new();
         for _ in 0..repeats.max(1) {
             let mut rec = Recording::new(&self.device, "bandwidth probe")?;

@@ -25,6 +25,9 @@ use std::sync::Arc;
 /// the same value (`reference::derivatives::DEFAULT_TAU`).
 pub const DEFAULT_TAU: f32 = 1e-6;
 
+/// Bytes of the gradient-maximum buffer: 256 u32 slots (see derivatives.comp).
+pub const STAT_BYTES: u64 = 256 * 4;
+
 /// Which derived volumes to compute.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize)]
 pub struct DerivativeOutputs {
@@ -98,7 +101,7 @@ impl DerivativePass {
 
     /// Allocates the requested outputs and records the pass. `normalized` must be in
     /// `Access::ComputeSampled`; the outputs are left in `Access::ComputeWriteImage`. `stats`
-    /// (4 bytes) receives the bits of max |g| and is left in `Access::ComputeWriteBuffer`.
+    /// (STAT_BYTES) receives the bits of max |g| in 256 slots and is left in `Access::ComputeWriteBuffer`.
     #[allow(clippy::too_many_arguments)]
     pub fn record(
         &self,
@@ -142,7 +145,7 @@ impl DerivativePass {
                 ("stats", Resource::Buffer(stats.clone())),
             ],
         )?;
-        rec.fill_buffer(stats, 0, 4, 0);
+        rec.fill_buffer(stats, 0, STAT_BYTES, 0);
         // Orders the zeroing of the maximum before the shader's atomicMax.
         rec.barriers(
             &[(stats, Access::TransferWrite, Access::ComputeWriteBuffer)],

@@ -6,6 +6,7 @@
 //! that outlives the recording, except the outputs it returns. Push-constant structs are
 //! `#[repr(C)]` + `Pod` and their sizes are checked against the reflection table in tests.
 
+pub mod bandwidth;
 pub mod cost;
 pub mod derivatives;
 pub mod histogram;

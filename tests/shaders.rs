@@ -1,0 +1,116 @@
+//! Every compiled shader module: valid SPIR-V for Vulkan 1.1 (spirv-val from Debian's
+//! spirv-tools, which tools/setup.sh installs), a reflection table that agrees with itself, and
+//! a pipeline the device accepts under the validation layer.
+
+mod common;
+
+use morphray::gpu::shaders::{BindingKind, table};
+use morphray::gpu::{ComputePipeline, Device, DeviceConfig, DeviceSelector, GpuError, Validation};
+use std::process::Command;
+
+#[test]
+fn every_module_passes_spirv_val() {
+    let dir = std::env::temp_dir().join(format!("morphray-spv-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for shader in table::ALL {
+        let path = dir.join(format!("{}.spv", shader.name));
+        std::fs::write(&path, shader.spirv).unwrap();
+        let out = Command::new("spirv-val")
+            .args(["--target-env", "vulkan1.1"])
+            .arg(&path)
+            .output()
+            .unwrap_or_else(|e| {
+                panic!("spirv-val is needed (apt-get install spirv-tools, or tools/setup.sh): {e}")
+            });
+        assert!(
+            out.status.success(),
+            "{}: {}",
+            shader.name,
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+}
+
+#[test]
+fn reflection_tables_are_consistent() {
+    assert!(
+        table::ALL.len() >= 14,
+        "five sample kinds x two kernels, plus normalize, derivatives, raymarch, bandwidth"
+    );
+    for shader in table::ALL {
+        assert_eq!(shader.spirv.len() % 4, 0, "{}", shader.name);
+        assert_eq!(
+            shader.spirv_words()[0],
+            0x0723_0203,
+            "{}: SPIR-V magic",
+            shader.name
+        );
+        assert!(
+            shader.invocations_per_workgroup() >= 64 && shader.invocations_per_workgroup() <= 256,
+            "{}",
+            shader.name
+        );
+        assert!(
+            shader.push_constant_bytes <= 128,
+            "{}: push constants must fit the guaranteed 128 bytes",
+            shader.name
+        );
+        for b in shader.bindings {
+            assert!(
+                !b.name.is_empty(),
+                "{} binding {} has a name",
+                shader.name,
+                b.binding
+            );
+            if b.kind == BindingKind::UniformBuffer {
+                assert!(
+                    b.block_bytes > 0,
+                    "{}: uniform block {} has a size",
+                    shader.name,
+                    b.name
+                );
+            }
+        }
+    }
+    // The sample-kind variants are resolved per kind and differ.
+    assert_ne!(table::MINMAX_U8.spirv, table::MINMAX_F32.spirv);
+}
+
+#[test]
+fn every_pipeline_is_created_without_validation_errors() {
+    let engine = common::engine();
+    for shader in table::ALL {
+        ComputePipeline::new(engine.device(), shader, &[], ash::vk::PipelineCache::null())
+            .unwrap_or_else(|e| panic!("{}: {e}", shader.name));
+    }
+    common::assert_no_validation_errors(&engine);
+}
+
+#[test]
+fn a_missing_device_is_named_with_the_devices_that_exist() {
+    let config = DeviceConfig {
+        selector: DeviceSelector::Name("no such gpu 9000".into()),
+        validation: Validation::Off,
+    };
+    match Device::new(&config) {
+        Err(GpuError::DeviceNotFound { wanted, available }) => {
+            assert_eq!(wanted, "no such gpu 9000");
+            assert!(!available.is_empty(), "the error lists the devices");
+            let message = GpuError::DeviceNotFound { wanted, available }.to_string();
+            assert!(
+                message.contains("no such gpu 9000") && message.contains("#0"),
+                "{message}"
+            );
+        }
+        Err(e) => panic!("expected DeviceNotFound, got: {e}"),
+        Ok(_) => panic!("a device named `no such gpu 9000` should not exist"),
+    }
+    let by_index = DeviceConfig {
+        selector: DeviceSelector::Index(999),
+        validation: Validation::Off,
+    };
+    assert!(matches!(
+        Device::new(&by_index),
+        Err(GpuError::DeviceNotFound { .. })
+    ));
+}
