@@ -24,16 +24,13 @@ impl Engine {
             let mut rec = Recording::new(&self.device, "bandwidth probe")?;
             // Fill first so the copy reads written memory, not untouched pages.
             rec.fill_buffer(&src, 0, bytes, 0x3c3c_3c3c);
+            // Orders the fill before the kernel's reads.
             rec.barriers(
-                &[(
-                    &src,
-                    crate::gpu::Access::TransferWrite,
-                    crate::gpu::Access::TransferRead,
-                )],
+                &[(&src, Access::TransferWrite, Access::ComputeReadBuffer)],
                 &[],
             );
             rec.begin_pass("copy");
-            rec.copy_buffer(&src, &dst, bytes);
+            kernel.record(&self.device, &mut rec, &src, &dst)?;
             rec.end_pass();
             let timings = rec.submit()?.wait()?;
             if let Some(t) = timings.iter().find(|t| t.name == "copy" && t.gpu_ms > 0.0) {
