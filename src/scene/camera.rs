@@ -97,8 +97,9 @@ impl Camera {
         let (lo, hi) = bounds;
         let centre = (lo + hi) * 0.5;
         let radius = ((hi - lo).max_element() * 0.5).max(1e-6);
+        // Limits keep the eye distance finite (zoom 1e-310 would overflow it).
         let zoom = if self.zoom.is_finite() && self.zoom > 0.0 {
-            self.zoom
+            self.zoom.clamp(1e-3, 1e3)
         } else {
             1.0
         };
