@@ -18,7 +18,7 @@ nvidia-smi --query-gpu=name,driver_version,clocks.sm,clocks.mem,clocks.max.sm,te
 G=.gpu
 $G/morphray devices
 # The cli tests start the binary at the path cargo compiled into them.
-cli_binary=$(strings $G/cli | grep -m1 '/target/release/morphray$' || true)
+cli_binary=$(grep -a -o '/[[:alnum:]_./-]*/target/release/morphray' $G/cli | head -n 1 || true)
 if [ -n "$cli_binary" ]; then mkdir -p "$(dirname "$cli_binary")" && cp $G/morphray "$cli_binary"; fi
 for t in lib_tests shaders gpu_kernels gpu_raymarch cli; do
     echo "== $t"
