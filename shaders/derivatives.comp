@@ -13,7 +13,8 @@
 // Only requested outputs are computed: WANT_* are specialization constants, so a pipeline without
 // curvature fetches 7 texels per voxel instead of 19 and does no Hessian arithmetic.
 // Outputs have no format qualifier (shaderStorageImageWriteWithoutFormat):
-// - gradient_out: R16F (|g_w|) or RG16F (|g_w|, k), in I_norm per mm and per mm^2;
+// - gradient_out: |g_w| or (|g_w|, k) in I_norm per mm and per mm^2, times scale_g / scale_k
+//   (R16F/RG16F by default; R32F/RG32F, or R8/RG8 SNORM scaled by 1/max, for the accuracy study);
 // - normal_out: RGBA8_SNORM unit world-space gradient direction (xyz), for shading.
 // Always: the largest |g_w| of the volume (paper eq. 4's |grad I|max) into `stats`, as the bits
 // of a non-negative float (which order like unsigned integers): subgroupMax, a shared-memory max
@@ -42,6 +43,8 @@ layout(push_constant) uniform Params {
     ivec4 dims;          // xyz = dimensions, w unused
     vec4 m_rows[3];      // rows of M = A^-T (xyz), w unused
     float tau;           // |g_w| at or below which the gradient direction is treated as undefined
+    float scale_g;       // multiplies |g_w| before it is stored (1, or 1/max for 8-bit storage)
+    float scale_k;       // multiplies k before it is stored
 } params;
 
 float I(ivec3 p) {
@@ -124,7 +127,7 @@ float derive_voxel(ivec3 p, ivec3 n) {
         store_gradient = true;
     }
     if (store_gradient) {
-        imageStore(gradient_out, p, vec4(magnitude, k, 0.0, 0.0));
+        imageStore(gradient_out, p, vec4(magnitude * params.scale_g, k * params.scale_k, 0.0, 0.0));
     }
     if (WANT_NORMAL) {
         imageStore(normal_out, p, vec4(direction, 0.0));

@@ -2,12 +2,20 @@
 // The morphologically modulated front-to-back raymarch (paper eqs. 4-6), one invocation per
 // pixel in 8x8 tiles, writing a storage image.
 //
-// Per DVR sample: v = trilinear I_norm; f(v), C_s(v) from the tissue windows; opacity
+// Per DVR sample: v = I_norm (interpolated per INTERPOLATION); f(v), C_s(v) from the tissue
+// windows; opacity
 //   a = clamp(f(v) * |grad I| / |grad I|max * w(k), 0, 1)       (eq. 4)
 // corrected for the step length, then C += (1 - A) C_s a, A += (1 - A) a (eqs. 5, 6) in f32,
 // stopping once A exceeds the early-termination threshold. MIP and MinIP track the extreme
-// I_norm instead. What a scene does not use is compiled out: MODE, CURVATURE, SHADING and
-// GRADIENT_ON_THE_FLY are specialization constants, so no sample branches on them.
+// I_norm instead. What a scene does not use is compiled out: every choice below is a
+// specialization constant, so no sample branches on it.
+//
+// Empty-space skipping (SKIP_EMPTY): the volume is cut into 8^3-voxel bricks; a bit per brick
+// says whether any visible tissue window can be non-zero in the brick's intensity range (brick
+// min/max over the brick plus a one-voxel halo, the trilinear footprint; classified on the CPU
+// when the windows change). A sample in an empty brick jumps to the last sample of the same
+// lattice before the brick's exit, so the samples taken are exactly those taken without
+// skipping minus samples of zero opacity: the image is unchanged.
 //
 // Geometry: rays start in world space (mm) and are marched in index space with the parameter
 // in mm (geometry.glsl); ray starts are jittered per pixel against wood-grain banding.
@@ -18,14 +26,17 @@
 
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
-layout(constant_id = 0) const uint MODE = 0u;                 // 0 DVR, 1 MIP, 2 MinIP
-layout(constant_id = 1) const bool CURVATURE = false;         // multiply by w(k)
-layout(constant_id = 2) const bool SHADING = false;           // Phong with gradient normals
-layout(constant_id = 3) const bool GRADIENT_ON_THE_FLY = false; // derivatives per sample
-layout(constant_id = 4) const bool COUNT_SAMPLES = false;     // benchmark counters (off: no cost)
+layout(constant_id = 0) const uint MODE = 0u;             // 0 DVR, 1 MIP, 2 MinIP
+layout(constant_id = 1) const uint CURVATURE_MODE = 0u;   // 0 off, 1 stored k, 2 k on the fly
+layout(constant_id = 2) const bool SHADING = false;       // Phong with gradient normals
+layout(constant_id = 3) const uint GRADIENT_MODE = 0u;    // 0 stored, 1 central on the fly, 2 Sobel on the fly
+layout(constant_id = 4) const bool COUNT_SAMPLES = false; // benchmark counters (off: no cost)
+layout(constant_id = 5) const uint INTERPOLATION = 1u;    // 0 nearest, 1 trilinear, 2 tricubic B-spline
+layout(constant_id = 6) const bool NAIVE_OPACITY = false; // 1-(1-a)^r in f32 (accuracy study only)
+layout(constant_id = 7) const bool SKIP_EMPTY = false;    // empty-space skipping over 8^3 bricks
 
 layout(set = 0, binding = 0) uniform sampler3D volume;          // I_norm, trilinear
-layout(set = 0, binding = 1) uniform sampler3D gradient_volume; // .r |g| per mm, .g k per mm^2
+layout(set = 0, binding = 1) uniform sampler3D gradient_volume; // .r |g|, .g k (scaled, see derived_scale)
 layout(set = 0, binding = 2) uniform sampler3D normal_volume;   // .xyz unit world gradient
 layout(set = 0, binding = 3) uniform writeonly image2D target;  // RGBA8 (or RGBA32F for studies)
 
@@ -44,6 +55,8 @@ layout(set = 0, binding = 4, std140) uniform Params {
     vec4 intensity;         // x, y: MIP/MinIP display window; z: MinIP floor
     vec4 gradient_to_world[3];
     uvec4 image;            // width, height, jitter seed, max steps
+    vec4 derived_scale;     // x: stored |g| -> per mm, y: stored k -> per mm^2
+    uvec4 bricks;           // xyz: brick grid, w: brick side in voxels
 } params;
 
 // Benchmark counters (COUNT_SAMPLES only): samples marched and samples that passed
@@ -52,10 +65,14 @@ layout(set = 0, binding = 4, std140) uniform Params {
 const uint COUNTER_SLOTS = 512u;
 layout(set = 0, binding = 5, std430) buffer Counters { uint slots[]; } counters;
 
+// One bit per brick, set where a visible tissue can have non-zero opacity (SKIP_EMPTY only).
+layout(set = 0, binding = 6, std430) readonly buffer Occupancy { uint bits[]; } occupancy;
+
 #include "geometry.glsl"
 #include "jitter.glsl"
 #include "classification.glsl"
 #include "compositing.glsl"
+#include "sampling.glsl"
 #include "gradients.glsl"
 
 const uint MODE_DVR = 0u;
@@ -82,6 +99,26 @@ void count_samples(uint marched, uint classified) {
         atomicAdd(counters.slots[2u * slot], subgroup_marched);
         atomicAdd(counters.slots[2u * slot + 1u], subgroup_classified);
     }
+}
+
+// If the brick holding p is empty, the ray parameter at which the ray leaves it; else -1.
+float empty_brick_exit(vec3 p, vec3 origin, vec3 direction) {
+    float side = float(params.bricks.w);
+    ivec3 brick = clamp(ivec3(floor((p + 0.5) / side)), ivec3(0), ivec3(params.bricks.xyz) - 1);
+    uint b = uint(brick.x) + params.bricks.x * (uint(brick.y) + params.bricks.y * uint(brick.z));
+    if (((occupancy.bits[b >> 5u] >> (b & 31u)) & 1u) != 0u) {
+        return -1.0;
+    }
+    vec3 lo = vec3(brick) * side - 0.5;
+    vec3 hi = lo + side;
+    float t_exit = 3.0e38;
+    for (int a = 0; a < 3; a++) {
+        if (abs(direction[a]) >= MIN_DIRECTION) {
+            float face = direction[a] > 0.0 ? hi[a] : lo[a];
+            t_exit = min(t_exit, (face - origin[a]) / direction[a]);
+        }
+    }
+    return t_exit;
 }
 
 void main() {
@@ -118,6 +155,16 @@ void main() {
         vec4 acc = vec4(0.0);
         for (uint i = 0u; i < steps; i++) {
             vec3 p = origin + direction * (start + float(i) * dt);
+            if (SKIP_EMPTY) {
+                float t_exit = empty_brick_exit(p, origin, direction);
+                if (t_exit >= 0.0) {
+                    // The last lattice sample at or before the exit: it still lies in this empty
+                    // brick (or on its face), so nothing with opacity is skipped.
+                    float last = clamp(floor((t_exit - start) / dt), float(i), float(steps));
+                    i = uint(last);
+                    continue;
+                }
+            }
             float v = sample_volume(p);
             marched++;
             vec4 cls = classify(v);
@@ -128,31 +175,32 @@ void main() {
             float magnitude;
             float k = 0.0;
             vec3 normal = vec3(0.0);
-            if (GRADIENT_ON_THE_FLY) {
-                vec3 g = gradient_on_the_fly(p);
-                magnitude = length(g);
-                if (CURVATURE) {
-                    k = curvature_on_the_fly(p, v, g);
-                }
-                if (SHADING) {
-                    normal = magnitude > params.curvature.z ? g / magnitude : vec3(0.0);
-                }
-            } else {
-                vec3 tc = index_to_texture(p, dims);
-                vec2 gk = textureLod(gradient_volume, tc, 0.0).rg;
+            vec3 g = vec3(0.0);
+            if (GRADIENT_MODE == 0u) {
+                vec2 gk = fetch(gradient_volume, p, dims).rg * params.derived_scale.xy;
                 magnitude = gk.x;
-                if (CURVATURE) {
+                if (CURVATURE_MODE == 1u) {
                     k = gk.y;
                 }
                 if (SHADING) {
-                    normal = textureLod(normal_volume, tc, 0.0).xyz;
+                    normal = fetch(normal_volume, p, dims).xyz;
+                }
+            } else {
+                g = GRADIENT_MODE == 1u ? gradient_central(p) : gradient_sobel(p);
+                magnitude = length(g);
+                if (SHADING) {
+                    normal = magnitude > params.curvature.z ? g / magnitude : vec3(0.0);
                 }
             }
+            if (CURVATURE_MODE == 2u) {
+                vec3 g_central = GRADIENT_MODE == 1u ? g : gradient_central(p);
+                k = curvature_on_the_fly(p, v, g_central);
+            }
             float a = clamp(cls.a * magnitude * params.march.w, 0.0, 1.0);
-            if (CURVATURE) {
+            if (CURVATURE_MODE != 0u) {
                 a = min(a * curvature_weight(k), 1.0);
             }
-            a = opacity_correct(a, params.march.x);
+            a = NAIVE_OPACITY ? opacity_correct_naive(a, params.march.x) : opacity_correct(a, params.march.x);
             vec3 colour = cls.rgb;
             if (SHADING) {
                 colour = shade(colour, normal, direction_world);

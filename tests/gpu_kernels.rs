@@ -275,6 +275,7 @@ fn check_derivatives(engine: &mut morphray::engine::Engine, v: &morphray::volume
         magnitude: true,
         curvature: true,
         normal: true,
+        ..Default::default()
     };
     let derived = engine.derive(&prepared, outputs).unwrap();
     let device = engine.device();
@@ -385,6 +386,7 @@ fn a_linear_ramp_gives_the_exact_world_gradient_and_zero_curvature() {
                 magnitude: true,
                 curvature: true,
                 normal: false,
+                ..Default::default()
             },
         )
         .unwrap();
@@ -437,6 +439,7 @@ fn a_quadratic_bowl_has_constant_directional_curvature() {
                 magnitude: true,
                 curvature: true,
                 normal: false,
+                ..Default::default()
             },
         )
         .unwrap();
@@ -512,6 +515,7 @@ fn plateaus_and_constant_volumes_have_zero_gradient_curvature_and_normal() {
         magnitude: true,
         curvature: true,
         normal: true,
+        ..Default::default()
     };
     let derived = engine.derive(&prepared, all).unwrap();
     let device = engine.device();

@@ -23,8 +23,8 @@ use morphray::reference::raymarch::{
 };
 use morphray::scene::uniforms::GradientStats;
 use morphray::scene::{
-    Camera, Classification, GradientSource, Projection, RenderMode, Scene, TissueClass,
-    VolumeGeometry,
+    Camera, Classification, CurvatureSource, DerivedPrecision, GradientFilter, GradientSource,
+    Interpolation, OpacityCorrection, Projection, RenderMode, Scene, TissueClass, VolumeGeometry,
 };
 use morphray::volume::Volume;
 use morphray::volume::phantom::{PhantomSpec, Tissue, generate};
@@ -98,9 +98,15 @@ fn reference(engine: &Engine, p: &Prepared, scene: &Scene, w: u32, h: u32) -> Ve
         stats = d.stats;
         if let Some(g) = &d.volumes.gradient {
             let g = read_image(device, g, Access::ComputeSampled).unwrap();
+            // Stored values are |g| * s[0] and k * s[1] (8-bit storage is scaled).
+            let [sg, sk] = d.volumes.store_scale.map(|s| s as f64);
             for texel in g.values.chunks_exact(g.channels) {
-                magnitude.push(texel[0] as f64);
-                curvature.push(if g.channels > 1 { texel[1] as f64 } else { 0.0 });
+                magnitude.push(texel[0] as f64 / sg);
+                curvature.push(if g.channels > 1 {
+                    texel[1] as f64 / sk
+                } else {
+                    0.0
+                });
             }
         }
         if let Some(n) = &d.volumes.normal {
@@ -229,6 +235,51 @@ fn gpu_matches_the_reference_in_every_mode_and_effect() {
             s.effects.gradient_source = source;
             s.minip_floor = 0.1;
         });
+        let gpu = gpu_render(&mut engine, &p, &p.scene, 64, 64);
+        let cpu = reference(&engine, &p, &p.scene, 64, 64);
+        assert_close(label, &gpu, &cpu, 40.0, 0.02, 0.25);
+    }
+    common::assert_no_validation_errors(&engine);
+}
+
+#[test]
+fn gpu_matches_the_reference_for_every_quality_knob() {
+    let mut engine = common::engine();
+    let (volume, _) = phantom(40);
+    type Edit = fn(&mut Scene);
+    let cases: Vec<(&str, Edit)> = vec![
+        ("nearest", |s| {
+            s.effects.quality.interpolation = Interpolation::Nearest
+        }),
+        ("tricubic", |s| {
+            s.effects.quality.interpolation = Interpolation::Tricubic
+        }),
+        ("sobel on the fly", |s| {
+            s.effects.gradient_source = GradientSource::OnTheFly;
+            s.effects.quality.gradient_filter = GradientFilter::Sobel;
+        }),
+        ("stored gradient, curvature on the fly", |s| {
+            s.effects.curvature = true;
+            s.effects.quality.curvature_source = CurvatureSource::OnTheFly;
+        }),
+        ("f32 derived", |s| {
+            s.effects.curvature = true;
+            s.effects.quality.derived_precision = DerivedPrecision::F32;
+        }),
+        ("8-bit derived", |s| {
+            s.effects.curvature = true;
+            s.effects.quality.derived_precision = DerivedPrecision::Snorm8;
+        }),
+        ("naive opacity correction", |s| {
+            s.effects.quality.opacity_correction = OpacityCorrection::Naive
+        }),
+        ("tricubic mip", |s| {
+            s.effects.mode = RenderMode::Mip;
+            s.effects.quality.interpolation = Interpolation::Tricubic;
+        }),
+    ];
+    for (label, edit) in cases {
+        let p = prepare(&mut engine, &volume, edit);
         let gpu = gpu_render(&mut engine, &p, &p.scene, 64, 64);
         let cpu = reference(&engine, &p, &p.scene, 64, 64);
         assert_close(label, &gpu, &cpu, 40.0, 0.02, 0.25);
@@ -552,6 +603,38 @@ fn no_nan_pixel_for_extreme_cameras_and_steps() {
                 .all(|px| px.iter().all(|v| v.is_finite() && *v >= 0.0)),
             "zoom {zoom} step {step}"
         );
+    }
+    common::assert_no_validation_errors(&engine);
+}
+
+#[test]
+fn empty_space_skipping_changes_no_pixel() {
+    let mut engine = common::engine();
+    let (volume, _) = phantom(48);
+    for visible in [
+        vec![TissueClass::Csf, TissueClass::Gm, TissueClass::Wm],
+        vec![TissueClass::Pathology],
+    ] {
+        for interpolation in [Interpolation::Trilinear, Interpolation::Tricubic] {
+            let p = prepare(&mut engine, &volume, |s| {
+                s.classification.show_only(&visible);
+                s.effects.quality.interpolation = interpolation;
+                s.effects.shading = true;
+            });
+            let mut off = p.scene;
+            off.effects.quality.empty_space_skipping = false;
+            let mut on = p.scene;
+            on.effects.quality.empty_space_skipping = true;
+            let a = gpu_render(&mut engine, &p, &off, 48, 48);
+            let b = gpu_render(&mut engine, &p, &on, 48, 48);
+            // The same lattice samples minus samples of zero opacity: identical up to the
+            // order-independent f32 arithmetic of the compositing, i.e. exactly.
+            assert_eq!(a, b, "{visible:?} {interpolation:?}");
+            // And skipping really skips: fewer samples marched.
+            let ranges = engine.brick_ranges(&p.prepared).unwrap();
+            let occupied = ranges.occupied_fraction(&on.classification);
+            assert!(occupied < 1.0, "some bricks are empty ({occupied})");
+        }
     }
     common::assert_no_validation_errors(&engine);
 }

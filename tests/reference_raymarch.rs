@@ -105,6 +105,7 @@ fn all_effect_combinations() -> Vec<Effects> {
                     curvature,
                     shading,
                     gradient_source,
+                    quality: Default::default(),
                 });
             }
         }
@@ -476,6 +477,7 @@ fn camera_inside_the_volume_gives_finite_non_background_pixels() {
         curvature: true,
         shading: true,
         gradient_source: GradientSource::OnTheFly,
+        quality: Default::default(),
     };
     // Zoom 8 puts the eye at 3.86 / 8 = 0.48 bounding radii from the centre, inside the cube
     // (half side = 0.577 radii). Check that, then that every ray starts at t = 0.
@@ -603,6 +605,7 @@ fn grazing_rays_are_finite() {
             curvature: true,
             shading: true,
             gradient_source: source,
+            quality: Default::default(),
         };
         for (az, el) in [
             (90.0, 0.0),
@@ -694,6 +697,7 @@ fn object_scene() -> Scene {
         curvature: true,
         shading: true,
         gradient_source: GradientSource::OnTheFly,
+        quality: Default::default(),
     };
     scene.camera = Camera {
         azimuth_deg: 30.0,
@@ -864,6 +868,7 @@ fn hiding_a_tissue_removes_exactly_its_contribution() {
         curvature: true,
         shading: true,
         gradient_source: GradientSource::OnTheFly,
+        quality: Default::default(),
     };
     let size = 48;
     let draw = |scene: &Scene| {
@@ -1235,6 +1240,7 @@ proptest! {
             curvature: flags[0],
             shading: flags[1],
             gradient_source: if flags[2] { GradientSource::OnTheFly } else { GradientSource::Precomputed },
+            quality: Default::default(),
         };
         scene.jitter = flags[3];
         scene.frame = seed as u32;

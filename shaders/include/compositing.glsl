@@ -34,6 +34,12 @@ float opacity_correct(float a, float r) {
     return -exp_minus_one(r * log_one_minus(a));
 }
 
+// The naive f32 form, kept only as the accuracy study's "before" (NAIVE_OPACITY): it loses all
+// precision for tiny a (1 - a rounds to 1).
+float opacity_correct_naive(float a, float r) {
+    return 1.0 - pow(1.0 - clamp(a, 0.0, 1.0), r);
+}
+
 // C += (1 - A) a C_s ; A += (1 - A) a   (f32 accumulators, never f16: NUMERICS.md).
 void composite(inout vec4 acc, vec3 colour, float a) {
     float w = (1.0 - acc.a) * a;

@@ -209,6 +209,7 @@ pub fn run(args: &BenchArgs, device: Option<&str>, validation: bool) -> Result<(
                 magnitude: true,
                 curvature: false,
                 normal: false,
+                ..Default::default()
             },
         ),
         (
@@ -217,6 +218,7 @@ pub fn run(args: &BenchArgs, device: Option<&str>, validation: bool) -> Result<(
                 magnitude: true,
                 curvature: true,
                 normal: false,
+                ..Default::default()
             },
         ),
         (
@@ -225,6 +227,7 @@ pub fn run(args: &BenchArgs, device: Option<&str>, validation: bool) -> Result<(
                 magnitude: true,
                 curvature: true,
                 normal: true,
+                ..Default::default()
             },
         ),
         ("derivatives max only", DerivativeOutputs::default()),

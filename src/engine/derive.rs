@@ -4,6 +4,7 @@ use super::Engine;
 use super::prepare::PreparedVolume;
 use crate::gpu::{Access, Buffer, BufferDesc, GpuResult, PassTiming, Recording};
 use crate::passes::derivatives::{DEFAULT_TAU, DerivativeOutputs, DerivedVolumes, STAT_BYTES};
+use crate::scene::DerivedPrecision;
 use crate::scene::uniforms::GradientStats;
 
 /// Derived volumes and the GPU time they took.
@@ -17,11 +18,50 @@ pub struct Derived {
 }
 
 impl Engine {
-    /// Computes the requested derived volumes of `prepared` (nothing else).
+    /// Computes the requested derived volumes of `prepared` (nothing else). 8-bit storage needs
+    /// the maximum first (its scale), so it runs a max-only dispatch before the storing one.
     pub fn derive(
         &mut self,
         prepared: &PreparedVolume,
         outputs: DerivativeOutputs,
+    ) -> GpuResult<Derived> {
+        let stores = outputs.magnitude || outputs.curvature;
+        if outputs.precision != DerivedPrecision::Snorm8 || !stores {
+            return self.derive_scaled(prepared, outputs, [1.0, 1.0]);
+        }
+        let max_only = DerivativeOutputs {
+            magnitude: false,
+            curvature: false,
+            normal: false,
+            precision: outputs.precision,
+        };
+        let first = self.derive_scaled(prepared, max_only, [1.0, 1.0])?;
+        let g = first.stats.max_magnitude.max(1e-12);
+        let voxel_mm = (0..3)
+            .map(|c| {
+                (0..3)
+                    .map(|r| prepared.linear_part[r][c].powi(2))
+                    .sum::<f64>()
+                    .sqrt()
+            })
+            .fold(f64::INFINITY, f64::min);
+        // |g| fills [0, 1]; k up to 2 g / voxel (twice the step-edge scale of k_ref) fills [-1, 1].
+        let scale = [(1.0 / g) as f32, (voxel_mm / (2.0 * g)) as f32];
+        let mut derived = self.derive_scaled(prepared, outputs, scale)?;
+        let mut timings = first.gpu_timings;
+        for t in &mut timings {
+            t.name = "derivatives (max, for the 8-bit scale)".into();
+        }
+        timings.append(&mut derived.gpu_timings);
+        derived.gpu_timings = timings;
+        Ok(derived)
+    }
+
+    fn derive_scaled(
+        &mut self,
+        prepared: &PreparedVolume,
+        outputs: DerivativeOutputs,
+        store_scale: [f32; 2],
     ) -> GpuResult<Derived> {
         let device = self.device.clone();
         let nearest = self.nearest.clone();
@@ -43,6 +83,7 @@ impl Engine {
             &nearest,
             prepared.linear_part,
             DEFAULT_TAU,
+            store_scale,
             &stats_gpu,
         )?;
         rec.end_pass();

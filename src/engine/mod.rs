@@ -10,6 +10,7 @@
 //!   passes put the right barrier in front of it.
 
 mod derive;
+mod occupancy;
 mod prepare;
 mod probe;
 pub mod readback;
@@ -21,14 +22,15 @@ pub use prepare::{PrepareTimings, PreparedVolume};
 pub use render::{FRAMES_IN_FLIGHT, Frame, RenderTarget, SampleCounts};
 
 use crate::gpu::{
-    Access, Device, DeviceConfig, Filter, GpuResult, Image, ImageDesc, Recording, Sampler,
+    Access, Buffer, BufferDesc, Device, DeviceConfig, Filter, GpuResult, Image, ImageDesc,
+    Recording, Sampler,
 };
 use crate::passes::derivatives::{DerivativeOutputs, DerivativePass};
 use crate::passes::histogram::HistogramPass;
 use crate::passes::minmax::MinMaxPass;
 use crate::passes::normalize::NormalizePass;
-use crate::passes::raymarch::RaymarchPass;
-use crate::scene::Effects;
+use crate::passes::occupancy::OccupancyPass;
+use crate::passes::raymarch::{RaymarchPass, RaymarchVariant};
 use crate::volume::SampleKind;
 use ash::vk;
 use std::collections::HashMap;
@@ -64,6 +66,7 @@ struct KindPasses {
 struct Placeholders {
     gradient: Arc<Image>,
     normal: Arc<Image>,
+    occupancy: Arc<Buffer>,
 }
 
 /// The GPU engine.
@@ -72,7 +75,8 @@ pub struct Engine {
     config: EngineConfig,
     kind_passes: HashMap<SampleKind, KindPasses>,
     derivative_passes: HashMap<DerivativeOutputs, DerivativePass>,
-    raymarch_passes: HashMap<(Effects, bool), RaymarchPass>,
+    raymarch_passes: HashMap<RaymarchVariant, RaymarchPass>,
+    occupancy_pass: Option<OccupancyPass>,
     nearest: Arc<Sampler>,
     linear: Arc<Sampler>,
     placeholders: Placeholders,
@@ -102,6 +106,11 @@ impl Engine {
                     vk::Format::R8G8B8A8_SNORM,
                 ),
             )?,
+            occupancy: Buffer::with_data(
+                &device,
+                BufferDesc::host_storage("placeholder (occupancy)", 16),
+                &[0u8; 16],
+            )?,
         };
         let mut rec = Recording::new(&device, "placeholder layouts")?;
         // Moves the placeholders once into the layout sampling needs; they are never written.
@@ -127,6 +136,7 @@ impl Engine {
             kind_passes: HashMap::new(),
             derivative_passes: HashMap::new(),
             raymarch_passes: HashMap::new(),
+            occupancy_pass: None,
             nearest,
             linear,
             placeholders,

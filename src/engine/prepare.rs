@@ -54,6 +54,8 @@ pub struct PreparedVolume {
     pub gpu_timings: Vec<PassTiming>,
     /// Host-side times.
     pub timings: PrepareTimings,
+    /// Per-brick I_norm ranges for empty-space skipping, computed on first use.
+    pub(crate) brick_ranges: std::sync::OnceLock<Arc<crate::scene::occupancy::BrickRanges>>,
 }
 
 impl PreparedVolume {
@@ -181,6 +183,7 @@ impl Engine {
             linear_part: volume.orientation.linear_part(),
             affine: volume.orientation.affine,
             gpu_timings,
+            brick_ranges: std::sync::OnceLock::new(),
             timings: PrepareTimings {
                 pipelines_ms,
                 upload_write_ms,

@@ -21,20 +21,17 @@ pub struct ImageData {
 
 /// Bytes per texel and channel count of the formats the engine stores.
 fn layout_of(format: vk::Format) -> GpuResult<(usize, usize)> {
+    use vk::Format as F;
     Ok(match format {
-        vk::Format::R8_UNORM => (1, 1),
-        vk::Format::R16_UNORM | vk::Format::R16_SFLOAT => (2, 1),
-        vk::Format::R32_SFLOAT | vk::Format::R16G16_SFLOAT => (
-            4,
-            if format == vk::Format::R32_SFLOAT {
-                1
-            } else {
-                2
-            },
-        ),
-        vk::Format::R8G8B8A8_SNORM | vk::Format::R8G8B8A8_UNORM => (4, 4),
-        vk::Format::R32G32B32A32_SFLOAT => (16, 4),
-        vk::Format::R16G16B16A16_SFLOAT => (8, 4),
+        F::R8_UNORM | F::R8_SNORM => (1, 1),
+        F::R8G8_SNORM => (2, 2),
+        F::R16_UNORM | F::R16_SFLOAT => (2, 1),
+        F::R32_SFLOAT => (4, 1),
+        F::R16G16_SFLOAT => (4, 2),
+        F::R32G32_SFLOAT => (8, 2),
+        F::R8G8B8A8_SNORM | F::R8G8B8A8_UNORM => (4, 4),
+        F::R16G16B16A16_SFLOAT => (8, 4),
+        F::R32G32B32A32_SFLOAT => (16, 4),
         other => {
             return Err(GpuError::InvalidRequest(format!(
                 "readback of {other:?} images is not supported"
@@ -43,26 +40,25 @@ fn layout_of(format: vk::Format) -> GpuResult<(usize, usize)> {
     })
 }
 
-/// Decodes tightly packed texels of `format`.
+/// Decodes tightly packed texels of `format` (SNORM as Vulkan defines it: max(c / 127, -1)).
 pub fn decode(format: vk::Format, bytes: &[u8]) -> GpuResult<Vec<f32>> {
+    use vk::Format as F;
     let u16s = || {
         bytes
             .chunks_exact(2)
             .map(|c| u16::from_le_bytes([c[0], c[1]]))
     };
     Ok(match format {
-        vk::Format::R8_UNORM | vk::Format::R8G8B8A8_UNORM => {
-            bytes.iter().map(|&b| b as f32 / 255.0).collect()
-        }
-        vk::Format::R8G8B8A8_SNORM => bytes
+        F::R8_UNORM | F::R8G8B8A8_UNORM => bytes.iter().map(|&b| b as f32 / 255.0).collect(),
+        F::R8_SNORM | F::R8G8_SNORM | F::R8G8B8A8_SNORM => bytes
             .iter()
             .map(|&b| ((b as i8) as f32 / 127.0).max(-1.0))
             .collect(),
-        vk::Format::R16_UNORM => u16s().map(|v| v as f32 / 65535.0).collect(),
-        vk::Format::R16_SFLOAT | vk::Format::R16G16_SFLOAT | vk::Format::R16G16B16A16_SFLOAT => {
+        F::R16_UNORM => u16s().map(|v| v as f32 / 65535.0).collect(),
+        F::R16_SFLOAT | F::R16G16_SFLOAT | F::R16G16B16A16_SFLOAT => {
             u16s().map(|v| half::f16::from_bits(v).to_f32()).collect()
         }
-        vk::Format::R32_SFLOAT | vk::Format::R32G32B32A32_SFLOAT => bytes
+        F::R32_SFLOAT | F::R32G32_SFLOAT | F::R32G32B32A32_SFLOAT => bytes
             .chunks_exact(4)
             .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
             .collect(),

@@ -4,6 +4,8 @@
 //! - A [`RenderTarget`] owns the output image, its readback buffer and two uniform buffers used
 //!   alternately (one per frame in flight), so writing the next frame's parameters never touches
 //!   memory the GPU may still read.
+//! - Empty-space skipping writes the frame's occupancy bits (classified on the CPU from the
+//!   volume's brick ranges, computed once) into a host-visible buffer per frame in flight.
 //! - Rendering checks that the derived volumes the scene needs exist (the caller derives them
 //!   from `Effects::derivative_outputs`), and fails with a typed error instead of sampling a
 //!   placeholder by mistake.
@@ -14,9 +16,10 @@ use super::prepare::PreparedVolume;
 use crate::gpu::{
     Access, Buffer, BufferDesc, GpuError, GpuResult, Image, ImageDesc, PassTiming, Recording,
 };
-use crate::passes::raymarch::{COUNTER_WORDS, RaymarchInputs, RaymarchPass};
-use crate::scene::uniforms::{GradientStats, RaymarchUniforms};
-use crate::scene::{Effects, GradientSource, RenderMode, Scene, VolumeGeometry};
+use crate::passes::occupancy::BRICK_SIDE;
+use crate::passes::raymarch::{COUNTER_WORDS, RaymarchInputs, RaymarchPass, RaymarchVariant};
+use crate::scene::uniforms::{FrameInputs, GradientStats, RaymarchUniforms};
+use crate::scene::{Scene, VolumeGeometry};
 use ash::vk;
 use std::sync::Arc;
 
@@ -35,6 +38,7 @@ pub struct RenderTarget {
     next_uniforms: usize,
     counters: Arc<Buffer>,
     counters_host: Arc<Buffer>,
+    occupancy: Vec<Option<Arc<Buffer>>>,
     /// Compile in and read the benchmark counters (samples marched / classified) each frame.
     pub count_samples: bool,
     /// Copy each frame back to the host (off for frame-rate measurements: `Frame` is then
@@ -128,19 +132,19 @@ impl Engine {
             next_uniforms: 0,
             counters,
             counters_host,
+            occupancy: vec![None; FRAMES_IN_FLIGHT],
             count_samples: false,
             read_back: true,
         })
     }
 
-    fn raymarch_pass(&mut self, effects: Effects, count_samples: bool) -> GpuResult<&RaymarchPass> {
-        let key = (normalized_effects(effects), count_samples);
-        if !self.raymarch_passes.contains_key(&key) {
-            let pass = RaymarchPass::new(&self.device, key.0, count_samples, self.pipeline_cache)?;
-            self.raymarch_passes.insert(key, pass);
+    fn raymarch_pass(&mut self, variant: RaymarchVariant) -> GpuResult<&RaymarchPass> {
+        if !self.raymarch_passes.contains_key(&variant) {
+            let pass = RaymarchPass::new(&self.device, variant, self.pipeline_cache)?;
+            self.raymarch_passes.insert(variant, pass);
         }
         self.raymarch_passes
-            .get(&key)
+            .get(&variant)
             .ok_or_else(|| GpuError::InvalidRequest("pass cache lost an entry".into()))
     }
 
@@ -154,7 +158,7 @@ impl Engine {
     ) -> GpuResult<Frame> {
         let effects = scene.effects;
         let needed = effects.derivative_outputs();
-        let (gradient, normal, stats) = match (needed, derived) {
+        let (gradient, normal, stats, store_scale) = match (needed, derived) {
             (None, _) => (
                 None,
                 None,
@@ -162,6 +166,7 @@ impl Engine {
                     max_magnitude: 0.0,
                     tau: 0.0,
                 },
+                [1.0, 1.0],
             ),
             (Some(outputs), Some(d)) => {
                 let missing = (outputs.magnitude && d.volumes.gradient.is_none())
@@ -177,6 +182,7 @@ impl Engine {
                     d.volumes.gradient.clone(),
                     d.volumes.normal.clone(),
                     d.stats,
+                    d.volumes.store_scale,
                 )
             }
             (Some(outputs), None) => {
@@ -187,22 +193,59 @@ impl Engine {
         };
         let geometry = VolumeGeometry::new(prepared.dims, prepared.affine)
             .map_err(|e| GpuError::InvalidRequest(e.to_string()))?;
-        let block = RaymarchUniforms::new(scene, &geometry, &stats, target.width, target.height);
-        let uniforms = target.uniforms[target.next_uniforms].clone();
+        let count = target.count_samples;
+        let variant = RaymarchVariant::of(&effects, count);
+        let frame_slot = target.next_uniforms;
         target.next_uniforms = (target.next_uniforms + 1) % FRAMES_IN_FLIGHT;
+        let mut bricks = [1, 1, 1, BRICK_SIDE];
+        let occupancy = if variant.skip_empty {
+            let ranges = self.brick_ranges(prepared)?;
+            let bits = ranges.occupancy_bits(&scene.classification);
+            bricks = [ranges.grid[0], ranges.grid[1], ranges.grid[2], ranges.side];
+            let bytes: &[u8] = bytemuck::cast_slice(&bits);
+            let buffer = match &target.occupancy[frame_slot] {
+                Some(b) if b.size() >= bytes.len() as u64 => b.clone(),
+                _ => {
+                    let b = Buffer::new(
+                        &self.device,
+                        BufferDesc::host_storage("occupancy bits", bytes.len() as u64),
+                    )?;
+                    target.occupancy[frame_slot] = Some(b.clone());
+                    b
+                }
+            };
+            // Written before the submission that reads it; the buffer of the other frame in
+            // flight is untouched.
+            buffer.write(0, bytes)?;
+            buffer
+        } else {
+            self.placeholders.occupancy.clone()
+        };
+        let block = RaymarchUniforms::new(
+            scene,
+            &geometry,
+            &FrameInputs {
+                gradients: stats,
+                store_scale,
+                bricks,
+                width: target.width,
+                height: target.height,
+            },
+        );
+        let uniforms = target.uniforms[frame_slot].clone();
         uniforms.write(0, bytemuck::bytes_of(&block))?;
 
         let device = self.device.clone();
         let linear = self.linear.clone();
         let gradient = gradient.unwrap_or_else(|| self.placeholders.gradient.clone());
         let normal = normal.unwrap_or_else(|| self.placeholders.normal.clone());
-        let count = target.count_samples;
-        let pass = self.raymarch_pass(effects, count)?;
+        let pass = self.raymarch_pass(variant)?;
         let inputs = RaymarchInputs {
             volume: &prepared.normalized,
             gradient: &gradient,
             normal: &normal,
-            linear: &linear,
+            occupancy: &occupancy,
+            sampler: &linear,
         };
         let mut rec = Recording::new(&device, "raymarch")?;
         if count {
@@ -310,20 +353,5 @@ impl Engine {
             gpu_timings,
             samples,
         })
-    }
-}
-
-/// Effects that select the same pipeline map to one key (curvature and shading mean nothing
-/// outside DVR).
-fn normalized_effects(effects: Effects) -> Effects {
-    if effects.mode == RenderMode::Dvr {
-        effects
-    } else {
-        Effects {
-            mode: effects.mode,
-            curvature: false,
-            shading: false,
-            gradient_source: GradientSource::Precomputed,
-        }
     }
 }

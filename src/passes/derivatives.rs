@@ -5,11 +5,13 @@
 //! - Outputs on request only ([`DerivativeOutputs`]); what is not requested is neither computed
 //!   (specialization constants remove the code) nor stored (no image is allocated for it; a
 //!   1-texel placeholder fills the unused binding).
-//! - Formats: gradient magnitude alone in R16_SFLOAT, with curvature in R16G16_SFLOAT (2 or 4
-//!   bytes per voxel); normals in R8G8B8A8_SNORM. Values are in world units (I_norm per mm and per
-//!   mm^2): the world transform `M = A^-T` is applied in the shader, in f32, from the f64 affine.
+//! - Formats ([`gradient_format`]): by default gradient magnitude alone in R16_SFLOAT, with
+//!   curvature in R16G16_SFLOAT (2 or 4 bytes per voxel); f32, or 8-bit SNORM scaled by the
+//!   volume's maximum, for the accuracy study; normals in R8G8B8A8_SNORM. Values are in world
+//!   units (I_norm per mm and per mm^2): the world transform `M = A^-T` is applied in the shader,
+//!   in f32, from the f64 affine.
 //! - Curvature and normals are 0 where |g| <= tau (NUMERICS.md "zero gradient").
-//! - Every dispatch also reduces max |g| (the normalizer of paper eq. 4) into a 4-byte buffer;
+//! - Every dispatch also reduces max |g| (the normalizer of paper eq. 4) into a slot buffer;
 //!   with no output requested that is all it does (the on-the-fly gradient path).
 
 use crate::gpu::shaders::table;
@@ -17,6 +19,7 @@ use crate::gpu::{
     Access, Buffer, ComputePipeline, DescriptorSet, Device, GpuError, GpuResult, Image, ImageDesc,
     Recording, Resource, Sampler, SpecValue,
 };
+use crate::scene::DerivedPrecision;
 use ash::vk;
 use glam::DMat3;
 use std::sync::Arc;
@@ -37,7 +40,10 @@ pub struct DerivativeOutputs {
     pub curvature: bool,
     /// Unit world-space gradient direction, for shading.
     pub normal: bool,
+    /// Storage precision of |g| and k.
+    pub precision: DerivedPrecision,
 }
+
 
 /// Push constants of `derivatives.comp`.
 #[repr(C)]
@@ -49,6 +55,10 @@ pub struct DerivativeParams {
     pub m_rows: [[f32; 4]; 3],
     /// Zero-gradient threshold.
     pub tau: f32,
+    /// Multiplier of |g| before storage.
+    pub scale_g: f32,
+    /// Multiplier of k before storage.
+    pub scale_k: f32,
 }
 
 /// The derived images one dispatch produced.
@@ -59,6 +69,20 @@ pub struct DerivedVolumes {
     pub normal: Option<Arc<Image>>,
     /// What was computed.
     pub outputs: DerivativeOutputs,
+    /// Stored values are |g| * scale[0] and k * scale[1]; readers divide.
+    pub store_scale: [f32; 2],
+}
+
+/// The texel format of the gradient (and curvature) volume.
+pub fn gradient_format(precision: DerivedPrecision, curvature: bool) -> vk::Format {
+    match (precision, curvature) {
+        (DerivedPrecision::F32, false) => vk::Format::R32_SFLOAT,
+        (DerivedPrecision::F32, true) => vk::Format::R32G32_SFLOAT,
+        (DerivedPrecision::F16, false) => vk::Format::R16_SFLOAT,
+        (DerivedPrecision::F16, true) => vk::Format::R16G16_SFLOAT,
+        (DerivedPrecision::Snorm8, false) => vk::Format::R8_SNORM,
+        (DerivedPrecision::Snorm8, true) => vk::Format::R8G8_SNORM,
+    }
 }
 
 /// `A^-T` of the affine's linear part, or an error for a singular or non-finite affine.
@@ -111,16 +135,13 @@ impl DerivativePass {
         nearest: &Arc<Sampler>,
         linear_part: [[f64; 3]; 3],
         tau: f32,
+        store_scale: [f32; 2],
         stats: &Arc<Buffer>,
     ) -> GpuResult<DerivedVolumes> {
         let extent = normalized.extent();
         let m = world_transform(linear_part)?;
         let want_gradient = self.outputs.magnitude || self.outputs.curvature;
-        let gradient_format = if self.outputs.curvature {
-            vk::Format::R16G16_SFLOAT
-        } else {
-            vk::Format::R16_SFLOAT
-        };
+        let gradient_format = gradient_format(self.outputs.precision, self.outputs.curvature);
         let image = |name: &str, wanted: bool, format| {
             let size = if wanted { extent } else { [1, 1, 1] };
             let name = if wanted {
@@ -164,6 +185,8 @@ impl DerivativePass {
             dims: [extent[0] as i32, extent[1] as i32, extent[2] as i32, 0],
             m_rows: rows.map(|r| [r[0] as f32, r[1] as f32, r[2] as f32, 0.0]),
             tau,
+            scale_g: store_scale[0],
+            scale_k: store_scale[1],
         };
         let groups = self.pipeline.workgroups_for(extent);
         rec.dispatch(&self.pipeline, &[set], bytemuck::bytes_of(&params), groups)?;
@@ -171,6 +194,7 @@ impl DerivativePass {
             gradient: want_gradient.then_some(gradient),
             normal: self.outputs.normal.then_some(normal),
             outputs: self.outputs,
+            store_scale,
         })
     }
 }

@@ -12,6 +12,7 @@ pub mod derivatives;
 pub mod histogram;
 pub mod minmax;
 pub mod normalize;
+pub mod occupancy;
 pub mod raymarch;
 
 use crate::gpu::shaders::ShaderInfo;

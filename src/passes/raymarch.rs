@@ -1,24 +1,106 @@
 //! The raymarch (shaders/raymarch.comp): one compute pass over the image in 8x8 tiles.
 //!
-//! Decisions: one pipeline per [`Effects`] combination (mode, curvature, shading, gradient
-//! source), created on first use and cached by the engine, so switching effects back is instant.
-//! Inputs a variant does not read are bound to 1-texel placeholders. Parameters arrive in a
-//! uniform buffer the caller wrote for this frame (double-buffered by the caller), never as a
-//! pipeline change.
+//! Decisions: one pipeline per [`RaymarchVariant`] (the specialization constants an
+//! [`Effects`] resolves to), created on first use and cached by the engine, so switching effects
+//! back is instant and effects that mean the same shader share one pipeline. Inputs a variant
+//! does not read are bound to 1-texel or 1-word placeholders. Parameters arrive in a uniform
+//! buffer the caller wrote for this frame (double-buffered by the caller), never as a pipeline
+//! change.
 
 use crate::gpu::shaders::table;
 use crate::gpu::{
     Access, Buffer, ComputePipeline, DescriptorSet, Device, GpuResult, Image, Recording, Resource,
     Sampler, SpecValue,
 };
-use crate::scene::{Effects, GradientSource, RenderMode};
+use crate::scene::{
+    CurvatureMode, Effects, GradientFilter, GradientSource, Interpolation, OpacityCorrection,
+    RenderMode,
+};
 use ash::vk;
 use std::sync::Arc;
 
 /// u32 counter slots of the benchmark counters (512 pairs; see raymarch.comp).
 pub const COUNTER_WORDS: usize = 1024;
 
-/// Sampled inputs of one raymarch (all in `Access::ComputeSampled`).
+/// The specialization constants of one raymarch pipeline.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+pub struct RaymarchVariant {
+    /// 0 DVR, 1 MIP, 2 MinIP.
+    pub mode: u32,
+    /// 0 off, 1 stored k, 2 k on the fly.
+    pub curvature_mode: u32,
+    /// Phong shading.
+    pub shading: bool,
+    /// 0 stored gradient, 1 central on the fly, 2 Sobel on the fly.
+    pub gradient_mode: u32,
+    /// 0 nearest, 1 trilinear, 2 tricubic.
+    pub interpolation: u32,
+    /// Naive opacity correction.
+    pub naive_opacity: bool,
+    /// Empty-space skipping.
+    pub skip_empty: bool,
+    /// Benchmark sample counters.
+    pub count_samples: bool,
+}
+
+impl RaymarchVariant {
+    /// The variant `effects` needs; what means nothing in a mode is normalized away, so such
+    /// effects share a pipeline.
+    pub fn of(effects: &Effects, count_samples: bool) -> Self {
+        let dvr = effects.mode == RenderMode::Dvr;
+        let q = &effects.quality;
+        RaymarchVariant {
+            mode: match effects.mode {
+                RenderMode::Dvr => 0,
+                RenderMode::Mip => 1,
+                RenderMode::MinIp => 2,
+            },
+            curvature_mode: match effects.curvature_mode() {
+                CurvatureMode::Off => 0,
+                CurvatureMode::Stored => 1,
+                CurvatureMode::OnTheFly => 2,
+            },
+            shading: dvr && effects.shading,
+            gradient_mode: match (dvr, effects.gradient_source, q.gradient_filter) {
+                (false, _, _) | (true, GradientSource::Precomputed, _) => 0,
+                (true, GradientSource::OnTheFly, GradientFilter::Central) => 1,
+                (true, GradientSource::OnTheFly, GradientFilter::Sobel) => 2,
+            },
+            interpolation: match q.interpolation {
+                Interpolation::Nearest => 0,
+                Interpolation::Trilinear => 1,
+                Interpolation::Tricubic => 2,
+            },
+            naive_opacity: dvr && q.opacity_correction == OpacityCorrection::Naive,
+            skip_empty: dvr && q.empty_space_skipping,
+            count_samples,
+        }
+    }
+
+    /// Trilinear fetches per marched sample and per classified sample (for cost models).
+    pub fn fetches(&self) -> (f64, f64) {
+        let per_fetch = match self.interpolation {
+            0 | 1 => 1.0,
+            _ => 8.0,
+        };
+        if self.mode != 0 {
+            return (per_fetch, 0.0);
+        }
+        let gradient = match self.gradient_mode {
+            0 => 1.0 + self.shading as u32 as f64,
+            1 => 6.0,
+            _ => 24.0,
+        };
+        let curvature = if self.curvature_mode == 2 {
+            13.0 + if self.gradient_mode == 1 { 0.0 } else { 6.0 }
+        } else {
+            0.0
+        };
+        (per_fetch, per_fetch * (gradient + curvature))
+    }
+}
+
+/// Sampled inputs of one raymarch (images in `Access::ComputeSampled`).
 pub struct RaymarchInputs<'a> {
     /// I_norm.
     pub volume: &'a Arc<Image>,
@@ -26,42 +108,36 @@ pub struct RaymarchInputs<'a> {
     pub gradient: &'a Arc<Image>,
     /// Normals, or a placeholder.
     pub normal: &'a Arc<Image>,
-    /// Trilinear clamp-to-edge sampler.
-    pub linear: &'a Arc<Sampler>,
+    /// Occupancy bits, or a placeholder.
+    pub occupancy: &'a Arc<Buffer>,
+    /// Clamp-to-edge sampler with the filter the interpolation needs.
+    pub sampler: &'a Arc<Sampler>,
 }
 
-/// The raymarch pipeline of one effects combination.
+/// The raymarch pipeline of one variant.
 pub struct RaymarchPass {
     pipeline: Arc<ComputePipeline>,
 }
 
 impl RaymarchPass {
-    /// Creates the pipeline specialized for `effects`; `count_samples` compiles in the benchmark
-    /// counters.
+    /// Creates the pipeline for `variant`.
     pub fn new(
         device: &Device,
-        effects: Effects,
-        count_samples: bool,
+        variant: RaymarchVariant,
         cache: vk::PipelineCache,
     ) -> GpuResult<Self> {
-        let mode = match effects.mode {
-            RenderMode::Dvr => 0,
-            RenderMode::Mip => 1,
-            RenderMode::MinIp => 2,
-        };
-        let dvr = effects.mode == RenderMode::Dvr;
         let pipeline = ComputePipeline::new(
             device,
             &table::RAYMARCH,
             &[
-                ("MODE", SpecValue::U32(mode)),
-                ("CURVATURE", SpecValue::Bool(dvr && effects.curvature)),
-                ("SHADING", SpecValue::Bool(dvr && effects.shading)),
-                (
-                    "GRADIENT_ON_THE_FLY",
-                    SpecValue::Bool(effects.gradient_source == GradientSource::OnTheFly),
-                ),
-                ("COUNT_SAMPLES", SpecValue::Bool(count_samples)),
+                ("MODE", SpecValue::U32(variant.mode)),
+                ("CURVATURE_MODE", SpecValue::U32(variant.curvature_mode)),
+                ("SHADING", SpecValue::Bool(variant.shading)),
+                ("GRADIENT_MODE", SpecValue::U32(variant.gradient_mode)),
+                ("COUNT_SAMPLES", SpecValue::Bool(variant.count_samples)),
+                ("INTERPOLATION", SpecValue::U32(variant.interpolation)),
+                ("NAIVE_OPACITY", SpecValue::Bool(variant.naive_opacity)),
+                ("SKIP_EMPTY", SpecValue::Bool(variant.skip_empty)),
             ],
             cache,
         )?;
@@ -79,25 +155,27 @@ impl RaymarchPass {
         target: &Arc<Image>,
         counters: &Arc<Buffer>,
     ) -> GpuResult<()> {
+        let s = inputs.sampler;
         let set = DescriptorSet::new(
             &self.pipeline,
             0,
             &[
                 (
                     "volume",
-                    Resource::CombinedImageSampler(inputs.volume.clone(), inputs.linear.clone()),
+                    Resource::CombinedImageSampler(inputs.volume.clone(), s.clone()),
                 ),
                 (
                     "gradient_volume",
-                    Resource::CombinedImageSampler(inputs.gradient.clone(), inputs.linear.clone()),
+                    Resource::CombinedImageSampler(inputs.gradient.clone(), s.clone()),
                 ),
                 (
                     "normal_volume",
-                    Resource::CombinedImageSampler(inputs.normal.clone(), inputs.linear.clone()),
+                    Resource::CombinedImageSampler(inputs.normal.clone(), s.clone()),
                 ),
                 ("target", Resource::StorageImage(target.clone())),
                 ("params", Resource::Buffer(uniforms.clone())),
                 ("counters", Resource::Buffer(counters.clone())),
+                ("occupancy", Resource::Buffer(inputs.occupancy.clone())),
             ],
         )?;
         // Moves the target to GENERAL for storage writes; the last frame's pixels are not needed.
@@ -112,6 +190,7 @@ impl RaymarchPass {
 mod tests {
     use super::*;
     use crate::scene::uniforms::RaymarchUniforms;
+    use crate::scene::{CurvatureSource, Quality};
 
     #[test]
     fn uniform_block_matches_the_shader() {
@@ -125,5 +204,36 @@ mod tests {
     #[test]
     fn the_workgroup_is_an_8x8_tile() {
         assert_eq!(table::RAYMARCH.workgroup_size, [8, 8, 1]);
+    }
+
+    #[test]
+    fn effects_that_mean_the_same_shader_share_a_variant() {
+        let mip = Effects {
+            mode: RenderMode::Mip,
+            ..Effects::default()
+        };
+        let mip_with_dvr_options = Effects {
+            curvature: true,
+            shading: true,
+            ..mip
+        };
+        assert_eq!(
+            RaymarchVariant::of(&mip, false),
+            RaymarchVariant::of(&mip_with_dvr_options, false)
+        );
+        let on_the_fly = Effects {
+            curvature: true,
+            gradient_source: GradientSource::OnTheFly,
+            quality: Quality {
+                curvature_source: CurvatureSource::Stored,
+                ..Quality::default()
+            },
+            ..Effects::default()
+        };
+        assert_eq!(
+            RaymarchVariant::of(&on_the_fly, false).curvature_mode,
+            2,
+            "no stored k without stored gradients"
+        );
     }
 }

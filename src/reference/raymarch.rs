@@ -52,7 +52,10 @@
 use crate::scene::camera::CameraRays;
 use crate::scene::geometry::{VolumeGeometry, intersect_box};
 use crate::scene::uniforms::{GradientStats, MAX_STEPS};
-use crate::scene::{Classification, GradientSource, RenderMode, Scene};
+use crate::scene::{
+    Classification, CurvatureMode, GradientFilter, GradientSource, Interpolation,
+    OpacityCorrection, RenderMode, Scene,
+};
 use glam::{DMat3, DVec3};
 
 /// Why the reference cannot render the given inputs.
@@ -262,6 +265,84 @@ impl<T: Copy> Grid<'_, T> {
     }
 }
 
+impl<T: Copy> Grid<'_, T> {
+    fn at<const N: usize>(
+        &self,
+        i: i64,
+        j: i64,
+        k: i64,
+        value: &impl Fn(T) -> [f64; N],
+    ) -> [f64; N] {
+        let c = |v: i64, d: u32| v.clamp(0, (i64::from(d) - 1).max(0)) as usize;
+        let nx = self.dims[0] as usize;
+        let nxy = nx * self.dims[1] as usize;
+        self.data
+            .get(c(i, self.dims[0]) + nx * c(j, self.dims[1]) + nxy * c(k, self.dims[2]))
+            .map_or([0.0; N], |&v| value(v))
+    }
+
+    /// A fetch with the scene's interpolation: the nearest voxel (centres at integers, ties
+    /// rounding up like `floor(p + 0.5)`), trilinear, or the cubic B-spline as its 64-tap
+    /// convolution with clamped indices (the shader computes the same sum with 8 linear
+    /// fetches).
+    fn fetch<const N: usize>(
+        &self,
+        p: DVec3,
+        value: impl Fn(T) -> [f64; N],
+        interpolation: Interpolation,
+    ) -> [f64; N] {
+        match interpolation {
+            Interpolation::Trilinear => self.sample(p, value),
+            Interpolation::Nearest => {
+                let r = (p + DVec3::splat(0.5)).floor();
+                self.at(r.x as i64, r.y as i64, r.z as i64, &value)
+            }
+            Interpolation::Tricubic => {
+                let base = p.floor();
+                let t = p - base;
+                let weights = |t: f64| {
+                    let (t2, t3) = (t * t, t * t * t);
+                    [
+                        (1.0 - 3.0 * t + 3.0 * t2 - t3) / 6.0,
+                        (4.0 - 6.0 * t2 + 3.0 * t3) / 6.0,
+                        (1.0 + 3.0 * t + 3.0 * t2 - 3.0 * t3) / 6.0,
+                        t3 / 6.0,
+                    ]
+                };
+                let (wx, wy, wz) = (weights(t.x), weights(t.y), weights(t.z));
+                let (bx, by, bz) = (base.x as i64, base.y as i64, base.z as i64);
+                let mut acc = [0.0; N];
+                for (dz, wz) in wz.iter().enumerate() {
+                    for (dy, wy) in wy.iter().enumerate() {
+                        for (dx, wx) in wx.iter().enumerate() {
+                            let v = self.at(
+                                bx + dx as i64 - 1,
+                                by + dy as i64 - 1,
+                                bz + dz as i64 - 1,
+                                &value,
+                            );
+                            let w = wx * wy * wz;
+                            for c in 0..N {
+                                acc[c] += w * v[c];
+                            }
+                        }
+                    }
+                }
+                acc
+            }
+        }
+    }
+}
+
+/// A fetch of I_norm at `p` with `interpolation` (see the shader's `sampling.glsl`).
+pub fn fetch(volume: &ReferenceVolume<'_>, p: DVec3, interpolation: Interpolation) -> f64 {
+    Grid {
+        dims: volume.dims,
+        data: volume.norm,
+    }
+    .fetch(p, |v: f64| [v], interpolation)[0]
+}
+
 /// Trilinear, clamp-to-edge sample of I_norm at index-space position `p` (voxel centres at
 /// integers), exactly what `textureLod(volume, (p + 0.5) / dims, 0)` computes with a `LINEAR`,
 /// `CLAMP_TO_EDGE` sampler, with exact weights.
@@ -334,7 +415,16 @@ pub fn gradient_on_the_fly(
     gradient_to_world: DMat3,
     p: DVec3,
 ) -> DVec3 {
-    let s = |o: DVec3| trilinear(volume, p + o);
+    gradient_central_with(&|q: DVec3| trilinear(volume, q), gradient_to_world, p)
+}
+
+/// World gradient from central differences of `sample` one voxel apart.
+fn gradient_central_with(
+    sample: &impl Fn(DVec3) -> f64,
+    gradient_to_world: DMat3,
+    p: DVec3,
+) -> DVec3 {
+    let s = |o: DVec3| sample(p + o);
     let g = DVec3::new(
         0.5 * (s(DVec3::X) - s(-DVec3::X)),
         0.5 * (s(DVec3::Y) - s(-DVec3::Y)),
@@ -343,11 +433,33 @@ pub fn gradient_on_the_fly(
     gradient_to_world * g
 }
 
-/// Directional curvature `k = v^T H_idx v`, `v = M^T g_world / |g_world|`, at index position
-/// `p` from the 19-tap stencil of `curvature_on_the_fly` (`center` is the sample at `p`); 0 where
-/// `|g_world| <= tau`.
-pub fn curvature_on_the_fly(
-    volume: &ReferenceVolume<'_>,
+/// World gradient from the smoothed (Sobel-like) difference of `gradients.glsl`'s
+/// `gradient_sobel`: the central difference along each axis averaged over the four positions at
+/// +-0.5 voxel across it.
+fn gradient_sobel_with(
+    sample: &impl Fn(DVec3) -> f64,
+    gradient_to_world: DMat3,
+    p: DVec3,
+) -> DVec3 {
+    let mut g = [0.0; 3];
+    for (a, ga) in g.iter_mut().enumerate() {
+        let (b, c) = ((a + 1) % 3, (a + 2) % 3);
+        for s in 0..4 {
+            let mut o = [0.0; 3];
+            o[b] = if s & 1 == 0 { -0.5 } else { 0.5 };
+            o[c] = if s & 2 == 0 { -0.5 } else { 0.5 };
+            let mut e = [0.0; 3];
+            e[a] = 1.0;
+            let (o, e) = (DVec3::from_array(o), DVec3::from_array(e));
+            *ga += sample(p + o + e) - sample(p + o - e);
+        }
+    }
+    gradient_to_world * (DVec3::from_array(g) * 0.125)
+}
+
+/// `curvature_on_the_fly` with any sampling function.
+fn curvature_with(
+    sample: &impl Fn(DVec3) -> f64,
     gradient_to_world: DMat3,
     tau: f64,
     p: DVec3,
@@ -358,7 +470,7 @@ pub fn curvature_on_the_fly(
     if m <= tau {
         return 0.0;
     }
-    let s = |x: f64, y: f64, z: f64| trilinear(volume, p + DVec3::new(x, y, z));
+    let s = |x: f64, y: f64, z: f64| sample(p + DVec3::new(x, y, z));
     let hxx = s(1.0, 0.0, 0.0) - 2.0 * center + s(-1.0, 0.0, 0.0);
     let hyy = s(0.0, 1.0, 0.0) - 2.0 * center + s(0.0, -1.0, 0.0);
     let hzz = s(0.0, 0.0, 1.0) - 2.0 * center + s(0.0, 0.0, -1.0);
@@ -375,6 +487,34 @@ pub fn curvature_on_the_fly(
     );
     let v = gradient_to_world.transpose() * (g_world / m);
     v.dot(h * v)
+}
+
+/// The naive opacity correction `1 - (1 - a)^r` evaluated in f32 like the shader's
+/// `opacity_correct_naive` (its defect is f32 cancellation, so the twin keeps f32).
+pub fn opacity_correct_naive(a: f64, r: f64) -> f64 {
+    let a = (a as f32).clamp(0.0, 1.0);
+    f64::from(1.0f32 - (1.0f32 - a).powf(r as f32))
+}
+
+/// Directional curvature `k = v^T H_idx v`, `v = M^T g_world / |g_world|`, at index position
+/// `p` from the 19-tap stencil of `curvature_on_the_fly` (`center` is the sample at `p`); 0 where
+/// `|g_world| <= tau`.
+pub fn curvature_on_the_fly(
+    volume: &ReferenceVolume<'_>,
+    gradient_to_world: DMat3,
+    tau: f64,
+    p: DVec3,
+    center: f64,
+    g_world: DVec3,
+) -> f64 {
+    curvature_with(
+        &|q: DVec3| trilinear(volume, q),
+        gradient_to_world,
+        tau,
+        p,
+        center,
+        g_world,
+    )
 }
 
 /// `Scene::step_voxels` as the raymarch uses it (`Scene::sanitized_step_voxels`, the rule the
@@ -458,8 +598,12 @@ pub struct ReferenceRaymarch<'a> {
     classification: Classification,
     mode: RenderMode,
     curvature_on: bool,
+    curvature_mode: CurvatureMode,
     shading: bool,
     on_the_fly: bool,
+    gradient_filter: GradientFilter,
+    interpolation: Interpolation,
+    naive_opacity: bool,
     opacity_exponent: f64,
     step_mm: f64,
     early_termination: f64,
@@ -550,7 +694,8 @@ impl<'a> ReferenceRaymarch<'a> {
         let effects = scene.effects;
         let dvr = effects.mode == RenderMode::Dvr;
         // Specialization constants: curvature and shading exist only in the DVR variant.
-        let curvature_on = dvr && effects.curvature;
+        let curvature_mode = effects.curvature_mode();
+        let curvature_on = curvature_mode != CurvatureMode::Off;
         let shading = dvr && effects.shading;
         let on_the_fly = effects.gradient_source == GradientSource::OnTheFly;
         if dvr && !on_the_fly {
@@ -558,7 +703,7 @@ impl<'a> ReferenceRaymarch<'a> {
             if gradient_magnitude.is_none() {
                 return missing("gradient magnitude");
             }
-            if curvature_on && curvature.is_none() {
+            if curvature_mode == CurvatureMode::Stored && curvature.is_none() {
                 return missing("curvature");
             }
             if shading && normals.is_none() {
@@ -619,8 +764,12 @@ impl<'a> ReferenceRaymarch<'a> {
             classification,
             mode: effects.mode,
             curvature_on,
+            curvature_mode,
             shading,
             on_the_fly,
+            gradient_filter: effects.quality.gradient_filter,
+            interpolation: effects.quality.interpolation,
+            naive_opacity: dvr && effects.quality.opacity_correction == OpacityCorrection::Naive,
             opacity_exponent: scene.opacity_exponent(voxel_mm),
             step_mm: step_voxels * voxel_mm,
             early_termination,
@@ -731,45 +880,59 @@ impl<'a> ReferenceRaymarch<'a> {
         ]
     }
 
+    /// I_norm at `p` with the scene's interpolation.
+    fn value(&self, p: DVec3) -> f64 {
+        fetch(&self.volume, p, self.interpolation)
+    }
+
     /// |g|, k and the shading normal at `p` (k and the normal are 0 when their effect is off).
     fn derivatives(&self, p: DVec3, v: f64) -> (f64, f64, DVec3) {
         let m = self.geometry.gradient_to_world;
-        if self.on_the_fly {
-            let g = gradient_on_the_fly(&self.volume, m, p);
-            let magnitude = g.length();
-            let k = if self.curvature_on {
-                curvature_on_the_fly(&self.volume, m, self.tau, p, v, g)
-            } else {
-                0.0
+        let sample = |q: DVec3| self.value(q);
+        let (magnitude, mut normal, central) = if self.on_the_fly {
+            let g = match self.gradient_filter {
+                GradientFilter::Central => gradient_central_with(&sample, m, p),
+                GradientFilter::Sobel => gradient_sobel_with(&sample, m, p),
             };
-            let normal = if self.shading && magnitude > self.tau {
+            let magnitude = g.length();
+            let normal = if magnitude > self.tau {
                 g / magnitude
             } else {
                 DVec3::ZERO
             };
-            (magnitude, k, normal)
+            let central = (self.gradient_filter == GradientFilter::Central).then_some(g);
+            (magnitude, normal, central)
         } else {
-            let scalar =
-                |grid: Option<Grid<'_, f64>>| grid.map_or(0.0, |g| g.sample(p, |v| [v])[0]);
-            let magnitude = scalar(self.gradient_magnitude);
-            let k = if self.curvature_on {
-                scalar(self.curvature)
-            } else {
-                0.0
+            let scalar = |grid: Option<Grid<'_, f64>>| {
+                grid.map_or(0.0, |g| g.fetch(p, |v| [v], self.interpolation)[0])
             };
             let normal = match self.normals {
-                Some(grid) if self.shading => DVec3::from_array(grid.sample(p, |n| n)),
-                _ => DVec3::ZERO,
+                Some(grid) => DVec3::from_array(grid.fetch(p, |n| n, self.interpolation)),
+                None => DVec3::ZERO,
             };
-            (magnitude, k, normal)
+            (scalar(self.gradient_magnitude), normal, None)
+        };
+        let k = match self.curvature_mode {
+            CurvatureMode::Off => 0.0,
+            CurvatureMode::Stored => self
+                .curvature
+                .map_or(0.0, |g| g.fetch(p, |v| [v], self.interpolation)[0]),
+            CurvatureMode::OnTheFly => {
+                let g = central.unwrap_or_else(|| gradient_central_with(&sample, m, p));
+                curvature_with(&sample, m, self.tau, p, v, g)
+            }
+        };
+        if !self.shading {
+            normal = DVec3::ZERO;
         }
+        (magnitude, k, normal)
     }
 
     /// The DVR terms of one sample at index position `p` seen along the unit world direction
     /// `view_direction`, or None where the shader skips it (`f(v) <= 0`). For finding out why a
     /// GPU pixel differs: every intermediate of the shader's loop body.
     pub fn dvr_sample(&self, p: DVec3, view_direction: DVec3) -> Option<DvrSample> {
-        let value = trilinear(&self.volume, p);
+        let value = self.value(p);
         let (f, colour) = self.classification.classify(value);
         if f <= 0.0 {
             return None;
@@ -780,7 +943,11 @@ impl<'a> ReferenceRaymarch<'a> {
             opacity = (opacity * curvature_weight(curvature, self.curvature_strength, self.k_ref))
                 .min(1.0);
         }
-        let corrected = opacity_correct(opacity, self.opacity_exponent);
+        let corrected = if self.naive_opacity {
+            opacity_correct_naive(opacity, self.opacity_exponent)
+        } else {
+            opacity_correct(opacity, self.opacity_exponent)
+        };
         let shaded = if self.shading {
             shade(colour, normal, view_direction)
         } else {
@@ -819,7 +986,7 @@ impl<'a> ReferenceRaymarch<'a> {
         let mut found = false;
         let mut extreme: f64 = if mip { 0.0 } else { 1.0 };
         for i in 0..plan.count {
-            let v = trilinear(&self.volume, plan.position(i));
+            let v = self.value(plan.position(i));
             if mip {
                 extreme = extreme.max(v);
                 found = true;
@@ -1122,6 +1289,7 @@ mod tests {
             curvature: true,
             shading: true,
             gradient_source: GradientSource::Precomputed,
+            quality: Default::default(),
         };
         assert!(run(&scene, &none).is_ok());
         // A given derived volume is validated even when unused.

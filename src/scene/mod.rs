@@ -8,6 +8,7 @@
 pub mod camera;
 pub mod classification;
 pub mod geometry;
+pub mod occupancy;
 pub mod uniforms;
 
 pub use camera::{Camera, Projection};
@@ -40,6 +41,92 @@ pub enum GradientSource {
     OnTheFly,
 }
 
+/// How volumes are interpolated at sample positions.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Interpolation {
+    /// The nearest voxel.
+    Nearest,
+    /// Trilinear (hardware filtering).
+    Trilinear,
+    /// Cubic B-spline from 8 trilinear fetches (smooths: an approximating filter).
+    Tricubic,
+}
+
+/// The finite-difference filter of on-the-fly gradients.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum GradientFilter {
+    /// Central differences (6 fetches).
+    Central,
+    /// Central differences smoothed across each axis (Sobel-like, 24 fetches).
+    Sobel,
+}
+
+/// Where the curvature term comes from when curvature weighting is on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CurvatureSource {
+    /// Stored by the derivative pass (needs precomputed gradients).
+    Stored,
+    /// Computed per sample from 19 I_norm fetches.
+    OnTheFly,
+}
+
+/// Precision of stored derived volumes (gradient magnitude and curvature).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DerivedPrecision {
+    /// 32-bit float (R32F / RG32F).
+    F32,
+    /// 16-bit float (R16F / RG16F), the default.
+    #[default]
+    F16,
+    /// 8-bit signed normalized, scaled by the volume's maximum (R8 / RG8 SNORM).
+    Snorm8,
+}
+
+/// How opacity is corrected for the step length.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum OpacityCorrection {
+    /// `-expm1(r * log1p(-a))`, accurate for tiny opacities.
+    Exact,
+    /// `1 - (1 - a)^r` in f32 (loses tiny opacities; for the accuracy study).
+    Naive,
+}
+
+/// The quality knobs: what accuracy costs in time (the accuracy study varies each).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+pub struct Quality {
+    /// Interpolation of every volume fetch.
+    pub interpolation: Interpolation,
+    /// Filter of on-the-fly gradients.
+    pub gradient_filter: GradientFilter,
+    /// Stored or on-the-fly curvature.
+    pub curvature_source: CurvatureSource,
+    /// Precision of stored derived volumes.
+    pub derived_precision: DerivedPrecision,
+    /// Opacity correction formula.
+    pub opacity_correction: OpacityCorrection,
+    /// Skip 8^3 bricks in which no visible tissue can have opacity (lossless).
+    pub empty_space_skipping: bool,
+}
+
+impl Default for Quality {
+    /// Trilinear, central differences, stored curvature in f16, exact correction, skipping on.
+    fn default() -> Self {
+        Quality {
+            interpolation: Interpolation::Trilinear,
+            gradient_filter: GradientFilter::Central,
+            curvature_source: CurvatureSource::Stored,
+            derived_precision: DerivedPrecision::F16,
+            opacity_correction: OpacityCorrection::Exact,
+            empty_space_skipping: true,
+        }
+    }
+}
+
 /// The parts of a scene that select shader variants and derived volumes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
 pub struct Effects {
@@ -51,6 +138,8 @@ pub struct Effects {
     pub shading: bool,
     /// Precomputed or on-the-fly derivatives.
     pub gradient_source: GradientSource,
+    /// Quality knobs.
+    pub quality: Quality,
 }
 
 impl Effects {
@@ -64,10 +153,36 @@ impl Effects {
         let stored = self.gradient_source == GradientSource::Precomputed;
         Some(crate::passes::derivatives::DerivativeOutputs {
             magnitude: stored,
-            curvature: stored && self.curvature,
+            curvature: stored && self.curvature_mode() == CurvatureMode::Stored,
             normal: stored && self.shading,
+            precision: self.quality.derived_precision,
         })
     }
+
+    /// Where the raymarch gets k from (or nothing): stored only with precomputed gradients.
+    pub fn curvature_mode(&self) -> CurvatureMode {
+        if !self.curvature || self.mode != RenderMode::Dvr {
+            CurvatureMode::Off
+        } else if self.gradient_source == GradientSource::OnTheFly
+            || self.quality.curvature_source == CurvatureSource::OnTheFly
+        {
+            CurvatureMode::OnTheFly
+        } else {
+            CurvatureMode::Stored
+        }
+    }
+}
+
+/// The curvature term as the raymarch computes it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CurvatureMode {
+    /// No curvature weight.
+    Off,
+    /// k read from the stored derived volume.
+    Stored,
+    /// k computed per sample.
+    OnTheFly,
 }
 
 impl Default for Effects {
@@ -77,6 +192,7 @@ impl Default for Effects {
             curvature: false,
             shading: false,
             gradient_source: GradientSource::Precomputed,
+            quality: Quality::default(),
         }
     }
 }

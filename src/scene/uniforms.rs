@@ -46,6 +46,25 @@ pub struct RaymarchUniforms {
     pub gradient_to_world: [[f32; 4]; 3],
     /// x = width, y = height, z = jitter seed (frame), w = maximum steps per ray.
     pub image: [u32; 4],
+    /// x multiplies stored |g| back to per mm, y stored k to per mm^2 (8-bit storage is scaled).
+    pub derived_scale: [f32; 4],
+    /// xyz = brick grid of the occupancy bits, w = brick side in voxels.
+    pub bricks: [u32; 4],
+}
+
+/// Inputs of the uniform block besides the scene.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrameInputs {
+    /// max |g| and tau of the derived volumes.
+    pub gradients: GradientStats,
+    /// How the stored derived values were scaled (|g| * s[0], k * s[1]).
+    pub store_scale: [f32; 2],
+    /// Brick grid and side of the occupancy bits.
+    pub bricks: [u32; 4],
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
 }
 
 /// Gradient statistics of the volume the raymarch needs (from the derivative pass).
@@ -70,15 +89,9 @@ fn vec4(v: glam::DVec3, w: f64) -> [f32; 4] {
 }
 
 impl RaymarchUniforms {
-    /// Builds the block for `scene` on a volume with `geometry` and `gradients`, for an image
-    /// of `width` x `height`.
-    pub fn new(
-        scene: &Scene,
-        geometry: &VolumeGeometry,
-        gradients: &GradientStats,
-        width: u32,
-        height: u32,
-    ) -> Self {
+    /// Builds the block for `scene` on a volume with `geometry`.
+    pub fn new(scene: &Scene, geometry: &VolumeGeometry, frame: &FrameInputs) -> Self {
+        let (gradients, width, height) = (&frame.gradients, frame.width, frame.height);
         let rays: CameraRays = scene.camera.rays(geometry.world_bounds(), width, height);
         let step_voxels = scene.sanitized_step_voxels();
         let step_mm = step_voxels * geometry.voxel_mm;
@@ -155,6 +168,13 @@ impl RaymarchUniforms {
                 vec4(m.col(2), 0.0),
             ],
             image: [width, height, scene.frame, MAX_STEPS],
+            derived_scale: [
+                1.0 / frame.store_scale[0].max(f32::MIN_POSITIVE),
+                1.0 / frame.store_scale[1].max(f32::MIN_POSITIVE),
+                0.0,
+                0.0,
+            ],
+            bricks: frame.bricks,
         }
     }
 }

@@ -2,9 +2,10 @@
 //! size and specialization constants, through spirq (a reflection library made for this job).
 //!
 //! Decision: reflect the SPIR-V, not the sources, so WGSL (naga) and GLSL (glslang) modules are
-//! described by one code path and the table matches exactly what the driver will see. Only
-//! resources an entry point statically uses are listed (`ref_all_rscs(false)`): that is what its
-//! pipeline layout must cover.
+//! described by one code path and the table matches exactly what the driver will see. Every
+//! declared resource is listed (`ref_all_rscs(true)`): spirq's "statically used" analysis misses
+//! samplers passed to functions as arguments (shaders/include/sampling.glsl does that), and a
+//! layout entry a shader does not use is valid Vulkan, while a missing one is not.
 
 use crate::CompiledShader;
 use spirq::prelude::*;
@@ -60,7 +61,7 @@ pub struct ReflectedEntry {
 pub fn reflect(shader: &CompiledShader) -> Result<ReflectedEntry, String> {
     let entries = ReflectConfig::new()
         .spv(shader.words.as_slice())
-        .ref_all_rscs(false)
+        .ref_all_rscs(true)
         .combine_img_samplers(true)
         .gen_unique_names(false)
         .reflect()

@@ -1,0 +1,63 @@
+//! Brick ranges of a prepared volume, computed once on the GPU and kept with the volume.
+
+use super::Engine;
+use super::prepare::PreparedVolume;
+use crate::gpu::{Access, Buffer, BufferDesc, GpuResult, Recording};
+use crate::passes::occupancy::{BRICK_SIDE, OccupancyPass, brick_grid};
+use crate::scene::occupancy::BrickRanges;
+use std::sync::Arc;
+
+impl Engine {
+    /// The per-brick I_norm ranges of `prepared` (one GPU pass the first time, cached after).
+    pub fn brick_ranges(&mut self, prepared: &PreparedVolume) -> GpuResult<Arc<BrickRanges>> {
+        if let Some(r) = prepared.brick_ranges.get() {
+            return Ok(r.clone());
+        }
+        if self.occupancy_pass.is_none() {
+            self.occupancy_pass = Some(OccupancyPass::new(&self.device, self.pipeline_cache)?);
+        }
+        let Some(pass) = &self.occupancy_pass else {
+            return Err(crate::gpu::GpuError::InvalidRequest(
+                "occupancy pass missing".into(),
+            ));
+        };
+        let grid = brick_grid(prepared.dims);
+        let bricks = (grid[0] * grid[1] * grid[2]) as u64;
+        let gpu = Buffer::new(
+            &self.device,
+            BufferDesc::gpu_storage("brick ranges", 8 * bricks),
+        )?;
+        let host = Buffer::new(
+            &self.device,
+            BufferDesc::readback("brick ranges (host)", 8 * bricks),
+        )?;
+        let mut rec = Recording::new(&self.device, "brick ranges")?;
+        rec.begin_pass("occupancy");
+        pass.record(&mut rec, &prepared.normalized, &self.nearest, &gpu)?;
+        rec.end_pass();
+        // Orders the range writes before the copy, and the copy before the host reads it.
+        rec.barriers(
+            &[(&gpu, Access::ComputeWriteBuffer, Access::TransferRead)],
+            &[],
+        );
+        rec.copy_buffer(&gpu, &host, 8 * bricks);
+        rec.barriers(&[(&host, Access::TransferWrite, Access::HostRead)], &[]);
+        rec.submit()?.wait()?;
+        let mut bytes = vec![0u8; 8 * bricks as usize];
+        host.read(0, &mut bytes)?;
+        let ranges = bytes
+            .chunks_exact(8)
+            .map(|c| {
+                let lo = f32::from_bits(u32::from_le_bytes([c[0], c[1], c[2], c[3]]));
+                let hi = f32::from_bits(u32::from_le_bytes([c[4], c[5], c[6], c[7]]));
+                (lo, hi)
+            })
+            .collect();
+        let ranges = Arc::new(BrickRanges {
+            grid,
+            side: BRICK_SIDE,
+            ranges,
+        });
+        Ok(prepared.brick_ranges.get_or_init(|| ranges).clone())
+    }
+}
