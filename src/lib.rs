@@ -28,4 +28,5 @@ pub mod gpu;
 pub mod passes;
 pub mod reference;
 pub mod scene;
+pub mod study;
 pub mod volume;

@@ -308,3 +308,64 @@ fn a_tiny_bench_reports_every_pass_as_json() {
     );
     assert_eq!(v["image"], serde_json::json!([16, 12]));
 }
+
+#[test]
+fn a_tiny_accuracy_study_reports_every_knob_with_a_frontier() {
+    let phantom = generate(&PhantomSpec::cube(24)).unwrap();
+    let input = temp("accuracy24.nii.gz");
+    write_nifti1(&phantom.volume, &input, true).unwrap();
+    let json = temp("accuracy.json");
+    let svg = temp("accuracy.svg");
+    let o = morphray(&[
+        "accuracy",
+        input.to_str().unwrap(),
+        "--size",
+        "16x16",
+        "--views",
+        "1",
+        "--frames",
+        "2",
+        "--json",
+        json.to_str().unwrap(),
+        "--plot",
+        svg.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    let settings = v["settings"].as_array().unwrap();
+    let knobs: std::collections::BTreeSet<&str> = settings
+        .iter()
+        .map(|s| s["knob"].as_str().unwrap())
+        .collect();
+    for knob in [
+        "step",
+        "interpolation",
+        "gradient",
+        "curvature",
+        "opacity correction",
+        "early termination",
+        "empty-space skipping",
+        "storage format",
+    ] {
+        assert!(knobs.contains(knob), "knob {knob} missing: {knobs:?}");
+    }
+    let measured: Vec<&serde_json::Value> =
+        settings.iter().filter(|s| s["skipped"].is_null()).collect();
+    assert!(measured.len() >= 18, "most settings run on this device");
+    for s in &measured {
+        assert!(
+            s["gpu_ms"].as_f64().unwrap() > 0.0 && s["error"]["rmse"].as_f64().unwrap().is_finite(),
+            "{s}"
+        );
+    }
+    // A finer step is closer to the f64 reference (which itself samples at 0.125).
+    let rmse = |name: &str| {
+        settings.iter().find(|s| s["name"] == name).unwrap()["error"]["rmse"]
+            .as_f64()
+            .unwrap()
+    };
+    assert!(rmse("step 0.125") < rmse("default") && rmse("default") < rmse("step 2"));
+    assert!(settings.iter().any(|s| s["frontier"] == true));
+    let plot = std::fs::read_to_string(&svg).unwrap();
+    assert!(plot.starts_with("<svg") && plot.contains("Pareto frontier"));
+}

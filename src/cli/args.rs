@@ -34,11 +34,16 @@ pub enum Command {
     Peaks(PeaksArgs),
     /// Render a volume to a PNG (with provenance), or a turntable of PNGs.
     Render(RenderArgs),
+    /// What accuracy costs in time: every quality knob against the f64 reference, with the
+    /// Pareto frontier, an SVG plot and recommended defaults.
+    Accuracy(AccuracyArgs),
     /// Measure: per-pass GPU times with bytes moved and bandwidth, raymarch frame times and
     /// samples over an orbit, a projection onto an Intel Xe-LP; JSON for tools.
     Bench(BenchArgs),
     /// List the Vulkan devices and why any of them cannot run morphray.
     Devices,
+    /// Write the built-in digital phantom as a NIfTI-1 file (.nii or .nii.gz).
+    Phantom(PhantomArgs),
 }
 
 /// Options of `info`.
@@ -195,6 +200,57 @@ pub struct RenderArgs {
     #[arg(long, default_value_t = 0)]
     pub frame: usize,
     /// Scene.
+    #[command(flatten)]
+    pub scene: SceneArgs,
+}
+
+/// Options of `phantom`.
+#[derive(Debug, Args)]
+pub struct PhantomArgs {
+    /// Output file; gzip-compressed when the name ends in .gz.
+    #[arg(short, long, value_name = "NII")]
+    pub output: PathBuf,
+    /// Dimensions X x Y x Z at 1 mm (the paper's cohort-A size by default).
+    #[arg(long, default_value = "256x256x192", value_parser = parse_dims)]
+    pub dims: [usize; 3],
+}
+
+fn parse_dims(text: &str) -> Result<[usize; 3], String> {
+    let parts: Vec<_> = text
+        .split(['x', 'X'])
+        .map(|p| p.trim().parse::<usize>())
+        .collect();
+    match parts.as_slice() {
+        [Ok(x), Ok(y), Ok(z)] if [*x, *y, *z].iter().all(|&d| (4..=2048).contains(&d)) => {
+            Ok([*x, *y, *z])
+        }
+        _ => Err(format!(
+            "`{text}` is not XxYxZ with each side from 4 to 2048"
+        )),
+    }
+}
+
+/// Options of `accuracy`.
+#[derive(Debug, Args)]
+pub struct AccuracyArgs {
+    /// NIfTI-1/2 file; without one, the built-in digital phantom.
+    pub file: Option<PathBuf>,
+    /// Frames per view for the GPU time median.
+    #[arg(long, default_value_t = 5)]
+    pub frames: u32,
+    /// Number of fixed views (1 to 3).
+    #[arg(long, default_value_t = 3)]
+    pub views: usize,
+    /// Write the full report as JSON to this file.
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
+    /// Write an SVG plot of error vs time with the Pareto frontier.
+    #[arg(long, value_name = "SVG")]
+    pub plot: Option<PathBuf>,
+    /// Frame of a 4-D file (0-based).
+    #[arg(long, default_value_t = 0)]
+    pub frame: usize,
+    /// Base scene (its defaults are the render defaults; --size defaults to 256x256).
     #[command(flatten)]
     pub scene: SceneArgs,
 }

@@ -4,6 +4,7 @@
 //! line on stderr (`morphray: ...`) and exits with status 1 (clap's usage errors exit with 2).
 //! A panic, which would be a bug, is also reported as one line.
 
+mod accuracy;
 pub mod args;
 mod bench;
 mod devices;
@@ -57,6 +58,24 @@ pub fn run(cli: &Cli) -> Result<(), Error> {
         Command::Peaks(args) => peaks::run(args, device, cli.validation),
         Command::Render(args) => render::run(args, device, cli.validation),
         Command::Bench(args) => bench::run(args, device, cli.validation),
+        Command::Accuracy(args) => accuracy::run(args, device, cli.validation),
         Command::Devices => devices::run(),
+        Command::Phantom(args) => {
+            let spec = crate::volume::phantom::PhantomSpec {
+                dims: args.dims,
+                ..crate::volume::phantom::PhantomSpec::cohort_a()
+            };
+            let phantom = crate::volume::phantom::generate(&spec)?;
+            let gzip = args.output.extension().is_some_and(|e| e == "gz");
+            crate::volume::nifti::write_nifti1(&phantom.volume, &args.output, gzip)?;
+            output::print_line(&format!(
+                "wrote {} ({}x{}x{}, int16, 1 mm)",
+                args.output.display(),
+                args.dims[0],
+                args.dims[1],
+                args.dims[2]
+            ));
+            Ok(())
+        }
     }
 }

@@ -149,6 +149,26 @@ impl Engine {
         &self.device
     }
 
+    /// The format the next `prepare` stores I_norm in.
+    pub fn normalized_format(&self) -> vk::Format {
+        self.config.normalized_format
+    }
+
+    /// Chooses the format of I_norm for the next `prepare` (R8_UNORM, R16_UNORM, R16_SFLOAT or
+    /// R32_SFLOAT); a format the device cannot sample, filter and store is refused.
+    pub fn set_normalized_format(&mut self, format: vk::Format) -> GpuResult<()> {
+        let needed = vk::FormatFeatureFlags::SAMPLED_IMAGE
+            | vk::FormatFeatureFlags::STORAGE_IMAGE
+            | vk::FormatFeatureFlags::SAMPLED_IMAGE_FILTER_LINEAR;
+        if !self.device.supports_format(format, needed) {
+            return Err(crate::gpu::GpuError::Unsupported(format!(
+                "{format:?} 3D images cannot be sampled, filtered and stored on this device"
+            )));
+        }
+        self.config.normalized_format = format;
+        Ok(())
+    }
+
     fn kind_passes(&mut self, kind: SampleKind) -> GpuResult<&KindPasses> {
         if !self.kind_passes.contains_key(&kind) {
             let passes = KindPasses {

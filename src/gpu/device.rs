@@ -141,6 +141,18 @@ impl Device {
         self.shared.physical
     }
 
+    /// True when `format` has all of `features` for optimally tiled images on this device.
+    pub fn supports_format(&self, format: vk::Format, features: vk::FormatFeatureFlags) -> bool {
+        // SAFETY: a query on the physical device this device was created from.
+        let props = unsafe {
+            self.shared
+                .instance
+                .raw
+                .get_physical_device_format_properties(self.shared.physical, format)
+        };
+        props.optimal_tiling_features.contains(features)
+    }
+
     /// The raw ash device, for integrators.
     pub fn raw(&self) -> &ash::Device {
         &self.shared.raw

@@ -44,7 +44,6 @@ pub struct DerivativeOutputs {
     pub precision: DerivedPrecision,
 }
 
-
 /// Push constants of `derivatives.comp`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]

@@ -1,0 +1,671 @@
+//! `morphray accuracy`: what accuracy costs in time. Every quality knob is rendered on a fixed
+//! set of views and compared with the f64 CPU reference; each setting gets its GPU time per frame
+//! and its error, the Pareto frontier is marked, and defaults are recommended per device class.
+//!
+//! Method:
+//! - Truth is the f64 pipeline end to end: I_norm from the normalization twin, derivatives from
+//!   the derivative twin, the reference raymarcher at a step of 0.125 voxel with trilinear
+//!   sampling, exact opacity correction and no early termination. One reference image per view
+//!   and scene definition (curvature off, and on), computed once and reused by every setting.
+//! - Each setting changes one knob from the render/view default; the curvature knobs are compared
+//!   with the curvature-on reference, everything else with the curvature-off one, and the
+//!   frontier is computed within each of the two groups, counting differences below the
+//!   measurement resolution (5 % in time, 1 % in error) as ties.
+//! - Time is the median GPU raymarch time (timestamps) over `--frames` rounds of every view,
+//!   after two warm-up frames (lavapipe compiles a pipeline at its first dispatch); each round
+//!   renders every setting once, so load from other processes falls on all settings alike; jitter
+//!   advances per round like real rendering; the error is measured on frame 0, whose
+//!   jitter pattern the reference shares. Precomputation (derived volumes) is reported apart.
+//! - Interpolation other than trilinear is compared with the trilinear reference: for the cubic
+//!   B-spline the error includes its intended smoothing.
+//! - Devices measured are one class each; the integrated class is projected from the counted
+//!   samples onto an Intel Xe-LP (passes/cost.rs), labelled as a model.
+
+use super::args::AccuracyArgs;
+use super::output::{json, print_line};
+use super::render::scene_from_args;
+use super::session::{self, engine_config};
+use crate::error::Error;
+use crate::passes::cost::XE_LP;
+use crate::passes::raymarch::RaymarchVariant;
+use crate::reference::derivatives::{DEFAULT_TAU, IndexToWorld, voxel_derivatives};
+use crate::reference::raymarch::{ReferenceDerived, ReferenceRaymarch, ReferenceVolume};
+use crate::scene::uniforms::GradientStats;
+use crate::scene::{
+    CurvatureSource, DerivedPrecision, GradientFilter, GradientSource, Interpolation,
+    OpacityCorrection, Scene, VolumeGeometry,
+};
+use crate::study::metrics::{ImageError, compare};
+use crate::study::pareto::frontier_within;
+use crate::study::plot::{PlotPoint, write_svg};
+use ash::vk;
+
+/// The views every setting is rendered from: (azimuth, elevation) in degrees.
+const VIEWS: [(f64, f64); 3] = [(30.0, 20.0), (120.0, -10.0), (250.0, 60.0)];
+
+/// Time differences below 5 % are within the spread of repeated GPU timings (bench's p5..p95 on
+/// the H100 spans about 3 %) and count as ties on the frontier; so do error differences below 1 %.
+const TIME_TOLERANCE: f64 = 0.05;
+/// See [`TIME_TOLERANCE`].
+const ERROR_TOLERANCE: f64 = 0.01;
+
+/// Untimed frames per setting before timing: lavapipe compiles a pipeline at its first dispatch.
+const WARM_UP_FRAMES: u32 = 2;
+
+/// The reference's step in voxels.
+const REFERENCE_STEP: f64 = 0.125;
+
+type Edit = fn(&mut Scene);
+
+/// One knob setting.
+struct Setting {
+    name: &'static str,
+    knob: &'static str,
+    curvature: bool,
+    format: vk::Format,
+    edit: Edit,
+}
+
+fn settings() -> Vec<Setting> {
+    let r16 = vk::Format::R16_UNORM;
+    let s = |name, knob, edit: Edit| Setting {
+        name,
+        knob,
+        curvature: false,
+        format: r16,
+        edit,
+    };
+    let mut v = vec![
+        s("default", "default", |_| {}),
+        s("step 0.125", "step", |x| x.step_voxels = 0.125),
+        s("step 0.25", "step", |x| x.step_voxels = 0.25),
+        s("step 1", "step", |x| x.step_voxels = 1.0),
+        s("step 2", "step", |x| x.step_voxels = 2.0),
+        s("nearest", "interpolation", |x| {
+            x.effects.quality.interpolation = Interpolation::Nearest
+        }),
+        s("tricubic", "interpolation", |x| {
+            x.effects.quality.interpolation = Interpolation::Tricubic
+        }),
+        s("gradient f32", "gradient", |x| {
+            x.effects.quality.derived_precision = DerivedPrecision::F32
+        }),
+        s("gradient 8-bit", "gradient", |x| {
+            x.effects.quality.derived_precision = DerivedPrecision::Snorm8
+        }),
+        s("gradient on the fly", "gradient", |x| {
+            x.effects.gradient_source = GradientSource::OnTheFly
+        }),
+        s("gradient on the fly, Sobel", "gradient", |x| {
+            x.effects.gradient_source = GradientSource::OnTheFly;
+            x.effects.quality.gradient_filter = GradientFilter::Sobel;
+        }),
+        s("naive opacity correction", "opacity correction", |x| {
+            x.effects.quality.opacity_correction = OpacityCorrection::Naive
+        }),
+        s("termination 0.95", "early termination", |x| {
+            x.early_termination = 0.95
+        }),
+        s("termination 0.99", "early termination", |x| {
+            x.early_termination = 0.99
+        }),
+        s("termination off", "early termination", |x| {
+            x.early_termination = 2.0
+        }),
+        s("no empty-space skipping", "empty-space skipping", |x| {
+            x.effects.quality.empty_space_skipping = false
+        }),
+    ];
+    for (name, format) in [
+        ("I_norm R8", vk::Format::R8_UNORM),
+        ("I_norm R16F", vk::Format::R16_SFLOAT),
+        ("I_norm R32F", vk::Format::R32_SFLOAT),
+    ] {
+        v.push(Setting {
+            name,
+            knob: "storage format",
+            curvature: false,
+            format,
+            edit: |_| {},
+        });
+    }
+    let c = |name, edit: Edit| Setting {
+        name,
+        knob: "curvature",
+        curvature: true,
+        format: r16,
+        edit,
+    };
+    v.push(c("curvature stored", |x| x.effects.curvature = true));
+    v.push(c("curvature on the fly", |x| {
+        x.effects.curvature = true;
+        x.effects.quality.curvature_source = CurvatureSource::OnTheFly;
+    }));
+    v.push(c("curvature stored, f32", |x| {
+        x.effects.curvature = true;
+        x.effects.quality.derived_precision = DerivedPrecision::F32;
+    }));
+    v
+}
+
+/// One setting's result.
+#[derive(Clone, Debug, serde::Serialize)]
+struct SettingResult {
+    name: &'static str,
+    knob: &'static str,
+    group: &'static str,
+    gpu_ms: f64,
+    precompute_ms: f64,
+    error: ImageError,
+    samples_per_frame: f64,
+    xe_lp_model_ms: f64,
+    frontier: bool,
+    xe_lp_frontier: bool,
+    default: bool,
+    skipped: Option<String>,
+}
+
+#[derive(serde::Serialize)]
+struct Recommendation {
+    device_class: String,
+    interaction: Option<&'static str>,
+    diagnosis: Option<&'static str>,
+    rule: &'static str,
+}
+
+#[derive(serde::Serialize)]
+struct AccuracyReport<'a> {
+    engine: String,
+    device: String,
+    device_type: &'static str,
+    input: &'a str,
+    dims: [u32; 3],
+    image: [u32; 2],
+    views: Vec<(f64, f64)>,
+    frames: u32,
+    reference: &'static str,
+    settings: Vec<SettingResult>,
+    default_on_frontier: bool,
+    recommendations: Vec<Recommendation>,
+}
+
+/// The f64 derived volumes of the whole pipeline's truth: |g|, k and unit normals per voxel.
+fn reference_derived(
+    norm: &[f64],
+    dims: [usize; 3],
+    to_world: &IndexToWorld,
+) -> (Vec<f64>, Vec<f64>, Vec<[f64; 3]>, f64) {
+    let n = norm.len();
+    let threads = std::thread::available_parallelism()
+        .map(|t| t.get())
+        .unwrap_or(1)
+        .max(1);
+    let slab = n.div_ceil(threads).max(1);
+    let mut magnitude = vec![0.0; n];
+    let mut curvature = vec![0.0; n];
+    let mut normals = vec![[0.0; 3]; n];
+    std::thread::scope(|scope| {
+        for ((m, k), (nrm, start)) in magnitude
+            .chunks_mut(slab)
+            .zip(curvature.chunks_mut(slab))
+            .zip(normals.chunks_mut(slab).zip((0..n).step_by(slab)))
+        {
+            scope.spawn(move || {
+                for i in 0..m.len() {
+                    let index = start + i;
+                    let p = [
+                        index % dims[0],
+                        (index / dims[0]) % dims[1],
+                        index / (dims[0] * dims[1]),
+                    ];
+                    if let Ok(d) = voxel_derivatives(norm, dims, to_world, p, DEFAULT_TAU) {
+                        m[i] = d.gradient_magnitude;
+                        k[i] = d.curvature;
+                        if d.gradient_magnitude > DEFAULT_TAU {
+                            nrm[i] = d.gradient.map(|c| c / d.gradient_magnitude);
+                        }
+                    }
+                }
+            });
+        }
+    });
+    let max = magnitude.iter().cloned().fold(0.0, f64::max);
+    (magnitude, curvature, normals, max)
+}
+
+/// Renders the reference image of one view on every core.
+fn reference_image(r: &ReferenceRaymarch<'_>, width: u32, height: u32) -> Vec<[f64; 4]> {
+    let threads = std::thread::available_parallelism()
+        .map(|t| t.get())
+        .unwrap_or(1)
+        .max(1) as u32;
+    let mut rows: Vec<Vec<[f64; 4]>> = vec![Vec::new(); height as usize];
+    std::thread::scope(|scope| {
+        let chunks: Vec<_> = rows
+            .chunks_mut((height.div_ceil(threads)).max(1) as usize)
+            .collect();
+        let mut first = 0u32;
+        for chunk in chunks {
+            let start = first;
+            first += chunk.len() as u32;
+            scope.spawn(move || {
+                for (i, row) in chunk.iter_mut().enumerate() {
+                    let y = start + i as u32;
+                    *row = (0..width).map(|x| r.pixel(x, y)).collect();
+                }
+            });
+        }
+    });
+    rows.into_iter().flatten().collect()
+}
+
+fn median(values: &mut [f64]) -> f64 {
+    if values.is_empty() {
+        return f64::NAN;
+    }
+    values.sort_by(f64::total_cmp);
+    values[values.len() / 2]
+}
+
+/// Runs the command.
+pub fn run(args: &AccuracyArgs, device: Option<&str>, validation: bool) -> Result<(), Error> {
+    if args.frames == 0 || args.views == 0 || args.views > VIEWS.len() {
+        return Err(Error::Usage(format!(
+            "--frames must be >= 1 and --views 1..={}",
+            VIEWS.len()
+        )));
+    }
+    let mut opened = session::open(
+        args.file.as_deref(),
+        args.frame,
+        false,
+        engine_config(device, validation),
+    )?;
+    let base = scene_from_args(&args.scene, &opened.report)?;
+    let (width, height) = args.scene.size.unwrap_or((256, 256));
+    let views = &VIEWS[..args.views];
+    let volume = opened.source.volume.clone();
+    let dims = opened.prepared.dims;
+    let dims_usize = volume.dims;
+    let geometry = VolumeGeometry::new(dims, volume.orientation.affine)
+        .map_err(|e| Error::Usage(e.to_string()))?;
+    eprintln!(
+        "accuracy: computing the f64 reference (normalization, derivatives, {} views x 2 definitions)",
+        views.len()
+    );
+
+    // Truth: f64 end to end.
+    let (imin, imax) = (opened.report.imin, opened.report.imax);
+    let norm =
+        crate::reference::normalize::normalize(&volume.samples, volume.to_physical, imin, imax);
+    let to_world = IndexToWorld::new(volume.orientation.linear_part())
+        .map_err(|e| Error::Usage(e.to_string()))?;
+    let (magnitude, curvature, normals, gmax) = reference_derived(&norm, dims_usize, &to_world);
+    let ref_volume = ReferenceVolume::new(dims, &norm).map_err(|e| Error::Usage(e.to_string()))?;
+    let ref_derived = ReferenceDerived {
+        gradient_magnitude: Some(&magnitude),
+        curvature: Some(&curvature),
+        normals: Some(&normals),
+    };
+    let stats = GradientStats {
+        max_magnitude: gmax,
+        tau: DEFAULT_TAU,
+    };
+    let mut references: [Vec<Vec<[f64; 4]>>; 2] = [Vec::new(), Vec::new()];
+    for (group, curvature_on) in [(0usize, false), (1, true)] {
+        for &(azimuth, elevation) in views {
+            let mut scene = base;
+            scene.effects.curvature = curvature_on;
+            scene.camera.azimuth_deg = azimuth;
+            scene.camera.elevation_deg = elevation;
+            scene.step_voxels = REFERENCE_STEP;
+            scene.early_termination = 2.0;
+            scene.frame = 0;
+            let r = ReferenceRaymarch::new(
+                &scene,
+                &geometry,
+                &stats,
+                &ref_volume,
+                &ref_derived,
+                width,
+                height,
+            )
+            .map_err(|e| Error::Usage(e.to_string()))?;
+            references[group].push(reference_image(&r, width, height));
+        }
+    }
+
+    // Every setting on the GPU. Phase 1: resources, error on frame 0, sample counts, warm-up.
+    let all = settings();
+    let mut prepared_by_format: Vec<(vk::Format, crate::engine::PreparedVolume)> = Vec::new();
+    struct Live {
+        scene: Scene,
+        format: usize,
+        derived: Option<crate::engine::Derived>,
+        target: crate::engine::RenderTarget,
+        times: Vec<f64>,
+    }
+    let mut live: Vec<Option<Live>> = Vec::new();
+    let mut results = Vec::new();
+    for (index, setting) in all.iter().enumerate() {
+        eprintln!("accuracy: [{}/{}] {}", index + 1, all.len(), setting.name);
+        let group = setting.curvature as usize;
+        let group_name = if setting.curvature {
+            "curvature on"
+        } else {
+            "curvature off"
+        };
+        let mut scene = base;
+        (setting.edit)(&mut scene);
+        let mut result = SettingResult {
+            name: setting.name,
+            knob: setting.knob,
+            group: group_name,
+            gpu_ms: f64::NAN,
+            precompute_ms: f64::NAN,
+            error: ImageError::default(),
+            samples_per_frame: f64::NAN,
+            xe_lp_model_ms: f64::NAN,
+            frontier: false,
+            xe_lp_frontier: false,
+            default: setting.name == "default",
+            skipped: None,
+        };
+        let format = match prepared_by_format
+            .iter()
+            .position(|(f, _)| *f == setting.format)
+        {
+            Some(k) => k,
+            None => {
+                if let Err(e) = opened.engine.set_normalized_format(setting.format) {
+                    result.skipped = Some(e.to_string());
+                    results.push(result);
+                    live.push(None);
+                    continue;
+                }
+                let prepared = opened.engine.prepare(&volume)?;
+                prepared_by_format.push((setting.format, prepared));
+                prepared_by_format.len() - 1
+            }
+        };
+        let prepared = &prepared_by_format[format].1;
+        let derived = match scene.effects.derivative_outputs() {
+            Some(outputs) => Some(opened.engine.derive(prepared, outputs)?),
+            None => None,
+        };
+        result.precompute_ms = derived
+            .as_ref()
+            .map_or(0.0, |d| d.gpu_timings.iter().map(|t| t.gpu_ms).sum());
+        let mut target =
+            opened
+                .engine
+                .render_target(width, height, vk::Format::R32G32B32A32_SFLOAT)?;
+        let (mut sq_sum, mut max_abs, mut ssim, mut samples) = (0.0, 0.0f64, 0.0, Vec::new());
+        for (v, &(azimuth, elevation)) in views.iter().enumerate() {
+            let mut view = scene;
+            view.camera.azimuth_deg = azimuth;
+            view.camera.elevation_deg = elevation;
+            view.frame = 0;
+            target.read_back = true;
+            target.count_samples = false;
+            let frame = opened
+                .engine
+                .render(&mut target, prepared, derived.as_ref(), &view)?;
+            let image: Vec<[f64; 4]> = frame
+                .values
+                .chunks_exact(4)
+                .map(|c| [c[0] as f64, c[1] as f64, c[2] as f64, 1.0])
+                .collect();
+            let e = compare(
+                &image,
+                &references[group][v],
+                width as usize,
+                height as usize,
+            );
+            sq_sum += e.rmse * e.rmse;
+            max_abs = max_abs.max(e.max_abs);
+            ssim += e.ssim;
+            target.read_back = false;
+            target.count_samples = true;
+            let counted = opened
+                .engine
+                .render(&mut target, prepared, derived.as_ref(), &view)?;
+            if let Some(c) = counted.samples {
+                let variant = RaymarchVariant::of(&view.effects, false);
+                let (per_marched, per_classified) = variant.fetches();
+                samples.push((
+                    c.marched as f64,
+                    per_marched * c.marched as f64 + per_classified * c.classified as f64,
+                ));
+            }
+            target.count_samples = false;
+        }
+        for f in 0..WARM_UP_FRAMES {
+            let mut warm = scene;
+            warm.frame = f;
+            opened
+                .engine
+                .render(&mut target, prepared, derived.as_ref(), &warm)?;
+        }
+        let nviews = views.len() as f64;
+        let rmse = (sq_sum / nviews).sqrt();
+        let fetches = samples.iter().map(|s| s.1).sum::<f64>() / samples.len().max(1) as f64;
+        result.error = ImageError {
+            max_abs,
+            rmse,
+            psnr_db: if rmse > 0.0 {
+                (20.0 * (1.0 / rmse).log10()).min(200.0)
+            } else {
+                200.0
+            },
+            ssim: ssim / nviews,
+        };
+        result.samples_per_frame =
+            samples.iter().map(|s| s.0).sum::<f64>() / samples.len().max(1) as f64;
+        result.xe_lp_model_ms = 2.0 * fetches / XE_LP.texel_rate * 1e3;
+        results.push(result);
+        live.push(Some(Live {
+            scene,
+            format,
+            derived,
+            target,
+            times: Vec::new(),
+        }));
+    }
+
+    // Phase 2: timing rounds, every setting once per round, so load spikes from other
+    // processes (this machine is shared) fall on all settings alike.
+    eprintln!("accuracy: timing {} rounds", args.frames);
+    for round in 0..args.frames {
+        for slot in live.iter_mut().flatten() {
+            for &(azimuth, elevation) in views {
+                let mut view = slot.scene;
+                view.camera.azimuth_deg = azimuth;
+                view.camera.elevation_deg = elevation;
+                view.frame = round + 1;
+                let prepared = &prepared_by_format[slot.format].1;
+                let frame = opened.engine.render(
+                    &mut slot.target,
+                    prepared,
+                    slot.derived.as_ref(),
+                    &view,
+                )?;
+                slot.times.extend(
+                    frame
+                        .gpu_timings
+                        .iter()
+                        .filter(|t| t.name == "raymarch")
+                        .map(|t| t.gpu_ms),
+                );
+            }
+        }
+    }
+    for (result, slot) in results.iter_mut().zip(live.iter_mut()) {
+        if let Some(slot) = slot {
+            result.gpu_ms = median(&mut slot.times);
+        }
+    }
+    drop(live);
+    drop(prepared_by_format);
+    if opened.engine.normalized_format() != vk::Format::R16_UNORM {
+        opened.engine.set_normalized_format(vk::Format::R16_UNORM)?;
+    }
+
+    // Frontiers within each group, on measured and on projected time.
+    for group in ["curvature off", "curvature on"] {
+        let members: Vec<usize> = (0..results.len())
+            .filter(|&i| results[i].group == group && results[i].skipped.is_none())
+            .collect();
+        let measured: Vec<(f64, f64)> = members
+            .iter()
+            .map(|&i| (results[i].gpu_ms, results[i].error.rmse))
+            .collect();
+        for j in frontier_within(&measured, TIME_TOLERANCE, ERROR_TOLERANCE) {
+            results[members[j]].frontier = true;
+        }
+        let projected: Vec<(f64, f64)> = members
+            .iter()
+            .map(|&i| (results[i].xe_lp_model_ms, results[i].error.rmse))
+            .collect();
+        for j in frontier_within(&projected, TIME_TOLERANCE, ERROR_TOLERANCE) {
+            results[members[j]].xe_lp_frontier = true;
+        }
+    }
+    let default_on_frontier = results.iter().any(|r| r.default && r.frontier);
+    let adapter = opened.engine.device().adapter().clone();
+    let recommend = |class: String,
+                     on_frontier: &dyn Fn(&SettingResult) -> bool,
+                     time: &dyn Fn(&SettingResult) -> f64| {
+        let candidates: Vec<&SettingResult> = results
+            .iter()
+            .filter(|r| r.group == "curvature off" && on_frontier(r))
+            .collect();
+        let interaction = candidates
+            .iter()
+            .filter(|r| r.error.psnr_db >= 30.0)
+            .min_by(|a, b| time(a).total_cmp(&time(b)))
+            .map(|r| r.name);
+        let diagnosis = candidates
+            .iter()
+            .min_by(|a, b| a.error.rmse.total_cmp(&b.error.rmse))
+            .map(|r| r.name);
+        Recommendation {
+            device_class: class,
+            interaction,
+            diagnosis,
+            rule: "interaction: the fastest frontier setting with PSNR >= 30 dB; diagnosis: the frontier setting with the lowest error",
+        }
+    };
+    let recommendations = vec![
+        recommend(
+            format!("{} ({}), measured", adapter.type_name(), adapter.name),
+            &|r| r.frontier,
+            &|r| r.gpu_ms,
+        ),
+        recommend(
+            "integrated (Intel Xe-LP), model from counted samples".into(),
+            &|r| r.xe_lp_frontier,
+            &|r| r.xe_lp_model_ms,
+        ),
+    ];
+    let report = AccuracyReport {
+        engine: format!("morphray {}", env!("CARGO_PKG_VERSION")),
+        device: adapter.name.clone(),
+        device_type: adapter.type_name(),
+        input: &opened.source.label,
+        dims,
+        image: [width, height],
+        views: views.to_vec(),
+        frames: args.frames,
+        reference: "f64 pipeline: normalization and derivative twins, reference raymarcher at step 0.125, trilinear, exact opacity correction, no early termination",
+        settings: results,
+        default_on_frontier,
+        recommendations,
+    };
+    if let Some(path) = &args.json {
+        std::fs::write(path, json(&report)).map_err(|source| Error::Write {
+            path: path.display().to_string(),
+            source,
+        })?;
+    }
+    if let Some(path) = &args.plot {
+        let points: Vec<PlotPoint> = report
+            .settings
+            .iter()
+            .filter(|r| r.group == "curvature off" && r.skipped.is_none())
+            .map(|r| PlotPoint {
+                label: r.name.to_string(),
+                time_ms: r.gpu_ms,
+                error: r.error.rmse,
+                frontier: r.frontier,
+                default: r.default,
+            })
+            .collect();
+        let title = format!(
+            "morphray accuracy vs time on {} ({}x{}, curvature off)",
+            report.device, width, height
+        );
+        write_svg(path, &title, &points).map_err(|e| Error::Usage(e.to_string()))?;
+    }
+    if validation {
+        session::check_validation(&opened.engine)?;
+    }
+    print_table(&report);
+    Ok(())
+}
+
+fn print_table(r: &AccuracyReport<'_>) {
+    print_line(&format!(
+        "{} on {}: {} {}x{}x{}, {}x{} px, {} views, {} frames",
+        r.engine,
+        r.device,
+        r.input,
+        r.dims[0],
+        r.dims[1],
+        r.dims[2],
+        r.image[0],
+        r.image[1],
+        r.views.len(),
+        r.frames
+    ));
+    print_line(&format!("reference: {}", r.reference));
+    print_line(
+        "setting                        group          GPU ms   precompute  RMSE      PSNR dB  SSIM    max abs  frontier  Xe-LP model ms",
+    );
+    for s in &r.settings {
+        if let Some(why) = &s.skipped {
+            print_line(&format!("{:<30} {:<14} skipped: {why}", s.name, s.group));
+            continue;
+        }
+        print_line(&format!(
+            "{:<30} {:<14} {:>7.3}  {:>9.3}  {:>8.5}  {:>7.2}  {:>6.4}  {:>7.4}  {:<8}  {:>8.3}{}",
+            s.name,
+            s.group,
+            s.gpu_ms,
+            s.precompute_ms,
+            s.error.rmse,
+            s.error.psnr_db,
+            s.error.ssim,
+            s.error.max_abs,
+            if s.frontier { "yes" } else { "" },
+            s.xe_lp_model_ms,
+            if s.default {
+                "   <- render/view default"
+            } else {
+                ""
+            }
+        ));
+    }
+    print_line(&format!(
+        "default on the measured frontier: {}",
+        if r.default_on_frontier { "yes" } else { "NO" }
+    ));
+    for rec in &r.recommendations {
+        print_line(&format!(
+            "recommended for {}: interaction `{}`, diagnosis `{}`",
+            rec.device_class,
+            rec.interaction.unwrap_or("-"),
+            rec.diagnosis.unwrap_or("-")
+        ));
+    }
+}

@@ -1,0 +1,9 @@
+//! Studies built on the engine: the accuracy-vs-time sweep's metrics, frontier and plot.
+//!
+//! Decisions: this layer sits beside the CLI (it uses the engine, the scene and the f64
+//! reference, and knows nothing of Vulkan); each concern is its own file so the metrics and the
+//! frontier are unit-tested without a GPU.
+
+pub mod metrics;
+pub mod pareto;
+pub mod plot;
