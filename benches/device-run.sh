@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Runs on the lent GPU machine (see device-payload.sh): unpacks the Vulkan loader and validation
 # layers (../shared/GPU.md), then runs the GPU tests with validation, `peaks`, two 1920x1080
-# benchmarks of the phantom (all tissues visible, step 0.5 voxel, curvature on and off) and one
-# render, writing everything under $OUT.
+# benchmarks of the phantom (all tissues visible, step 0.5 voxel, curvature on and off) and the
+# accuracy study (256x256, 3 views), writing at most 8 files under $OUT.
 set -uo pipefail
 for f in .gl/lib{vulkan1,egl1,glvnd0,opengl0,gl1,glx0,gles2}_*.deb; do dpkg -x "$f" /; done
 ldconfig
@@ -25,9 +25,11 @@ for t in lib_tests shaders gpu_kernels gpu_raymarch cli; do
     [ -x "$G/$t" ] && $G/$t --test-threads=4 --nocapture 2>&1 | grep -E "PSNR|^test |test result|panicked|error"
 done 2>&1 | tee "$OUT/tests.txt" | grep -E "==|test result|FAILED|panicked"
 $G/morphray peaks --json > "$OUT/peaks.json"
+# Text reports go to one log (the device returns at most 8 files); JSON beside it.
 for curvature in on off; do
     $G/morphray bench --tissues csf,gm,wm,pathology --frames 200 --repeat 20 --curvature $curvature \
-        --json "$OUT/bench-curv-$curvature.json" 2>&1 | tee "$OUT/bench-curv-$curvature.txt"
+        --json "$OUT/bench-curv-$curvature.json" 2>&1 | tee -a "$OUT/run-log.txt"
 done
-$G/morphray render -o "$OUT/phantom-gpu.png" --size 512x512 --shading on --azimuth 30 --elevation 20
+$G/morphray accuracy --size 256x256 --views 3 --frames 9 --json "$OUT/accuracy.json" \
+    --plot "$OUT/accuracy.svg" 2>/dev/null | tee -a "$OUT/run-log.txt"
 nvidia-smi --query-gpu=clocks.sm,clocks.mem --format=csv | tee -a "$OUT/nvidia-smi.txt"

@@ -314,8 +314,13 @@ fn check_derivatives(engine: &mut morphray::engine::Engine, v: &morphray::volume
         (derived.stats.max_magnitude - g_scale).abs() <= 1e-6 * g_scale + 1e-7,
         "max |g|"
     );
+    // Stored in voxel units (|g| h, k h^2); back to world units.
+    let [sg, sk] = derived.volumes.store_scale.map(f64::from);
     for i in 0..values.len() {
-        let (gm, gk) = (grad.values[2 * i] as f64, grad.values[2 * i + 1] as f64);
+        let (gm, gk) = (
+            grad.values[2 * i] as f64 / sg,
+            grad.values[2 * i + 1] as f64 / sk,
+        );
         // f16 storage: 2^-11 relative; f32 arithmetic on the same inputs: far below that.
         assert!(
             (gm - magnitude[i]).abs() <= 1e-3 * magnitude[i] + 1e-5 * g_scale,
@@ -399,8 +404,12 @@ fn a_linear_ramp_gives_the_exact_world_gradient_and_zero_curvature() {
     let expected =
         ((1.0f64 / 17.0 / 0.5).powi(2) + (2.0f64 / 17.0).powi(2) + (3.0f64 / 17.0 / 3.0).powi(2))
             .sqrt();
+    let [sg, sk] = derived.volumes.store_scale.map(f64::from);
     for i in 0..values.len() {
-        let (m, k) = (grad.values[2 * i] as f64, grad.values[2 * i + 1] as f64);
+        let (m, k) = (
+            grad.values[2 * i] as f64 / sg,
+            grad.values[2 * i + 1] as f64 / sk,
+        );
         assert!(
             (m - expected).abs() <= expected * 1e-3,
             "voxel {i}: |g| {m} vs {expected}"
@@ -450,10 +459,11 @@ fn a_quadratic_bowl_has_constant_directional_curvature() {
     )
     .unwrap();
     let expected = 2.0 / range as f64;
+    let [sg, sk] = derived.volumes.store_scale.map(f64::from);
     let mut worst = 0.0f64;
     for i in 0..values.len() {
-        if grad.values[2 * i] as f64 > 1e-4 {
-            worst = worst.max((grad.values[2 * i + 1] as f64 - expected).abs() / expected);
+        if grad.values[2 * i] as f64 / sg > 1e-4 {
+            worst = worst.max((grad.values[2 * i + 1] as f64 / sk - expected).abs() / expected);
         }
     }
     // R16 quantization of I (1/65535 of the range) against a second difference of 2/R: 1.5 %.

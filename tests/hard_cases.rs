@@ -19,10 +19,10 @@
 //! | zero gradient | `\|g\| > tau ? g/\|g\| : 0`; curvature gated | hc `exact_plateaus_*` (precomputed + on the fly, shading + curvature), hc `hard_data_*` (constant) | gk `plateaus_and_constant_*`, gk `a_linear_ramp_*` (k = 0), ref `plateaus_*` | derivatives.comp guard -> hc `exact_plateaus_*`, `hard_data_*`, `single_voxel_*`; raymarch on-the-fly guards: NOT caught on lavapipe (see report) |
 //! | anisotropic voxels | per-axis spacing, A^-T | hc `a_linear_ramp_on_a_0_1_x_0_1_x_10_*`, hc `a_world_object_on_a_0_1_x_0_1_x_10_*` | gk `a_linear_ramp_*` (0.5 x 1 x 3), gk `derivatives_match_*`, gr `anisotropic_and_flipped_*`, ref `linear_ramp_on_anisotropic_*` | A^-T dropped (stored or on the fly) -> hc both |
 //! | curvature precision | H from f32 samples | hc `single_voxel_*` (k vs f64 twin), hc `f16_derivatives_*` | gk `a_quadratic_bowl_*`, ref `sphere_distance_field_*` | samples rounded to f16 -> gk bowl, hc `single_voxel_*`, hc `f16_derivatives_*` |
-//! | f16 storage of derivatives | NUMERICS: voxel units, spacing at use | hc `f16_derivatives_*` (0.1 .. 10 mm: within one f16 ulp), hc `known_failure_f16_curvature_*` (ignored: FAILS, world units overflow below ~8 um) | - | technique missing in the code (report) |
+//! | f16 storage of derivatives | NUMERICS: voxel units, spacing at use | hc `f16_derivatives_*` (0.1 .. 10 mm: within one f16 ulp), hc `f16_curvature_stays_finite_at_micrometre_spacing` (1 and 3 um) | - | stored in voxel units (|g| h, k h^2); removing the scale fails hc `f16_curvature_*` |
 //! | opacity correction | `-expm1(r log1p(-a))` via series | hcc `gpu_opacity_correction_*` (probe, log grid, naive fails), hcc `homogeneous_medium_*` (a = 0.05, 1e-4, 1e-6) | gr `opacity_correction_makes_*`, rr `homogeneous_slab_*`, rr `oblique_rays_*` | naive pow -> hcc both; no correction -> hcc `homogeneous_*`, gr step size |
 //! | accumulation | f32 registers | hcc `gpu_compositing_in_f32_*` (probe: f16 gives 0.756), hcc `three_thousand_*` (raymarch), hcc `early_termination_*` | - | f16 accumulator -> hcc `three_thousand_*`, `homogeneous_*`; ERT at 0.99 -> hcc `early_*` |
-//! | ray-box | \|d\| < 1e-20 containment, clamped count, start at max(t_near, 0) | hcg `gpu_rays_on_faces_*` (faces, edges, corners, grazing, eye on a face / at the centre; sample counts), hcg `gpu_rays_exactly_on_a_face_*`, hcg `known_failure_views_at_90_*` (ignored: FAILS, camera) | gr `camera_inside_faces_*`, gr `no_nan_pixel_*`, rr `rays_exactly_on_faces_*`, rr `grazing_*`, unit `axis_aligned_rays_*` | containment branch -> hcg both; t_near clamp -> hcg `gpu_rays_on_faces_*`; count clamp: NOT caught (never negative here) |
+//! | ray-box | \|d\| < 1e-20 containment, clamped count, start at max(t_near, 0) | hcg `gpu_rays_on_faces_*` (faces, edges, corners, grazing, eye on a face / at the centre; sample counts), hcg `gpu_rays_exactly_on_a_face_*`, hcg `views_at_90_degrees_keep_face_rays_on_the_face` (exact sin/cos of degrees) | gr `camera_inside_faces_*`, gr `no_nan_pixel_*`, rr `rays_exactly_on_faces_*`, rr `grazing_*`, unit `axis_aligned_rays_*` | containment branch -> hcg both; t_near clamp -> hcg `gpu_rays_on_faces_*`; count clamp: NOT caught (never negative here) |
 //! | subgroup reductions | identity in idle lanes, uniform loops | hcr `histogram_and_range_*` (n = 1, 2, 7, 31, 32, 33, 63, 64, 65, 255 .. 257, 1000, 4093, 4096), hcr `histogram_of_a_million_*` (101 x 103 x 97), hcr `derivative_maximum_*` | gk `min_max_is_exact_*` (n up to 1000003), gk `normalize_and_histogram_match_*`, unit `linear_dispatch_*` | histogram / min-max range masks -> hcr; derivatives mask: NOT caught on lavapipe (see report) |
 //! | float atomics | integer atomics on order-preserving keys | hcr `range_is_exact_over_negatives_*` | gk `min_max_handles_*`, ref `minmax_orders_negative_zero_*` | raw float bits as keys -> hcr, hc `hard_data_*` |
 //! | trilinear next to invalid voxels | NaN -> I_norm 0 (transparent), trilinear is convex | hc `a_nan_block_*` (= air block exactly; MIP never above the block-free MIP) | - | bit test dropped, or NaN -> 0.5 -> hc `a_nan_block_*` |
@@ -812,18 +812,17 @@ fn f16_derivatives_stay_finite_and_within_one_f16_ulp_from_0_1_to_10_mm() {
     common::assert_no_validation_errors(&engine);
 }
 
-/// KNOWN FAILURE (reported, not fixed here). NUMERICS.md: "f16 storage of derivatives: store
-/// derivatives of I_norm in voxel units; spacing applied at use". The derivative pass stores them
-/// in world units (per mm, per mm^2), so k scales with 1 / spacing^2 and overflows f16 (65504)
+/// NUMERICS.md: "f16 storage of derivatives: store derivatives of I_norm in voxel units; spacing
+/// applied at use". Stored in world units (per mm, per mm^2), k would scale with 1 / spacing^2
+/// and overflow f16 (65504)
 /// once spacing < about 8 um for full-contrast edges (|H_idx| up to ~4 per voxel^2), e.g. a scan
 /// whose pixdim is in metres but read as millimetres (1 mm = 0.001), or micro-MRI below 8 um.
 /// Stored k saturates at 65504 on lavapipe (whose f16 conversion rounds toward zero: 31 % error
 /// at 3 um) or becomes inf where it rounds to nearest (trilinear filtering of inf next to a
-/// finite texel then gives NaN).
-/// Run with `cargo test --test hard_cases -- --ignored`.
+/// finite texel then gives NaN). The derivative pass now stores |g| h and k h^2 (h = finest
+/// spacing), which this test checks at 3 um and 1 um.
 #[test]
-#[ignore = "known failure: derivatives are stored in world units, curvature overflows f16 below ~8 um"]
-fn known_failure_f16_curvature_overflows_at_micrometre_spacing() {
+fn f16_curvature_stays_finite_at_micrometre_spacing() {
     let mut engine = common::engine();
     for spacing in [0.003, 0.001] {
         let (g_err, k_err, k_max) = f16_storage_errors(&mut engine, spacing);

@@ -101,7 +101,7 @@ fn cases() -> Vec<Case> {
         // sin(180 deg) = 1.2e-16, above the 1e-20 threshold, so the slab test divides by them
         // (inverses near 1e16) instead of testing containment. 32 x 32 pixels: no ray lies on a
         // face (on a face these views disagree with the reference, see
-        // `known_failure_views_at_90_degrees_put_face_rays_off_the_face`).
+        // `views_at_90_degrees_keep_face_rays_on_the_face`).
         Case {
             label: "nearly axis-aligned along x (6e-17 components)",
             camera: orthographic(90.0, 0.0, 0.5),
@@ -301,12 +301,10 @@ fn gpu_rays_exactly_on_a_face_see_the_border_voxels_like_rays_just_inside() {
 /// rounding of its origin: on the GPU one face column of the image is background and the other
 /// shows the full chord, in the f64 reference the two columns split the chord at t = 29 mm
 /// (PSNR 27 dB, max error 0.46 at azimuth 90). At azimuth 0 (exact signed zeros) both faces are
-/// hits in both and agree to 1e-7. Proposed fix: exact sin/cos of degrees at multiples of 90
-/// degrees in `Camera::rays` (see the report). Run with `cargo test --test hard_cases_geometry
-/// -- --ignored`.
+/// hits in both and agree to 1e-7. Fixed by exact sin/cos of degrees at multiples of 90 degrees
+/// in `Camera::rays` (`camera::sin_cos_degrees`); this test keeps it fixed.
 #[test]
-#[ignore = "known failure: Camera::rays gives 6e-17 direction components at 90-degree views"]
-fn known_failure_views_at_90_degrees_put_face_rays_off_the_face() {
+fn views_at_90_degrees_keep_face_rays_on_the_face() {
     let mut engine = common::engine();
     let (prepared, derived, base) = setup(&mut engine);
     for (azimuth, elevation) in [(90.0, 0.0), (180.0, 0.0), (0.0, 90.0)] {

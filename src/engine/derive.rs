@@ -26,8 +26,13 @@ impl Engine {
         outputs: DerivativeOutputs,
     ) -> GpuResult<Derived> {
         let stores = outputs.magnitude || outputs.curvature;
+        let voxel_mm = finest_spacing(prepared.linear_part);
         if outputs.precision != DerivedPrecision::Snorm8 || !stores {
-            return self.derive_scaled(prepared, outputs, [1.0, 1.0]);
+            // Stored in voxel units (|g| h, k h^2, h = finest spacing): world units overflow f16
+            // for micrometre voxels (k ~ 1/h^2) and underflow it for huge ones (NUMERICS.md);
+            // every reader divides by the scale it is handed.
+            let h = voxel_mm as f32;
+            return self.derive_scaled(prepared, outputs, [h, h * h]);
         }
         let max_only = DerivativeOutputs {
             magnitude: false,
@@ -37,14 +42,6 @@ impl Engine {
         };
         let first = self.derive_scaled(prepared, max_only, [1.0, 1.0])?;
         let g = first.stats.max_magnitude.max(1e-12);
-        let voxel_mm = (0..3)
-            .map(|c| {
-                (0..3)
-                    .map(|r| prepared.linear_part[r][c].powi(2))
-                    .sum::<f64>()
-                    .sqrt()
-            })
-            .fold(f64::INFINITY, f64::min);
         // |g| fills [0, 1]; k up to 2 g / voxel (twice the step-edge scale of k_ref) fills [-1, 1].
         let scale = [(1.0 / g) as f32, (voxel_mm / (2.0 * g)) as f32];
         let mut derived = self.derive_scaled(prepared, outputs, scale)?;
@@ -129,4 +126,11 @@ impl Engine {
             gpu_timings,
         })
     }
+}
+
+/// World length of the shortest index step (mm).
+fn finest_spacing(linear: [[f64; 3]; 3]) -> f64 {
+    (0..3)
+        .map(|c| (0..3).map(|r| linear[r][c].powi(2)).sum::<f64>().sqrt())
+        .fold(f64::INFINITY, f64::min)
 }

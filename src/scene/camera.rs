@@ -103,19 +103,15 @@ impl Camera {
         } else {
             1.0
         };
-        let elevation = self.elevation_deg.clamp(-90.0, 90.0).to_radians();
-        let azimuth = self.azimuth_deg.to_radians();
+        let (el_sin, el_cos) = sin_cos_degrees(self.elevation_deg.clamp(-90.0, 90.0));
+        let (az_sin, az_cos) = sin_cos_degrees(self.azimuth_deg);
         // Direction from the centre to the camera.
-        let to_camera = DVec3::new(
-            azimuth.sin() * elevation.cos(),
-            azimuth.cos() * elevation.cos(),
-            elevation.sin(),
-        );
+        let to_camera = DVec3::new(az_sin * el_cos, az_cos * el_cos, el_sin);
         let forward = -to_camera.normalize();
         // Superior is up, except when looking along the superior axis: then the up vector is the
         // limit of the orbit approaching the pole, so orbiting over it never flips the image.
-        let world_up = if elevation.cos().abs() < 1e-6 {
-            DVec3::new(azimuth.sin(), azimuth.cos(), 0.0) * -elevation.sin().signum()
+        let world_up = if el_cos.abs() < 1e-6 {
+            DVec3::new(az_sin, az_cos, 0.0) * -el_sin.signum()
         } else {
             DVec3::Z
         };
@@ -150,6 +146,25 @@ impl Camera {
                 }
             }
         }
+    }
+}
+
+/// `(sin, cos)` of an angle in degrees, exact (0, +-1) at multiples of 90 degrees, so views
+/// meant to be axis-aligned have exactly zero components (`f64::to_radians` then `cos` gives
+/// 6e-17 at 90 degrees, which puts rays meant to lie on a face slightly off it).
+pub fn sin_cos_degrees(degrees: f64) -> (f64, f64) {
+    if !degrees.is_finite() {
+        // A non-finite angle (a typo'd argument) is the front view, never NaN rays.
+        return (0.0, 1.0);
+    }
+    let turns = (degrees / 90.0).round();
+    let rest = (degrees - turns * 90.0).to_radians();
+    let (s, c) = rest.sin_cos();
+    match (turns as i64).rem_euclid(4) {
+        0 => (s, c),
+        1 => (c, -s),
+        2 => (-s, -c),
+        _ => (-c, s),
     }
 }
 

@@ -22,6 +22,7 @@ pub const ALL_OUTPUTS: DerivativeOutputs = DerivativeOutputs {
     magnitude: true,
     curvature: true,
     normal: true,
+    precision: morphray::scene::DerivedPrecision::F16,
 };
 
 /// A volume on a diagonal affine with the given spacing (mm) and origin at voxel (0, 0, 0).
@@ -102,10 +103,12 @@ pub fn derived_data(engine: &Engine, derived: &Derived) -> DerivedData {
     if let Some(g) = &derived.volumes.gradient {
         let g = read_image(device, g, Access::ComputeSampled).unwrap();
         has_curvature = g.channels > 1;
+        // Stored in voxel units (|g| h, k h^2); back to world units.
+        let [sg, sk] = derived.volumes.store_scale.map(f64::from);
         for texel in g.values.chunks_exact(g.channels) {
-            magnitude.push(texel[0] as f64);
+            magnitude.push(texel[0] as f64 / sg);
             if has_curvature {
-                curvature.push(texel[1] as f64);
+                curvature.push(texel[1] as f64 / sk);
             }
         }
     }
