@@ -45,10 +45,14 @@ layout(push_constant) uniform Params {
     float tau;           // |g_w| at or below which the gradient direction is treated as undefined
     float scale_g;       // multiplies |g_w| before it is stored (1, or 1/max for 8-bit storage)
     float scale_k;       // multiplies k before it is stored
+    int slot_side;       // > 0: the volume is a brick atlas of slots of this side (see main)
 } params;
 
+// Origin of the region the stencils see: the whole volume, or the current atlas slot.
+ivec3 region_origin = ivec3(0);
+
 float I(ivec3 p) {
-    return texelFetch(volume, p, 0).r;
+    return texelFetch(volume, region_origin + p, 0).r;
 }
 
 ivec3 axis_offset(int axis, int d) {
@@ -127,10 +131,10 @@ float derive_voxel(ivec3 p, ivec3 n) {
         store_gradient = true;
     }
     if (store_gradient) {
-        imageStore(gradient_out, p, vec4(magnitude * params.scale_g, k * params.scale_k, 0.0, 0.0));
+        imageStore(gradient_out, region_origin + p, vec4(magnitude * params.scale_g, k * params.scale_k, 0.0, 0.0));
     }
     if (WANT_NORMAL) {
-        imageStore(normal_out, p, vec4(direction, 0.0));
+        imageStore(normal_out, region_origin + p, vec4(direction, 0.0));
     }
     return magnitude;
 }
@@ -144,7 +148,16 @@ void main() {
     barrier();
     ivec3 p = ivec3(gl_GlobalInvocationID);
     ivec3 n = params.dims.xyz;
-    float magnitude = all(lessThan(p, n)) ? derive_voxel(p, n) : 0.0;
+    bool inside = all(lessThan(p, n));
+    // A brick atlas: each slot is its own little volume (brick plus halo), so the stencils clamp
+    // at the slot's faces and never read a neighbouring slot; the halo makes the brick's own
+    // voxels (and the halo's first layer) exact.
+    if (params.slot_side > 0) {
+        region_origin = (p / params.slot_side) * params.slot_side;
+        p -= region_origin;
+        n = min(ivec3(params.slot_side), n - region_origin);
+    }
+    float magnitude = inside ? derive_voxel(p, n) : 0.0;
     float subgroup_max = subgroupMax(magnitude);
     if (subgroupElect()) {
         atomicMax(workgroup_max_bits, floatBitsToUint(subgroup_max));

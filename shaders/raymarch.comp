@@ -17,6 +17,10 @@
 // lattice before the brick's exit, so the samples taken are exactly those taken without
 // skipping minus samples of zero opacity: the image is unchanged.
 //
+// Bricking (BRICKED): for volumes over the memory budget or the 3D image limit, the textures hold
+// only resident bricks (with halos) in atlases, and every fetch goes through the brick table
+// (sampling.glsl).
+//
 // Geometry: rays start in world space (mm) and are marched in index space with the parameter
 // in mm (geometry.glsl); ray starts are jittered per pixel against wood-grain banding.
 // The f64 twin of this whole shader is src/reference/raymarch.rs.
@@ -34,6 +38,7 @@ layout(constant_id = 4) const bool COUNT_SAMPLES = false; // benchmark counters 
 layout(constant_id = 5) const uint INTERPOLATION = 1u;    // 0 nearest, 1 trilinear, 2 tricubic B-spline
 layout(constant_id = 6) const bool NAIVE_OPACITY = false; // 1-(1-a)^r in f32 (accuracy study only)
 layout(constant_id = 7) const bool SKIP_EMPTY = false;    // empty-space skipping over 8^3 bricks
+layout(constant_id = 8) const bool BRICKED = false;       // textures are brick atlases (sampling.glsl)
 
 layout(set = 0, binding = 0) uniform sampler3D volume;          // I_norm, trilinear
 layout(set = 0, binding = 1) uniform sampler3D gradient_volume; // .r |g|, .g k (scaled, see derived_scale)
@@ -57,6 +62,9 @@ layout(set = 0, binding = 4, std140) uniform Params {
     uvec4 image;            // width, height, jitter seed, max steps
     vec4 derived_scale;     // x: stored |g| -> per mm, y: stored k -> per mm^2
     uvec4 bricks;           // xyz: brick grid, w: brick side in voxels
+    vec4 atlas;             // BRICKED: xyz atlas dims in texels, w storage brick side
+    uvec4 brick_grid;       // BRICKED: xyz storage brick grid, w halo
+    uvec4 atlas_slots;      // BRICKED: xy slots per atlas row and layer
 } params;
 
 // Benchmark counters (COUNT_SAMPLES only): samples marched and samples that passed
@@ -67,6 +75,9 @@ layout(set = 0, binding = 5, std430) buffer Counters { uint slots[]; } counters;
 
 // One bit per brick, set where a visible tissue can have non-zero opacity (SKIP_EMPTY only).
 layout(set = 0, binding = 6, std430) readonly buffer Occupancy { uint bits[]; } occupancy;
+
+// Slot + 1 of each storage brick in the atlases, 0 when not resident (BRICKED only).
+layout(set = 0, binding = 7, std430) readonly buffer BrickTable { uint slots[]; } brick_table;
 
 #include "geometry.glsl"
 #include "jitter.glsl"
@@ -177,13 +188,13 @@ void main() {
             vec3 normal = vec3(0.0);
             vec3 g = vec3(0.0);
             if (GRADIENT_MODE == 0u) {
-                vec2 gk = fetch(gradient_volume, p, dims).rg * params.derived_scale.xy;
+                vec2 gk = fetch_volume(gradient_volume, p).rg * params.derived_scale.xy;
                 magnitude = gk.x;
                 if (CURVATURE_MODE == 1u) {
                     k = gk.y;
                 }
                 if (SHADING) {
-                    normal = fetch(normal_volume, p, dims).xyz;
+                    normal = fetch_volume(normal_volume, p).xyz;
                 }
             } else {
                 g = GRADIENT_MODE == 1u ? gradient_central(p) : gradient_sobel(p);

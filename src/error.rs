@@ -36,6 +36,9 @@ pub enum Error {
         /// The cause.
         source: std::io::Error,
     },
+    /// No plan of the scene fits the memory budget, even fully degraded.
+    #[error(transparent)]
+    DoesNotFit(#[from] crate::scene::plan::DoesNotFit),
     /// Arguments that parse but do not make sense together.
     #[error("{0}")]
     Usage(String),

@@ -46,8 +46,58 @@ vec4 fetch(sampler3D tex, vec3 p, vec3 dims) {
     return fetch_linear(tex, p, dims);
 }
 
+// Bricked volumes (BRICKED): the textures are atlases of resident bricks. A volume position p
+// maps to its brick (side params.atlas.w, halo params.brick_grid.w), the brick table gives the
+// brick's slot (0 = not resident: nothing a visible tissue can occupy there), and the position
+// inside the slot is p relative to the brick plus the halo. The halo holds the neighbouring
+// voxels (clamped at the volume's border, like clamp-to-edge), so every interpolation's taps
+// stay inside the slot. Returns false for a brick that is not resident.
+bool brick_to_atlas(vec3 p, out vec3 q) {
+    float side = params.atlas.w;
+    ivec3 grid = ivec3(params.brick_grid.xyz);
+    ivec3 b = clamp(ivec3(floor((p + 0.5) / side)), ivec3(0), grid - 1);
+    uint slot = brick_table.slots[uint(b.x) + uint(grid.x) * (uint(b.y) + uint(grid.y) * uint(b.z))];
+    if (slot == 0u) {
+        return false;
+    }
+    slot -= 1u;
+    float halo = float(params.brick_grid.w);
+    uvec2 slots = params.atlas_slots.xy;
+    vec3 s = vec3(float(slot % slots.x), float((slot / slots.x) % slots.y), float(slot / (slots.x * slots.y)));
+    q = s * (side + 2.0 * halo) + halo + (p - vec3(b) * side);
+    return true;
+}
+
+bool volume_to_atlas(vec3 p, out vec3 q) {
+    q = p;
+    // `if (BRICKED)` around the body, not `if (!BRICKED) return`: glslang folds `!` of a
+    // specialization constant into an OpSpecConstantOp the build's reflection cannot evaluate.
+    if (BRICKED) {
+        return brick_to_atlas(p, q);
+    }
+    return true;
+}
+
+// Dimensions of the sampled textures: the atlas when bricked, else the volume.
+vec3 texture_dims() {
+    vec3 d = params.dims.xyz;
+    if (BRICKED) {
+        d = params.atlas.xyz;
+    }
+    return d;
+}
+
+// A fetch of any volume-shaped texture at volume position p (0 where a brick is not resident).
+vec4 fetch_volume(sampler3D tex, vec3 p) {
+    vec3 q;
+    if (!volume_to_atlas(p, q)) {
+        return vec4(0.0);
+    }
+    return fetch(tex, q, texture_dims());
+}
+
 float sample_volume(vec3 p) {
-    return fetch(volume, p, params.dims.xyz).r;
+    return fetch_volume(volume, p).r;
 }
 
 #endif

@@ -23,8 +23,7 @@
 
 use super::args::AccuracyArgs;
 use super::output::{json, print_line};
-use super::render::scene_from_args;
-use super::session::{self, engine_config};
+use super::session;
 use crate::error::Error;
 use crate::passes::cost::XE_LP;
 use crate::passes::raymarch::RaymarchVariant;
@@ -272,7 +271,8 @@ fn median(values: &mut [f64]) -> f64 {
 }
 
 /// Runs the command.
-pub fn run(args: &AccuracyArgs, device: Option<&str>, validation: bool) -> Result<(), Error> {
+pub fn run(args: &AccuracyArgs, global: &super::GlobalOptions) -> Result<(), Error> {
+    let validation = global.validation;
     if args.frames == 0 || args.views == 0 || args.views > VIEWS.len() {
         return Err(Error::Usage(format!(
             "--frames must be >= 1 and --views 1..={}",
@@ -283,9 +283,10 @@ pub fn run(args: &AccuracyArgs, device: Option<&str>, validation: bool) -> Resul
         args.file.as_deref(),
         args.frame,
         false,
-        engine_config(device, validation),
+        global.engine_config(),
+        Some(&args.scene),
     )?;
-    let base = scene_from_args(&args.scene, &opened.report)?;
+    let base = opened.scene;
     let (width, height) = args.scene.size.unwrap_or((256, 256));
     let views = &VIEWS[..args.views];
     let volume = opened.source.volume.clone();

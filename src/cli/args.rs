@@ -20,6 +20,13 @@ pub struct Cli {
     #[arg(long, global = true)]
     pub validation: bool,
 
+    /// Most GPU memory morphray may hold, in bytes (suffixes K, M, G allowed: 512M). Over it,
+    /// the plan degrades (8-bit derived volumes, R8 intensities, gradients on the fly, then
+    /// bricking) or the command stops with a message naming what did not fit. Default: what
+    /// the device reports available.
+    #[arg(long, global = true, value_name = "BYTES", value_parser = parse_bytes)]
+    pub memory_budget: Option<u64>,
+
     /// What to do.
     #[command(subcommand)]
     pub command: Command,
@@ -275,6 +282,32 @@ pub struct BenchArgs {
     /// Scene.
     #[command(flatten)]
     pub scene: SceneArgs,
+}
+
+fn parse_bytes(text: &str) -> Result<u64, String> {
+    let t = text.trim();
+    let (number, unit) = match t.char_indices().find(|(_, c)| c.is_ascii_alphabetic()) {
+        Some((i, _)) => (&t[..i], t[i..].to_ascii_uppercase()),
+        None => (t, String::new()),
+    };
+    let scale: u64 = match unit.trim_end_matches('B').trim_end_matches("I") {
+        "" => 1,
+        "K" => 1 << 10,
+        "M" => 1 << 20,
+        "G" => 1 << 30,
+        _ => {
+            return Err(format!(
+                "`{text}`: use a number of bytes, optionally with K, M or G"
+            ));
+        }
+    };
+    number
+        .trim()
+        .parse::<u64>()
+        .ok()
+        .and_then(|n| n.checked_mul(scale))
+        .filter(|&n| n > 0)
+        .ok_or_else(|| format!("`{text}` is not a positive number of bytes"))
 }
 
 fn parse_size(text: &str) -> Result<(u32, u32), String> {

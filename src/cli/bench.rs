@@ -9,8 +9,7 @@
 
 use super::args::BenchArgs;
 use super::output::{json, print_line};
-use super::render::scene_from_args;
-use super::session::{self, OpenTimings, engine_config};
+use super::session::{self, OpenTimings};
 use crate::error::Error;
 use crate::passes::cost::{self, DeviceModel, H100, PassCost, XE_LP};
 use crate::passes::derivatives::DerivativeOutputs;
@@ -134,7 +133,8 @@ fn times_of(timings: &[crate::gpu::PassTiming], name: &str) -> Option<f64> {
 }
 
 /// Runs the command.
-pub fn run(args: &BenchArgs, device: Option<&str>, validation: bool) -> Result<(), Error> {
+pub fn run(args: &BenchArgs, global: &super::GlobalOptions) -> Result<(), Error> {
+    let validation = global.validation;
     if args.frames == 0 || args.repeat == 0 {
         return Err(Error::Usage(
             "--frames and --repeat must be at least 1".into(),
@@ -144,9 +144,10 @@ pub fn run(args: &BenchArgs, device: Option<&str>, validation: bool) -> Result<(
         args.file.as_deref(),
         args.frame,
         false,
-        engine_config(device, validation),
+        global.engine_config(),
+        Some(&args.scene),
     )?;
-    let scene = scene_from_args(&args.scene, &opened.report)?;
+    let scene = opened.scene;
     let (width, height) = args.scene.size.unwrap_or((1920, 1080));
     let adapter = opened.engine.device().adapter().clone();
     let documented = adapter.name.contains("H100").then_some(H100);

@@ -50,15 +50,38 @@ fn one_line(text: &str) -> String {
     text.split_whitespace().collect::<Vec<_>>().join(" ")
 }
 
+/// Options every GPU command shares.
+#[derive(Clone, Debug, Default)]
+pub struct GlobalOptions {
+    /// Device index or name fragment.
+    pub device: Option<String>,
+    /// Validation layer required, errors fail the command.
+    pub validation: bool,
+    /// Most GPU memory to hold, bytes.
+    pub memory_budget: Option<u64>,
+}
+
+impl GlobalOptions {
+    /// The engine configuration these options describe.
+    pub fn engine_config(&self) -> crate::engine::EngineConfig {
+        session::engine_config(self.device.as_deref(), self.validation, self.memory_budget)
+    }
+}
+
 /// Dispatches a parsed command line.
 pub fn run(cli: &Cli) -> Result<(), Error> {
-    let device = cli.device.as_deref();
+    let global = GlobalOptions {
+        device: cli.device.clone(),
+        validation: cli.validation,
+        memory_budget: cli.memory_budget,
+    };
+    let global = &global;
     match &cli.command {
         Command::Info(args) => info::run(args),
-        Command::Peaks(args) => peaks::run(args, device, cli.validation),
-        Command::Render(args) => render::run(args, device, cli.validation),
-        Command::Bench(args) => bench::run(args, device, cli.validation),
-        Command::Accuracy(args) => accuracy::run(args, device, cli.validation),
+        Command::Peaks(args) => peaks::run(args, global),
+        Command::Render(args) => render::run(args, global),
+        Command::Bench(args) => bench::run(args, global),
+        Command::Accuracy(args) => accuracy::run(args, global),
         Command::Devices => devices::run(),
         Command::Phantom(args) => {
             let spec = crate::volume::phantom::PhantomSpec {

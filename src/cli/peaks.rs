@@ -2,7 +2,7 @@
 
 use super::args::PeaksArgs;
 use super::output::{json, ms, print_line};
-use super::session::{self, engine_config};
+use super::session;
 use crate::analysis::{Peak, TissueWindows};
 use crate::error::Error;
 use std::collections::BTreeMap;
@@ -28,12 +28,14 @@ struct PeaksReport<'a> {
 }
 
 /// Runs the command.
-pub fn run(args: &PeaksArgs, device: Option<&str>, validation: bool) -> Result<(), Error> {
+pub fn run(args: &PeaksArgs, global: &super::GlobalOptions) -> Result<(), Error> {
+    let validation = global.validation;
     let opened = session::open(
         args.file.as_deref(),
         args.frame,
         false,
-        engine_config(device, validation),
+        global.engine_config(),
+        None,
     )?;
     let r = &opened.report;
     let mut timings = BTreeMap::new();

@@ -3,7 +3,7 @@
 use super::args::{GradientArg, ModeArg, ProjectionArg, RenderArgs, SceneArgs, WindowsArg};
 use super::output::{ms, print_line};
 use super::png::{Provenance, write_rgba8};
-use super::session::{self, engine_config};
+use super::session;
 use crate::analysis::TissueReport;
 use crate::error::Error;
 use crate::scene::{
@@ -95,7 +95,8 @@ fn frame_path(output: &Path, index: u32) -> PathBuf {
 }
 
 /// Runs the command.
-pub fn run(args: &RenderArgs, device: Option<&str>, validation: bool) -> Result<(), Error> {
+pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error> {
+    let validation = global.validation;
     if args.turntable == Some(0) {
         return Err(Error::Usage("--turntable needs at least 1 frame".into()));
     }
@@ -103,9 +104,11 @@ pub fn run(args: &RenderArgs, device: Option<&str>, validation: bool) -> Result<
         args.file.as_deref(),
         args.frame,
         true,
-        engine_config(device, validation),
+        global.engine_config(),
+        Some(&args.scene),
     )?;
-    let base = scene_from_args(&args.scene, &opened.report)?;
+    // The planned scene: the arguments' scene with any degradation the budget required.
+    let base = opened.scene;
     for name in missing_tissues(&base) {
         eprintln!(
             "morphray: note: no {name} peak was found in this volume, so {name} cannot be shown"

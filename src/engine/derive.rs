@@ -81,6 +81,7 @@ impl Engine {
             prepared.linear_part,
             DEFAULT_TAU,
             store_scale,
+            prepared.slot_side(),
             &stats_gpu,
         )?;
         rec.end_pass();

@@ -9,6 +9,7 @@
 //! - The engine records what each persistent image was last used for, so readback and later
 //!   passes put the right barrier in front of it.
 
+mod bricked;
 mod derive;
 mod occupancy;
 mod prepare;
@@ -17,8 +18,9 @@ pub mod readback;
 mod render;
 pub mod upload;
 
+pub use bricked::HostPrepared;
 pub use derive::Derived;
-pub use prepare::{PrepareTimings, PreparedVolume};
+pub use prepare::{BrickAtlas, PrepareTimings, PreparedVolume, VolumeLayout};
 pub use render::{FRAMES_IN_FLIGHT, Frame, RenderTarget, SampleCounts};
 
 use crate::gpu::{
@@ -44,6 +46,8 @@ pub struct EngineConfig {
     /// Format of the normalized volume (R16_UNORM by default; R8_UNORM, R16_SFLOAT and
     /// R32_SFLOAT are the accuracy study's alternatives).
     pub normalized_format: vk::Format,
+    /// Most GPU memory the engine may hold at once (bytes); None: what the device allows.
+    pub memory_budget: Option<u64>,
 }
 
 impl Default for EngineConfig {
@@ -51,6 +55,7 @@ impl Default for EngineConfig {
         EngineConfig {
             device: DeviceConfig::default(),
             normalized_format: vk::Format::R16_UNORM,
+            memory_budget: None,
         }
     }
 }
@@ -147,6 +152,35 @@ impl Engine {
     /// The device.
     pub fn device(&self) -> &Device {
         &self.device
+    }
+
+    /// Memory the engine may plan with: the configured budget, capped by what the device can
+    /// still give (VK_EXT_memory_budget, or the heap size).
+    pub fn memory_budget(&self) -> u64 {
+        let device = self.device.device_local_budget();
+        self.config.memory_budget.map_or(device, |b| b.min(device))
+    }
+
+    /// What the pass plan needs to know about `volume`, an image of `image` pixels and this
+    /// device; `occupied_fraction` of the storage bricks a visible tissue can occupy (1 when not
+    /// yet known).
+    pub fn plan_input(
+        &self,
+        volume: &crate::volume::Volume,
+        image: [u32; 2],
+        occupied_fraction: f64,
+    ) -> crate::scene::plan::PlanInput {
+        let a = self.device.adapter();
+        crate::scene::plan::PlanInput {
+            dims: volume.dims.map(|d| u32::try_from(d).unwrap_or(u32::MAX)),
+            sample_kind: volume.samples.kind(),
+            image,
+            max_image_dimension_3d: a.max_image_dimension_3d,
+            max_storage_buffer_range: a.max_storage_buffer_range as u64,
+            unified_memory: a.unified_memory,
+            budget: self.memory_budget(),
+            occupied_fraction,
+        }
     }
 
     /// The format the next `prepare` stores I_norm in.

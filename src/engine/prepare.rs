@@ -30,12 +30,12 @@ pub struct PreparedVolume {
     pub dims: [u32; 3],
     /// Stored sample encoding.
     pub kind: SampleKind,
-    /// The uploaded samples (zero-padded to 16 bytes).
-    pub samples: Arc<Buffer>,
     /// How the samples were uploaded.
     pub upload_path: UploadPath,
-    /// I_norm; last accessed as [`Access::ComputeSampled`].
+    /// I_norm (the brick atlas when bricked); last accessed as [`Access::ComputeSampled`].
     pub normalized: Arc<Image>,
+    /// Whole volume or brick atlas.
+    pub layout: VolumeLayout,
     /// Stored-sample min/max over finite voxels (None if none is finite).
     pub stored_range: Option<(f64, f64)>,
     /// Physical range and shader parameters.
@@ -58,7 +58,49 @@ pub struct PreparedVolume {
     pub(crate) brick_ranges: std::sync::OnceLock<Arc<crate::scene::occupancy::BrickRanges>>,
 }
 
+/// How I_norm (and every derived volume) is laid out on the GPU.
+#[derive(Clone)]
+pub enum VolumeLayout {
+    /// One 3D image of the whole volume.
+    Whole,
+    /// Resident bricks in an atlas, found through a brick table.
+    Bricked(BrickAtlas),
+}
+
+/// The atlas of a bricked volume.
+#[derive(Clone)]
+pub struct BrickAtlas {
+    /// Brick side without halo (voxels).
+    pub brick: u32,
+    /// Halo on each side (voxels).
+    pub halo: u32,
+    /// Bricks along each axis.
+    pub grid: [u32; 3],
+    /// Slots along each atlas axis.
+    pub slots: [u32; 3],
+    /// Bricks held in the atlas.
+    pub resident: u32,
+    /// Slot + 1 per brick, 0 when not resident (host-visible storage buffer).
+    pub table: Arc<Buffer>,
+}
+
+impl BrickAtlas {
+    /// Side of one atlas slot (brick plus two halos).
+    pub fn slot_side(&self) -> u32 {
+        self.brick + 2 * self.halo
+    }
+}
+
 impl PreparedVolume {
+    /// Side of the atlas slots when bricked, 0 for a whole volume (the derivative pass clamps
+    /// its stencils at slot faces).
+    pub fn slot_side(&self) -> i32 {
+        match &self.layout {
+            VolumeLayout::Whole => 0,
+            VolumeLayout::Bricked(atlas) => atlas.slot_side() as i32,
+        }
+    }
+
     /// Voxels that are NaN or infinite.
     pub fn nonfinite_voxels(&self) -> u64 {
         self.voxel_count - self.finite_voxels
@@ -172,9 +214,9 @@ impl Engine {
         Ok(PreparedVolume {
             dims,
             kind,
-            samples,
             upload_path,
             normalized,
+            layout: VolumeLayout::Whole,
             stored_range,
             normalization,
             histogram,

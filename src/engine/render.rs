@@ -13,12 +13,13 @@
 use super::Engine;
 use super::derive::Derived;
 use super::prepare::PreparedVolume;
+use super::prepare::VolumeLayout;
 use crate::gpu::{
     Access, Buffer, BufferDesc, GpuError, GpuResult, Image, ImageDesc, PassTiming, Recording,
 };
 use crate::passes::occupancy::BRICK_SIDE;
 use crate::passes::raymarch::{COUNTER_WORDS, RaymarchInputs, RaymarchPass, RaymarchVariant};
-use crate::scene::uniforms::{FrameInputs, GradientStats, RaymarchUniforms};
+use crate::scene::uniforms::{AtlasInfo, FrameInputs, GradientStats, RaymarchUniforms};
 use crate::scene::{Scene, VolumeGeometry};
 use ash::vk;
 use std::sync::Arc;
@@ -194,7 +195,24 @@ impl Engine {
         let geometry = VolumeGeometry::new(prepared.dims, prepared.affine)
             .map_err(|e| GpuError::InvalidRequest(e.to_string()))?;
         let count = target.count_samples;
-        let variant = RaymarchVariant::of(&effects, count);
+        let (atlas, brick_table) = match &prepared.layout {
+            VolumeLayout::Whole => (AtlasInfo::default(), self.placeholders.occupancy.clone()),
+            VolumeLayout::Bricked(a) => {
+                // The resident bricks were chosen for one classification; a scene that can see
+                // more would draw holes, so it is refused instead.
+                check_residency(prepared, a, scene)?;
+                let e = prepared.normalized.extent();
+                let info = AtlasInfo {
+                    dims: e,
+                    brick: a.brick,
+                    halo: a.halo,
+                    grid: a.grid,
+                    slots: a.slots,
+                };
+                (info, a.table.clone())
+            }
+        };
+        let variant = RaymarchVariant::of_layout(&effects, count, atlas.brick > 0);
         let frame_slot = target.next_uniforms;
         target.next_uniforms = (target.next_uniforms + 1) % FRAMES_IN_FLIGHT;
         let mut bricks = [1, 1, 1, BRICK_SIDE];
@@ -230,6 +248,7 @@ impl Engine {
                 bricks,
                 width: target.width,
                 height: target.height,
+                atlas,
             },
         );
         let uniforms = target.uniforms[frame_slot].clone();
@@ -245,6 +264,7 @@ impl Engine {
             gradient: &gradient,
             normal: &normal,
             occupancy: &occupancy,
+            brick_table: &brick_table,
             sampler: &linear,
         };
         let mut rec = Recording::new(&device, "raymarch")?;
@@ -354,4 +374,41 @@ impl Engine {
             samples,
         })
     }
+}
+
+/// Fails when `scene` can see a brick that is not resident in the atlas.
+fn check_residency(
+    prepared: &PreparedVolume,
+    atlas: &super::prepare::BrickAtlas,
+    scene: &Scene,
+) -> GpuResult<()> {
+    let Some(ranges) = prepared.brick_ranges.get() else {
+        return Ok(());
+    };
+    // The fine (8^3) ranges say which fine bricks the scene can see; each must lie in a resident
+    // storage brick. Storage bricks are a whole number of fine bricks (32 = 4 x 8).
+    let bits = ranges.occupancy_bits(&scene.classification);
+    let mut table = vec![0u8; 4 * atlas.grid.iter().map(|&g| g as usize).product::<usize>()];
+    atlas.table.read(0, &mut table)?;
+    let ratio = atlas.brick / ranges.side;
+    let [gx, gy, _] = ranges.grid;
+    for (b, _) in ranges.ranges.iter().enumerate() {
+        if bits[b / 32] >> (b % 32) & 1 == 0 {
+            continue;
+        }
+        let (x, y, z) = (b as u32 % gx, (b as u32 / gx) % gy, b as u32 / (gx * gy));
+        let s = [x / ratio, y / ratio, z / ratio];
+        let index = (s[0] + atlas.grid[0] * (s[1] + atlas.grid[1] * s[2])) as usize * 4;
+        let slot = table
+            .get(index..index + 4)
+            .map_or(0, |w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]));
+        if slot == 0 {
+            return Err(GpuError::InvalidRequest(
+                "this bricked volume was uploaded for other tissue windows; the scene sees bricks \
+                 that are not resident (prepare it again with this classification)"
+                    .into(),
+            ));
+        }
+    }
+    Ok(())
 }

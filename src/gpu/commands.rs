@@ -287,6 +287,31 @@ impl Recording {
         self.keep(dst.clone());
     }
 
+    /// Copies regions of a buffer into an image (in TRANSFER_DST_OPTIMAL).
+    pub fn copy_buffer_to_image_regions(
+        &mut self,
+        src: &Arc<Buffer>,
+        dst: &Arc<Image>,
+        regions: &[vk::BufferImageCopy],
+    ) {
+        if regions.is_empty() {
+            return;
+        }
+        // SAFETY: buffer and image alive and kept alive; the regions were computed from their
+        // sizes by the caller; the image is in the layout the barrier before this established.
+        unsafe {
+            self.device.raw.cmd_copy_buffer_to_image(
+                self.cmd,
+                src.raw,
+                dst.raw,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                regions,
+            )
+        };
+        self.keep(src.clone());
+        self.keep(dst.clone());
+    }
+
     /// Ends recording and submits to the compute queue.
     pub fn submit(mut self) -> GpuResult<Submission> {
         self.end_pass();

@@ -141,6 +141,39 @@ impl Device {
         self.shared.physical
     }
 
+    /// Bytes of device-local memory this process may still allocate: the driver's budget for the
+    /// largest device-local heap (VK_EXT_memory_budget, which accounts for other processes) minus
+    /// what it reports in use, or, without the extension, that heap's size minus what the
+    /// engine's ledger holds.
+    pub fn device_local_budget(&self) -> u64 {
+        let shared = &self.shared;
+        let heaps = &shared.memory_properties.memory_heaps
+            [..shared.memory_properties.memory_heap_count as usize];
+        let largest = heaps
+            .iter()
+            .enumerate()
+            .filter(|(_, h)| h.flags.contains(vk::MemoryHeapFlags::DEVICE_LOCAL))
+            .max_by_key(|(_, h)| h.size)
+            .map(|(i, h)| (i, h.size));
+        let Some((index, size)) = largest else {
+            return 0;
+        };
+        if shared.adapter.has_memory_budget {
+            let mut budget = vk::PhysicalDeviceMemoryBudgetPropertiesEXT::default();
+            let mut props = vk::PhysicalDeviceMemoryProperties2::default().push_next(&mut budget);
+            // SAFETY: a query on the physical device this device was created from, with the
+            // extension enabled at device creation.
+            unsafe {
+                shared
+                    .instance
+                    .raw
+                    .get_physical_device_memory_properties2(shared.physical, &mut props)
+            };
+            return budget.heap_budget[index].saturating_sub(budget.heap_usage[index]);
+        }
+        size.saturating_sub(shared.ledger.total_bytes())
+    }
+
     /// True when `format` has all of `features` for optimally tiled images on this device.
     pub fn supports_format(&self, format: vk::Format, features: vk::FormatFeatureFlags) -> bool {
         // SAFETY: a query on the physical device this device was created from.

@@ -58,6 +58,8 @@ pub struct DerivativeParams {
     pub scale_g: f32,
     /// Multiplier of k before storage.
     pub scale_k: f32,
+    /// Side of the atlas slots of a bricked volume, 0 for a whole volume.
+    pub slot_side: i32,
 }
 
 /// The derived images one dispatch produced.
@@ -124,7 +126,8 @@ impl DerivativePass {
 
     /// Allocates the requested outputs and records the pass. `normalized` must be in
     /// `Access::ComputeSampled`; the outputs are left in `Access::ComputeWriteImage`. `stats`
-    /// (STAT_BYTES) receives the bits of max |g| in 256 slots and is left in `Access::ComputeWriteBuffer`.
+    /// `slot_side` > 0 marks `normalized` as a brick atlas of slots of that side (stencils clamp
+    /// at slot faces). `stats` (STAT_BYTES) receives the bits of max |g| in 256 slots and is left in `Access::ComputeWriteBuffer`.
     #[allow(clippy::too_many_arguments)]
     pub fn record(
         &self,
@@ -135,6 +138,7 @@ impl DerivativePass {
         linear_part: [[f64; 3]; 3],
         tau: f32,
         store_scale: [f32; 2],
+        slot_side: i32,
         stats: &Arc<Buffer>,
     ) -> GpuResult<DerivedVolumes> {
         let extent = normalized.extent();
@@ -186,6 +190,7 @@ impl DerivativePass {
             tau,
             scale_g: store_scale[0],
             scale_k: store_scale[1],
+            slot_side,
         };
         let groups = self.pipeline.workgroups_for(extent);
         rec.dispatch(&self.pipeline, &[set], bytemuck::bytes_of(&params), groups)?;

@@ -41,12 +41,19 @@ pub struct RaymarchVariant {
     pub skip_empty: bool,
     /// Benchmark sample counters.
     pub count_samples: bool,
+    /// Textures are brick atlases read through a brick table.
+    pub bricked: bool,
 }
 
 impl RaymarchVariant {
     /// The variant `effects` needs; what means nothing in a mode is normalized away, so such
     /// effects share a pipeline.
     pub fn of(effects: &Effects, count_samples: bool) -> Self {
+        Self::of_layout(effects, count_samples, false)
+    }
+
+    /// [`RaymarchVariant::of`] for a whole (`bricked` false) or bricked volume.
+    pub fn of_layout(effects: &Effects, count_samples: bool, bricked: bool) -> Self {
         let dvr = effects.mode == RenderMode::Dvr;
         let q = &effects.quality;
         RaymarchVariant {
@@ -74,6 +81,7 @@ impl RaymarchVariant {
             naive_opacity: dvr && q.opacity_correction == OpacityCorrection::Naive,
             skip_empty: dvr && q.empty_space_skipping,
             count_samples,
+            bricked,
         }
     }
 
@@ -110,6 +118,8 @@ pub struct RaymarchInputs<'a> {
     pub normal: &'a Arc<Image>,
     /// Occupancy bits, or a placeholder.
     pub occupancy: &'a Arc<Buffer>,
+    /// Brick table of a bricked volume, or a placeholder.
+    pub brick_table: &'a Arc<Buffer>,
     /// Clamp-to-edge sampler with the filter the interpolation needs.
     pub sampler: &'a Arc<Sampler>,
 }
@@ -138,6 +148,7 @@ impl RaymarchPass {
                 ("INTERPOLATION", SpecValue::U32(variant.interpolation)),
                 ("NAIVE_OPACITY", SpecValue::Bool(variant.naive_opacity)),
                 ("SKIP_EMPTY", SpecValue::Bool(variant.skip_empty)),
+                ("BRICKED", SpecValue::Bool(variant.bricked)),
             ],
             cache,
         )?;
@@ -176,6 +187,7 @@ impl RaymarchPass {
                 ("params", Resource::Buffer(uniforms.clone())),
                 ("counters", Resource::Buffer(counters.clone())),
                 ("occupancy", Resource::Buffer(inputs.occupancy.clone())),
+                ("brick_table", Resource::Buffer(inputs.brick_table.clone())),
             ],
         )?;
         // Moves the target to GENERAL for storage writes; the last frame's pixels are not needed.

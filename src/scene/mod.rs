@@ -9,6 +9,7 @@ pub mod camera;
 pub mod classification;
 pub mod geometry;
 pub mod occupancy;
+pub mod plan;
 pub mod uniforms;
 
 pub use camera::{Camera, Projection};

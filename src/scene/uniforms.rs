@@ -50,6 +50,27 @@ pub struct RaymarchUniforms {
     pub derived_scale: [f32; 4],
     /// xyz = brick grid of the occupancy bits, w = brick side in voxels.
     pub bricks: [u32; 4],
+    /// Bricked volumes: xyz atlas dims in texels, w storage brick side.
+    pub atlas: [f32; 4],
+    /// Bricked volumes: xyz storage brick grid, w halo.
+    pub brick_grid: [u32; 4],
+    /// Bricked volumes: xy slots per atlas row and layer.
+    pub atlas_slots: [u32; 4],
+}
+
+/// Where a bricked volume's bricks are (zeros for a whole volume).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct AtlasInfo {
+    /// Atlas dims in texels.
+    pub dims: [u32; 3],
+    /// Storage brick side.
+    pub brick: u32,
+    /// Halo.
+    pub halo: u32,
+    /// Storage brick grid.
+    pub grid: [u32; 3],
+    /// Slots along each atlas axis.
+    pub slots: [u32; 3],
 }
 
 /// Inputs of the uniform block besides the scene.
@@ -65,6 +86,8 @@ pub struct FrameInputs {
     pub width: u32,
     /// Image height in pixels.
     pub height: u32,
+    /// The atlas of a bricked volume (default for a whole volume).
+    pub atlas: AtlasInfo,
 }
 
 /// Gradient statistics of the volume the raymarch needs (from the derivative pass).
@@ -175,6 +198,24 @@ impl RaymarchUniforms {
                 0.0,
             ],
             bricks: frame.bricks,
+            atlas: [
+                frame.atlas.dims[0] as f32,
+                frame.atlas.dims[1] as f32,
+                frame.atlas.dims[2] as f32,
+                frame.atlas.brick as f32,
+            ],
+            brick_grid: [
+                frame.atlas.grid[0],
+                frame.atlas.grid[1],
+                frame.atlas.grid[2],
+                frame.atlas.halo,
+            ],
+            atlas_slots: [
+                frame.atlas.slots[0],
+                frame.atlas.slots[1],
+                frame.atlas.slots[2],
+                0,
+            ],
         }
     }
 }

@@ -1,0 +1,376 @@
+//! Bricked volumes: for volumes over the memory budget or the device's 3D image limit.
+//!
+//! Decisions:
+//! - Preparation runs on the host. What does not fit is exactly the whole-volume sample buffer
+//!   and image the GPU kernels (min/max, normalize, histogram) work on, so the f64 twins do that
+//!   work: min/max over finite samples, `I_norm` in f64, quantized to the atlas format the way
+//!   the GPU stores it (round to nearest), and the histogram binned with the GPU's f32 rule from
+//!   the quantized values, so peaks and windows come out as on a whole volume.
+//! - Only resident bricks go to the GPU: a 32^3 brick (plus a 3-voxel halo) is resident when a
+//!   visible tissue window can be non-zero somewhere in its halo-extended range
+//!   (`BrickRanges::occupancy_bits`). Skipped bricks hold nothing a ray could see under that
+//!   classification, so the image matches the whole volume's; a classification that needs more
+//!   bricks needs a new upload (`render` refuses it with a typed error rather than drawing holes).
+//! - Slots are packed into an atlas that respects the 3D image limit (slots along x first), and
+//!   filled through one staging buffer reused batch by batch, so the upload itself stays within
+//!   a few megabytes.
+
+use super::Engine;
+use super::prepare::{BrickAtlas, PrepareTimings, PreparedVolume, VolumeLayout};
+use super::upload::UploadPath;
+use crate::gpu::{Access, Buffer, BufferDesc, GpuError, GpuResult, Image, ImageDesc, Recording};
+use crate::passes::histogram::BINS;
+use crate::passes::normalize::{self, Normalization};
+use crate::passes::occupancy::BRICK_SIDE;
+use crate::reference;
+use crate::scene::Classification;
+use crate::scene::occupancy::BrickRanges;
+use crate::scene::plan::{STORAGE_BRICK, STORAGE_HALO};
+use crate::volume::{SampleKind, Volume};
+use ash::vk;
+use std::sync::Arc;
+use std::time::Instant;
+
+/// Slots per staging batch (64 slots of 38^3 R16 texels: 7 MB).
+const SLOTS_PER_BATCH: usize = 64;
+
+/// A volume normalized on the host, ready to be bricked.
+pub struct HostPrepared {
+    /// Dimensions.
+    pub dims: [u32; 3],
+    /// Stored sample encoding.
+    pub kind: SampleKind,
+    /// Stored-sample min/max over finite voxels.
+    pub stored_range: Option<(f64, f64)>,
+    /// Physical range (and the GPU normalization's parameters, for reports).
+    pub normalization: Normalization,
+    /// 256-bin histogram of the quantized I_norm over finite voxels.
+    pub histogram: [u32; BINS],
+    /// Voxels in the volume.
+    pub voxel_count: u64,
+    /// Finite voxels.
+    pub finite_voxels: u64,
+    /// Index-to-world linear part.
+    pub linear_part: [[f64; 3]; 3],
+    /// Index-to-world affine (row-major).
+    pub affine: [[f64; 4]; 4],
+    /// Atlas format: R8_UNORM or R16_UNORM.
+    pub format: vk::Format,
+    /// Quantized I_norm per voxel (0..=255 for R8, 0..=65535 for R16).
+    texels: Vec<u16>,
+    /// Host time of the preparation.
+    pub host_ms: f64,
+}
+
+impl HostPrepared {
+    fn unit(&self) -> f32 {
+        if self.format == vk::Format::R8_UNORM {
+            255.0
+        } else {
+            65535.0
+        }
+    }
+
+    fn texel(&self, x: i64, y: i64, z: i64) -> u16 {
+        let c = |v: i64, d: u32| v.clamp(0, d as i64 - 1) as usize;
+        let [nx, ny, nz] = self.dims;
+        let i = c(x, nx) + nx as usize * (c(y, ny) + ny as usize * c(z, nz));
+        self.texels.get(i).copied().unwrap_or(0)
+    }
+
+    /// I_norm ranges of cubic bricks of `side` voxels extended by `halo` on every side.
+    pub fn brick_ranges(&self, side: u32, halo: u32) -> BrickRanges {
+        let grid = self.dims.map(|d| d.div_ceil(side));
+        let unit = self.unit();
+        let mut ranges = Vec::with_capacity(grid.iter().map(|&g| g as usize).product());
+        let (side, halo) = (side as i64, halo as i64);
+        for bz in 0..grid[2] as i64 {
+            for by in 0..grid[1] as i64 {
+                for bx in 0..grid[0] as i64 {
+                    let (mut lo, mut hi) = (u16::MAX, 0u16);
+                    let span = |b: i64, d: u32| {
+                        (b * side - halo).max(0)..=(b * side + side - 1 + halo).min(d as i64 - 1)
+                    };
+                    for z in span(bz, self.dims[2]) {
+                        for y in span(by, self.dims[1]) {
+                            for x in span(bx, self.dims[0]) {
+                                let t = self.texel(x, y, z);
+                                lo = lo.min(t);
+                                hi = hi.max(t);
+                            }
+                        }
+                    }
+                    ranges.push((lo as f32 / unit, hi as f32 / unit));
+                }
+            }
+        }
+        BrickRanges {
+            grid,
+            side: side as u32,
+            ranges,
+        }
+    }
+}
+
+fn texel_bytes(format: vk::Format) -> usize {
+    if format == vk::Format::R8_UNORM { 1 } else { 2 }
+}
+
+impl Engine {
+    /// Normalizes `volume` on the host into `format` (R8_UNORM or R16_UNORM) with its histogram.
+    pub fn prepare_on_host(&self, volume: &Volume, format: vk::Format) -> GpuResult<HostPrepared> {
+        let start = Instant::now();
+        if format != vk::Format::R8_UNORM && format != vk::Format::R16_UNORM {
+            return Err(GpuError::InvalidRequest(format!(
+                "bricked volumes are stored as R8 or R16 UNORM, not {format:?}"
+            )));
+        }
+        let dims = volume.dims.map(|d| u32::try_from(d).unwrap_or(u32::MAX));
+        if volume.samples.len() != volume.voxel_count() {
+            return Err(GpuError::InvalidRequest(
+                "the volume's sample count does not match its dims".into(),
+            ));
+        }
+        let stored_range = reference::minmax::finite_min_max(&volume.samples);
+        let normalization = normalize::plan(dims, stored_range, volume.to_physical);
+        let (imin, imax) = (
+            normalization.imin.unwrap_or(0.0),
+            normalization.imax.unwrap_or(0.0),
+        );
+        let unit = if format == vk::Format::R8_UNORM {
+            255.0
+        } else {
+            65535.0
+        };
+        let n = volume.voxel_count();
+        let mut texels = vec![0u16; n];
+        let mut finite = vec![false; n];
+        let threads = std::thread::available_parallelism()
+            .map(|t| t.get())
+            .unwrap_or(1)
+            .max(1);
+        let chunk = n.div_ceil(threads).max(1);
+        let samples = &volume.samples;
+        let map = volume.to_physical;
+        let constant = normalization.constant;
+        std::thread::scope(|scope| {
+            for ((t, f), start) in texels
+                .chunks_mut(chunk)
+                .zip(finite.chunks_mut(chunk))
+                .zip((0..n).step_by(chunk))
+            {
+                scope.spawn(move || {
+                    for i in 0..t.len() {
+                        let s = samples.get(start + i);
+                        f[i] = s.is_finite();
+                        let v = if !f[i] || constant {
+                            0.0
+                        } else {
+                            reference::normalize::normalize_value(map.apply(s), imin, imax)
+                        };
+                        t[i] = (v * unit).round().clamp(0.0, unit) as u16;
+                    }
+                });
+            }
+        });
+        let norm: Vec<f32> = texels.iter().map(|&t| t as f32 / unit as f32).collect();
+        let histogram = reference::histogram::histogram(&norm, |i| finite[i]);
+        let finite_voxels = histogram.iter().map(|&c| c as u64).sum();
+        Ok(HostPrepared {
+            dims,
+            kind: volume.samples.kind(),
+            stored_range,
+            normalization,
+            histogram,
+            voxel_count: n as u64,
+            finite_voxels,
+            linear_part: volume.orientation.linear_part(),
+            affine: volume.orientation.affine,
+            format,
+            texels,
+            host_ms: start.elapsed().as_secs_f64() * 1e3,
+        })
+    }
+
+    /// Uploads the bricks `classification` can see into an atlas; everything else stays on the
+    /// host. The result renders like a whole volume for that classification.
+    pub fn upload_bricked(
+        &mut self,
+        host: &HostPrepared,
+        classification: &Classification,
+    ) -> GpuResult<PreparedVolume> {
+        let start = Instant::now();
+        let storage = host.brick_ranges(STORAGE_BRICK, STORAGE_HALO);
+        let bits = storage.occupancy_bits(classification);
+        let resident: Vec<usize> = (0..storage.ranges.len())
+            .filter(|&b| bits[b / 32] >> (b % 32) & 1 == 1)
+            .collect();
+        let slot = (STORAGE_BRICK + 2 * STORAGE_HALO) as usize;
+        let max = self.device.adapter().max_image_dimension_3d as usize;
+        let per_axis = (max / slot).max(1);
+        let count = resident.len().max(1);
+        let sx = count.min(per_axis);
+        let sy = count.div_ceil(sx).min(per_axis);
+        let sz = count.div_ceil(sx * sy);
+        if sz > per_axis {
+            return Err(GpuError::Unsupported(format!(
+                "{count} resident bricks do not fit an atlas within the 3D image limit of {max}"
+            )));
+        }
+        let atlas_dims = [(sx * slot) as u32, (sy * slot) as u32, (sz * slot) as u32];
+        let atlas = Image::new(
+            &self.device,
+            ImageDesc::volume("normalized volume (brick atlas)", atlas_dims, host.format),
+        )?;
+        let mut table = vec![0u32; storage.ranges.len()];
+        for (s, &b) in resident.iter().enumerate() {
+            table[b] = s as u32 + 1;
+        }
+        let table_buffer = Buffer::with_data(
+            &self.device,
+            BufferDesc::host_storage("brick table", (4 * table.len().max(1)) as u64),
+            bytemuck::cast_slice(if table.is_empty() {
+                &[0u32][..]
+            } else {
+                &table[..]
+            }),
+        )?;
+
+        // Fill the slots batch by batch through one staging buffer.
+        let bytes = texel_bytes(host.format);
+        let slot_texels = slot * slot * slot;
+        let staging = Buffer::new(
+            &self.device,
+            BufferDesc::staging(
+                "brick upload (staging)",
+                (SLOTS_PER_BATCH * slot_texels * bytes) as u64,
+            ),
+        )?;
+        let grid = storage.grid;
+        let mut first = true;
+        let mut gpu_timings = Vec::new();
+        for batch in resident
+            .chunks(SLOTS_PER_BATCH)
+            .enumerate()
+            .map(|(k, c)| (k * SLOTS_PER_BATCH, c))
+        {
+            let (first_slot, bricks) = batch;
+            let mut data = vec![0u8; bricks.len() * slot_texels * bytes];
+            let mut regions = Vec::with_capacity(bricks.len());
+            for (k, &b) in bricks.iter().enumerate() {
+                let (bx, by, bz) = (
+                    b % grid[0] as usize,
+                    (b / grid[0] as usize) % grid[1] as usize,
+                    b / (grid[0] as usize * grid[1] as usize),
+                );
+                let origin =
+                    [bx, by, bz].map(|c| (c * STORAGE_BRICK as usize) as i64 - STORAGE_HALO as i64);
+                let base = k * slot_texels * bytes;
+                for z in 0..slot {
+                    for y in 0..slot {
+                        for x in 0..slot {
+                            let t = host.texel(
+                                origin[0] + x as i64,
+                                origin[1] + y as i64,
+                                origin[2] + z as i64,
+                            );
+                            let at = base + ((z * slot + y) * slot + x) * bytes;
+                            if bytes == 1 {
+                                data[at] = t as u8;
+                            } else {
+                                data[at..at + 2].copy_from_slice(&t.to_le_bytes());
+                            }
+                        }
+                    }
+                }
+                let s = first_slot + k;
+                let slot_origin = [s % sx, (s / sx) % sy, s / (sx * sy)].map(|c| (c * slot) as i32);
+                regions.push(vk::BufferImageCopy {
+                    buffer_offset: base as u64,
+                    buffer_row_length: 0,
+                    buffer_image_height: 0,
+                    image_subresource: vk::ImageSubresourceLayers {
+                        aspect_mask: vk::ImageAspectFlags::COLOR,
+                        mip_level: 0,
+                        base_array_layer: 0,
+                        layer_count: 1,
+                    },
+                    image_offset: vk::Offset3D {
+                        x: slot_origin[0],
+                        y: slot_origin[1],
+                        z: slot_origin[2],
+                    },
+                    image_extent: vk::Extent3D {
+                        width: slot as u32,
+                        height: slot as u32,
+                        depth: slot as u32,
+                    },
+                });
+            }
+            staging.write(0, &data)?;
+            let mut rec = Recording::new(&self.device, "brick upload")?;
+            // Moves the atlas to TRANSFER_DST: discarding its contents the first time, after the
+            // previous batch's copy (a write the new one must not race) afterwards.
+            let before = if first {
+                Access::Nothing
+            } else {
+                Access::TransferWrite
+            };
+            rec.barriers(&[], &[(&atlas, before, Access::TransferWrite)]);
+            rec.begin_pass("brick upload");
+            rec.copy_buffer_to_image_regions(&staging, &atlas, &regions);
+            rec.end_pass();
+            gpu_timings.extend(rec.submit()?.wait()?);
+            first = false;
+        }
+        let mut rec = Recording::new(&self.device, "atlas layout")?;
+        // Orders the uploads (or, with no resident brick, nothing) before every sampling.
+        rec.barriers(
+            &[],
+            &[(
+                &atlas,
+                if first {
+                    Access::Nothing
+                } else {
+                    Access::TransferWrite
+                },
+                Access::ComputeSampled,
+            )],
+        );
+        rec.submit()?.wait()?;
+
+        // Empty-space skipping's 8^3 ranges come from the host data too.
+        let fine = host.brick_ranges(BRICK_SIDE, 2);
+        let ranges = std::sync::OnceLock::new();
+        let _ = ranges.set(Arc::new(fine));
+        let layout = VolumeLayout::Bricked(BrickAtlas {
+            brick: STORAGE_BRICK,
+            halo: STORAGE_HALO,
+            grid,
+            slots: [sx as u32, sy as u32, sz as u32],
+            resident: resident.len() as u32,
+            table: table_buffer,
+        });
+        Ok(PreparedVolume {
+            dims: host.dims,
+            kind: host.kind,
+            upload_path: UploadPath::Staged,
+            normalized: atlas,
+            layout,
+            stored_range: host.stored_range,
+            normalization: host.normalization,
+            histogram: host.histogram,
+            voxel_count: host.voxel_count,
+            finite_voxels: host.finite_voxels,
+            linear_part: host.linear_part,
+            affine: host.affine,
+            gpu_timings,
+            timings: PrepareTimings {
+                pipelines_ms: 0.0,
+                upload_write_ms: host.host_ms,
+                wall_ms: start.elapsed().as_secs_f64() * 1e3 + host.host_ms,
+            },
+            brick_ranges: ranges,
+        })
+    }
+}

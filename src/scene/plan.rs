@@ -1,0 +1,725 @@
+//! The pass plan: from a scene and a volume, the minimal set of passes, pipeline variants and
+//! allocations, with their predicted cost, fitted into a memory budget.
+//!
+//! Decisions:
+//! - Only what the scene calls for: MIP and MinIP run no derivative pass; DVR without curvature
+//!   stores no curvature channel; shading off stores no normals; on-the-fly gradients store no
+//!   derived volume at all (the derivative pass then only reduces max |g|); empty-space skipping
+//!   adds the brick ranges and bits. Tissue toggles and window drags change no plan: they are
+//!   uniforms.
+//! - Sizes are what the engine allocates (texels x bytes per texel, buffers as sized); drivers may
+//!   round images up, and the engine's memory ledger reports the real numbers.
+//! - The budget caps the GPU memory held at once. Transient buffers (the sample upload, staging,
+//!   readback of the histogram) are counted in the preparation peak, which must fit too.
+//! - Over budget, the plan degrades in a fixed order, cheapest accuracy first, each step named with
+//!   the accuracy-study setting that measures its cost (ACCURACY.md): 8-bit derived volumes, R8
+//!   I_norm, gradients on the fly; then bricking (only the bricks a visible tissue can occupy are
+//!   resident). A volume side over the device's 3D image limit forces bricking. When nothing
+//!   fits, the error names the volume, the budget and the smallest plan tried.
+
+use super::{DerivedPrecision, Effects, GradientSource, RenderMode};
+use crate::passes::cost::{self, PassCost};
+use crate::passes::derivatives::DerivativeOutputs;
+use crate::passes::occupancy::{BRICK_SIDE, brick_grid};
+use crate::volume::SampleKind;
+
+/// Side of a storage brick of the bricked layout, in voxels (without halo).
+pub const STORAGE_BRICK: u32 = 32;
+/// Halo of a storage brick on each side: trilinear and cubic reads, and the derivative stencils
+/// at the brick's border, need neighbours up to 3 voxels out.
+pub const STORAGE_HALO: u32 = 3;
+
+/// What the plan needs to know about the volume, the image and the device.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct PlanInput {
+    /// Volume dimensions.
+    pub dims: [u32; 3],
+    /// Stored sample encoding.
+    pub sample_kind: SampleKind,
+    /// Output image size.
+    pub image: [u32; 2],
+    /// Largest 3D image side the device (or its profile) allows.
+    pub max_image_dimension_3d: u32,
+    /// Largest storage buffer the device allows.
+    pub max_storage_buffer_range: u64,
+    /// Uploads go straight to memory the GPU reads (no staging copy).
+    pub unified_memory: bool,
+    /// Memory the plan may hold at once (user budget, device budget, or heap size).
+    pub budget: u64,
+    /// Fraction of storage bricks a visible tissue can occupy (1 when unknown); bricked plans hold
+    /// only those.
+    pub occupied_fraction: f64,
+}
+
+/// How the normalized volume is laid out on the GPU.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[serde(rename_all = "snake_case", tag = "kind")]
+pub enum Layout {
+    /// One 3D image of the whole volume.
+    Whole,
+    /// Bricks of `brick`^3 voxels plus `halo` on each side, resident bricks packed in an atlas,
+    /// found through a brick table.
+    Bricked {
+        /// Brick side without halo.
+        brick: u32,
+        /// Halo on each side.
+        halo: u32,
+        /// Bricks along each axis.
+        grid: [u32; 3],
+        /// Bricks held on the GPU.
+        resident: u32,
+    },
+}
+
+/// One allocation the plan holds or needs transiently.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct PlannedAllocation {
+    /// Name as the memory ledger will show it.
+    pub name: String,
+    /// Bytes.
+    pub bytes: u64,
+    /// Texel format or `buffer`.
+    pub format: String,
+    /// Where it lives: `device-local`, `host-visible`, `host (staging)` or `host (readback)`.
+    pub memory_type: String,
+    /// Held only while the volume is prepared (freed before the first frame).
+    pub transient: bool,
+}
+
+/// One pass of the plan.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct PlannedPass {
+    /// Pass name as timestamps report it.
+    pub name: String,
+    /// When it runs: `per volume`, `per effect change` or `per frame`.
+    pub runs: &'static str,
+    /// Shader variant (shader name and specialization).
+    pub variant: String,
+    /// Minimum traffic (bytes, fetches; the raymarch's fetches are estimated from the image,
+    /// the volume diagonal and the step, before early termination and skipping).
+    pub cost: PassCost,
+}
+
+/// A step down the degradation ladder, with the accuracy-study setting that measures its cost.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Degradation {
+    /// What changed.
+    pub what: String,
+    /// Bytes it saved.
+    pub saved_bytes: u64,
+    /// The `morphray accuracy` setting that measures its error (see ACCURACY.md).
+    pub accuracy_setting: &'static str,
+}
+
+/// The plan.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Plan {
+    /// Effects as planned (after degradations).
+    pub effects: Effects,
+    /// Storage format of I_norm.
+    pub normalized_format: &'static str,
+    /// Whole or bricked.
+    pub layout: Layout,
+    /// Passes in execution order.
+    pub passes: Vec<PlannedPass>,
+    /// Pipeline variants the passes need.
+    pub variants: Vec<String>,
+    /// Every allocation.
+    pub allocations: Vec<PlannedAllocation>,
+    /// Bytes held while rendering (non-transient allocations).
+    pub total_bytes: u64,
+    /// Bytes held at the peak of preparation.
+    pub peak_bytes: u64,
+    /// The budget planned against.
+    pub budget: u64,
+    /// Degradations applied to fit the budget.
+    pub degradations: Vec<Degradation>,
+}
+
+/// No plan fits.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error(
+    "the volume ({dims:?} voxels, {volume_bytes} bytes as R16) does not fit the memory budget of \
+     {budget} bytes: the smallest plan tried ({smallest_plan}) needs {smallest_bytes} bytes"
+)]
+pub struct DoesNotFit {
+    /// Volume dimensions.
+    pub dims: [u32; 3],
+    /// Bytes of the volume as R16.
+    pub volume_bytes: u64,
+    /// The budget.
+    pub budget: u64,
+    /// Description of the smallest plan tried.
+    pub smallest_plan: String,
+    /// Its peak bytes.
+    pub smallest_bytes: u64,
+}
+
+/// The choices that set the plan's size.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Choices {
+    effects: Effects,
+    normalized_bytes: u64,
+    bricked: bool,
+}
+
+fn voxels(dims: [u32; 3]) -> u64 {
+    dims.iter().map(|&d| d as u64).product()
+}
+
+fn format_name(bytes: u64) -> &'static str {
+    if bytes == 1 { "R8_UNORM" } else { "R16_UNORM" }
+}
+
+fn gradient_texel(precision: DerivedPrecision, curvature: bool) -> (u64, &'static str) {
+    let channels = if curvature { 2 } else { 1 };
+    match precision {
+        DerivedPrecision::F32 => (
+            4 * channels,
+            if curvature {
+                "R32G32_SFLOAT"
+            } else {
+                "R32_SFLOAT"
+            },
+        ),
+        DerivedPrecision::F16 => (
+            2 * channels,
+            if curvature {
+                "R16G16_SFLOAT"
+            } else {
+                "R16_SFLOAT"
+            },
+        ),
+        DerivedPrecision::Snorm8 => (channels, if curvature { "R8G8_SNORM" } else { "R8_SNORM" }),
+    }
+}
+
+/// The texels the volume occupies in the chosen layout (atlas texels for a bricked plan).
+fn layout_texels(input: &PlanInput, bricked: bool) -> (u64, Layout) {
+    if !bricked {
+        return (voxels(input.dims), Layout::Whole);
+    }
+    let grid = input.dims.map(|d| d.div_ceil(STORAGE_BRICK));
+    let total = grid.iter().map(|&g| g as u64).product::<u64>();
+    let resident =
+        ((total as f64 * input.occupied_fraction.clamp(0.0, 1.0)).ceil() as u64).clamp(1, total);
+    let slot = (STORAGE_BRICK + 2 * STORAGE_HALO) as u64;
+    (
+        resident * slot * slot * slot,
+        Layout::Bricked {
+            brick: STORAGE_BRICK,
+            halo: STORAGE_HALO,
+            grid,
+            resident: resident as u32,
+        },
+    )
+}
+
+fn build(input: &PlanInput, choices: Choices, degradations: Vec<Degradation>) -> Plan {
+    let Choices {
+        effects,
+        normalized_bytes,
+        bricked,
+    } = choices;
+    let n = voxels(input.dims);
+    let (texels, layout) = layout_texels(input, bricked);
+    let sample_bytes = n * input.sample_kind.size_bytes() as u64;
+    let padded_samples = sample_bytes.div_ceil(16).max(1) * 16;
+    let mut allocations = Vec::new();
+    let mut alloc = |name: &str, bytes: u64, format: &str, memory_type: &str, transient: bool| {
+        allocations.push(PlannedAllocation {
+            name: name.to_string(),
+            bytes,
+            format: format.to_string(),
+            memory_type: memory_type.to_string(),
+            transient,
+        });
+    };
+    let device_local = if input.unified_memory {
+        "host-visible (unified)"
+    } else {
+        "device-local"
+    };
+    let mut passes = Vec::new();
+    let mut variants = Vec::new();
+    let kind = input.sample_kind.name();
+    if bricked {
+        // Bricked volumes are normalized on the CPU brick by brick (the whole-volume sample
+        // buffer the GPU kernels read is what does not fit) and uploaded through staging.
+        alloc(
+            "brick upload (staging)",
+            (STORAGE_BRICK as u64 + 2 * STORAGE_HALO as u64).pow(3) * normalized_bytes * 64,
+            "buffer",
+            "host (staging)",
+            true,
+        );
+    } else {
+        alloc(
+            "volume samples",
+            padded_samples,
+            "buffer",
+            if input.unified_memory {
+                "host-visible (unified)"
+            } else {
+                "device-local"
+            },
+            true,
+        );
+        if !input.unified_memory {
+            alloc(
+                "volume samples (staging)",
+                padded_samples,
+                "buffer",
+                "host (staging)",
+                true,
+            );
+        }
+        alloc("min/max result", 8, "buffer", "device-local", true);
+        alloc("histogram bins", 1024, "buffer", "device-local", true);
+        passes.push(PlannedPass {
+            name: "minmax".into(),
+            runs: "per volume",
+            variant: format!("minmax_{kind}"),
+            cost: cost::minmax(sample_bytes as f64),
+        });
+        passes.push(PlannedPass {
+            name: "normalize".into(),
+            runs: "per volume",
+            variant: format!("normalize (SAMPLE_KIND={kind})"),
+            cost: cost::normalize(sample_bytes as f64, n as f64, normalized_bytes as f64),
+        });
+        passes.push(PlannedPass {
+            name: "histogram".into(),
+            runs: "per volume",
+            variant: format!("histogram_{kind}"),
+            cost: cost::histogram(
+                n as f64,
+                normalized_bytes as f64,
+                input.sample_kind == SampleKind::F32,
+            ),
+        });
+        variants.extend([
+            format!("minmax_{kind}"),
+            format!("normalize (SAMPLE_KIND={kind})"),
+            format!("histogram_{kind}"),
+        ]);
+    }
+    let normalized_name = if bricked {
+        "normalized volume (brick atlas)"
+    } else {
+        "normalized volume"
+    };
+    alloc(
+        normalized_name,
+        texels * normalized_bytes,
+        format_name(normalized_bytes),
+        device_local,
+        false,
+    );
+    if let Layout::Bricked { grid, .. } = layout {
+        alloc(
+            "brick table",
+            4 * grid.iter().map(|&g| g as u64).product::<u64>(),
+            "buffer",
+            "host-visible",
+            false,
+        );
+    }
+    if let Some(outputs) = effects.derivative_outputs() {
+        let stored = outputs.magnitude || outputs.curvature;
+        if stored {
+            let (bytes, format) = gradient_texel(outputs.precision, outputs.curvature);
+            alloc(
+                "gradient magnitude",
+                texels * bytes,
+                format,
+                device_local,
+                false,
+            );
+        }
+        if outputs.normal {
+            alloc("normals", texels * 4, "R8G8B8A8_SNORM", device_local, false);
+        }
+        alloc("gradient maximum", 1024, "buffer", "device-local", true);
+        let variant = derivative_variant(&outputs);
+        passes.push(PlannedPass {
+            name: "derivatives".into(),
+            runs: "per effect change",
+            variant: variant.clone(),
+            cost: cost::derivatives(
+                texels as f64,
+                normalized_bytes as f64,
+                outputs.curvature,
+                outputs.normal,
+                stored,
+            ),
+        });
+        variants.push(variant);
+    }
+    let skip = effects.mode == RenderMode::Dvr && effects.quality.empty_space_skipping;
+    if skip {
+        let g = brick_grid(input.dims);
+        let bricks = g.iter().map(|&x| x as u64).product::<u64>();
+        alloc("brick ranges", 8 * bricks, "buffer", "device-local", true);
+        alloc(
+            "occupancy bits",
+            4 * bricks.div_ceil(32),
+            "buffer",
+            "host-visible",
+            false,
+        );
+        passes.push(PlannedPass {
+            name: "occupancy".into(),
+            runs: "per volume",
+            variant: "occupancy".into(),
+            cost: PassCost {
+                bytes_read: n as f64 * normalized_bytes as f64,
+                bytes_written: 8.0 * bricks as f64,
+                texel_loads: n as f64 * ((BRICK_SIDE + 4) as f64 / BRICK_SIDE as f64).powi(3),
+                ..Default::default()
+            },
+        });
+        variants.push("occupancy".into());
+    }
+    let [w, h] = input.image;
+    let pixels = w as u64 * h as u64;
+    alloc(
+        "render target",
+        pixels * 4,
+        "R8G8B8A8_UNORM",
+        "device-local",
+        false,
+    );
+    alloc(
+        "uniforms (2 frames in flight)",
+        2 * std::mem::size_of::<super::uniforms::RaymarchUniforms>() as u64,
+        "buffer",
+        "host-visible",
+        false,
+    );
+    let diagonal = input
+        .dims
+        .iter()
+        .map(|&d| (d as f64).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    let samples = pixels as f64 * diagonal / 0.5 * 0.5; // half the pixels' rays cross the volume, at step 0.5
+    let variant = super::super::passes::raymarch::RaymarchVariant::of(&effects, false);
+    let (per_marched, per_classified) = variant.fetches();
+    passes.push(PlannedPass {
+        name: "raymarch".into(),
+        runs: "per frame",
+        variant: format!("raymarch {variant:?}"),
+        cost: cost::raymarch(
+            pixels as f64,
+            samples * per_marched,
+            samples * 0.15,
+            per_classified,
+        ),
+    });
+    variants.push(format!("raymarch {variant:?}"));
+    let total_bytes = allocations
+        .iter()
+        .filter(|a| !a.transient)
+        .map(|a| a.bytes)
+        .sum();
+    let peak_bytes = allocations.iter().map(|a| a.bytes).sum();
+    Plan {
+        effects,
+        normalized_format: format_name(normalized_bytes),
+        layout,
+        passes,
+        variants,
+        allocations,
+        total_bytes,
+        peak_bytes,
+        budget: input.budget,
+        degradations,
+    }
+}
+
+fn derivative_variant(o: &DerivativeOutputs) -> String {
+    format!(
+        "derivatives (WANT_MAGNITUDE={}, WANT_CURVATURE={}, WANT_NORMAL={}, {:?})",
+        o.magnitude, o.curvature, o.normal, o.precision
+    )
+}
+
+/// One rung of the degradation ladder: what it does, the accuracy setting it
+/// corresponds to in `morphray accuracy`, and the change (false when it does not apply).
+type LadderStep = (&'static str, &'static str, fn(&mut Choices) -> bool);
+
+/// Plans `effects` on `input`, degrading to fit the budget; `DoesNotFit` when nothing does.
+pub fn plan(effects: Effects, input: &PlanInput) -> Result<Plan, DoesNotFit> {
+    let too_large = input.dims.iter().any(|&d| d > input.max_image_dimension_3d);
+    let sample_bytes = voxels(input.dims) * input.sample_kind.size_bytes() as u64;
+    let samples_too_large = sample_bytes > input.max_storage_buffer_range;
+    let mut choices = Choices {
+        effects,
+        normalized_bytes: 2,
+        bricked: too_large || samples_too_large,
+    };
+    let mut degradations = Vec::new();
+    if choices.bricked {
+        degradations.push(Degradation {
+            what: if too_large {
+                format!("bricked: a side of {:?} exceeds the device's 3D image limit of {}", input.dims, input.max_image_dimension_3d)
+            } else {
+                format!("bricked: {sample_bytes} bytes of samples exceed the largest storage buffer ({})", input.max_storage_buffer_range)
+            },
+            saved_bytes: 0,
+            accuracy_setting: "default (bricking is lossless for the visible tissues)",
+        });
+    }
+    let fits = |p: &Plan| p.peak_bytes <= input.budget;
+    let mut current = build(input, choices, degradations.clone());
+    let ladder: [LadderStep; 4] = [
+        (
+            "derived volumes stored as 8-bit SNORM",
+            "gradient 8-bit",
+            |c| {
+                let stored = c
+                    .effects
+                    .derivative_outputs()
+                    .is_some_and(|o| o.magnitude || o.curvature || o.normal);
+                if stored && c.effects.quality.derived_precision != DerivedPrecision::Snorm8 {
+                    c.effects.quality.derived_precision = DerivedPrecision::Snorm8;
+                    true
+                } else {
+                    false
+                }
+            },
+        ),
+        ("I_norm stored as R8", "I_norm R8", |c| {
+            if c.normalized_bytes > 1 {
+                c.normalized_bytes = 1;
+                true
+            } else {
+                false
+            }
+        }),
+        (
+            "gradients computed on the fly (no stored derived volumes)",
+            "gradient on the fly",
+            |c| {
+                let stored = c
+                    .effects
+                    .derivative_outputs()
+                    .is_some_and(|o| o.magnitude || o.curvature || o.normal);
+                if stored {
+                    c.effects.gradient_source = GradientSource::OnTheFly;
+                    true
+                } else {
+                    false
+                }
+            },
+        ),
+        (
+            "bricked: only bricks a visible tissue can occupy are held",
+            "default (bricking is lossless for the visible tissues)",
+            |c| {
+                if c.bricked {
+                    false
+                } else {
+                    c.bricked = true;
+                    true
+                }
+            },
+        ),
+    ];
+    for (what, setting, step) in ladder {
+        if fits(&current) {
+            return Ok(current);
+        }
+        let before = current.peak_bytes;
+        if step(&mut choices) {
+            let next = build(input, choices, degradations.clone());
+            degradations.push(Degradation {
+                what: what.to_string(),
+                saved_bytes: before.saturating_sub(next.peak_bytes),
+                accuracy_setting: setting,
+            });
+            current = build(input, choices, degradations.clone());
+        }
+    }
+    if fits(&current) {
+        return Ok(current);
+    }
+    Err(DoesNotFit {
+        dims: input.dims,
+        volume_bytes: 2 * voxels(input.dims),
+        budget: input.budget,
+        smallest_plan: format!(
+            "{}, {}, {:?} gradients",
+            current.normalized_format,
+            match current.layout {
+                Layout::Whole => "whole volume".to_string(),
+                Layout::Bricked { resident, .. } => format!("{resident} resident bricks"),
+            },
+            current.effects.gradient_source
+        ),
+        smallest_bytes: current.peak_bytes,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{CurvatureSource, Quality};
+
+    fn input() -> PlanInput {
+        PlanInput {
+            dims: [256, 256, 192],
+            sample_kind: SampleKind::I16,
+            image: [1920, 1080],
+            max_image_dimension_3d: 16384,
+            max_storage_buffer_range: u32::MAX as u64,
+            unified_memory: false,
+            budget: u64::MAX,
+            occupied_fraction: 1.0,
+        }
+    }
+
+    fn names(p: &Plan) -> Vec<&str> {
+        p.allocations
+            .iter()
+            .filter(|a| !a.transient)
+            .map(|a| a.name.as_str())
+            .collect()
+    }
+
+    fn passes(p: &Plan) -> Vec<&str> {
+        p.passes.iter().map(|x| x.name.as_str()).collect()
+    }
+
+    #[test]
+    fn mip_needs_no_derivative_pass_and_no_derived_memory() {
+        let p = plan(
+            Effects {
+                mode: RenderMode::Mip,
+                ..Effects::default()
+            },
+            &input(),
+        )
+        .unwrap();
+        assert_eq!(passes(&p), ["minmax", "normalize", "histogram", "raymarch"]);
+        assert_eq!(
+            names(&p),
+            [
+                "normalized volume",
+                "render target",
+                "uniforms (2 frames in flight)"
+            ]
+        );
+    }
+
+    #[test]
+    fn dvr_without_curvature_holds_no_curvature_and_shading_off_no_normals() {
+        let plain = plan(Effects::default(), &input()).unwrap();
+        let g = plain
+            .allocations
+            .iter()
+            .find(|a| a.name == "gradient magnitude")
+            .unwrap();
+        assert_eq!(
+            (g.format.as_str(), g.bytes),
+            ("R16_SFLOAT", 2 * 256 * 256 * 192)
+        );
+        assert!(!names(&plain).contains(&"normals"));
+        let curved = plan(
+            Effects {
+                curvature: true,
+                ..Effects::default()
+            },
+            &input(),
+        )
+        .unwrap();
+        let g = curved
+            .allocations
+            .iter()
+            .find(|a| a.name == "gradient magnitude")
+            .unwrap();
+        assert_eq!(
+            (g.format.as_str(), g.bytes),
+            ("R16G16_SFLOAT", 4 * 256 * 256 * 192)
+        );
+        let shaded = plan(
+            Effects {
+                shading: true,
+                ..Effects::default()
+            },
+            &input(),
+        )
+        .unwrap();
+        assert!(names(&shaded).contains(&"normals"));
+        assert_eq!(shaded.total_bytes - plain.total_bytes, 4 * 256 * 256 * 192);
+        // Curvature on the fly stores no curvature channel.
+        let fly = Effects {
+            curvature: true,
+            quality: Quality {
+                curvature_source: CurvatureSource::OnTheFly,
+                ..Quality::default()
+            },
+            ..Effects::default()
+        };
+        let p = plan(fly, &input()).unwrap();
+        assert_eq!(
+            p.allocations
+                .iter()
+                .find(|a| a.name == "gradient magnitude")
+                .unwrap()
+                .format,
+            "R16_SFLOAT"
+        );
+    }
+
+    #[test]
+    fn budgets_degrade_in_order_then_brick_then_refuse() {
+        let full = plan(
+            Effects {
+                curvature: true,
+                shading: true,
+                ..Effects::default()
+            },
+            &input(),
+        )
+        .unwrap();
+        let mut tight = input();
+        tight.budget = full.peak_bytes - 1;
+        let p = plan(full.effects, &tight).unwrap();
+        assert_eq!(p.degradations[0].accuracy_setting, "gradient 8-bit");
+        assert!(p.peak_bytes <= tight.budget);
+        tight.budget = 40 << 20;
+        tight.occupied_fraction = 0.2;
+        let p = plan(full.effects, &tight).unwrap();
+        assert!(
+            matches!(p.layout, Layout::Bricked { .. }),
+            "{:?}",
+            p.degradations
+        );
+        assert!(p.peak_bytes <= tight.budget);
+        tight.budget = 1 << 20;
+        let err = plan(full.effects, &tight).unwrap_err();
+        assert!(
+            err.to_string()
+                .contains("does not fit the memory budget of 1048576 bytes"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn a_side_over_the_3d_limit_forces_bricking() {
+        let mut i = input();
+        i.dims = [2100, 64, 64];
+        i.max_image_dimension_3d = 2048;
+        let p = plan(Effects::default(), &i).unwrap();
+        assert!(matches!(
+            p.layout,
+            Layout::Bricked {
+                grid: [66, 2, 2],
+                ..
+            }
+        ));
+        assert!(p.degradations[0].what.contains("3D image limit of 2048"));
+    }
+}
