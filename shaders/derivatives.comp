@@ -46,6 +46,7 @@ layout(push_constant) uniform Params {
     float scale_g;       // multiplies |g_w| before it is stored (1, or 1/max for 8-bit storage)
     float scale_k;       // multiplies k before it is stored
     int slot_side;       // > 0: the volume is a brick atlas of slots of this side (see main)
+    int slot_halo;       // the slots' halo: only a slot's own brick counts towards max |g|
 } params;
 
 // Origin of the region the stencils see: the whole volume, or the current atlas slot.
@@ -149,6 +150,7 @@ void main() {
     ivec3 p = ivec3(gl_GlobalInvocationID);
     ivec3 n = params.dims.xyz;
     bool inside = all(lessThan(p, n));
+    bool counted = inside;
     // A brick atlas: each slot is its own little volume (brick plus halo), so the stencils clamp
     // at the slot's faces and never read a neighbouring slot; the halo makes the brick's own
     // voxels (and the halo's first layer) exact.
@@ -156,9 +158,14 @@ void main() {
         region_origin = (p / params.slot_side) * params.slot_side;
         p -= region_origin;
         n = min(ivec3(params.slot_side), n - region_origin);
+        // Halo texels repeat a neighbour brick's voxels, and their stencils are one-sided at the
+        // slot's faces (a step edge's one-sided difference is twice the central one), so they
+        // would inflate the maximum the whole volume has; each voxel counts once, in its brick.
+        counted = inside && all(greaterThanEqual(p, ivec3(params.slot_halo)))
+            && all(lessThan(p, ivec3(params.slot_side - params.slot_halo)));
     }
     float magnitude = inside ? derive_voxel(p, n) : 0.0;
-    float subgroup_max = subgroupMax(magnitude);
+    float subgroup_max = subgroupMax(counted ? magnitude : 0.0);
     if (subgroupElect()) {
         atomicMax(workgroup_max_bits, floatBitsToUint(subgroup_max));
     }

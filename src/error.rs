@@ -36,6 +36,9 @@ pub enum Error {
         /// The cause.
         source: std::io::Error,
     },
+    /// Opening a volume (GPU work or the memory plan).
+    #[error(transparent)]
+    Open(#[from] crate::engine::OpenError),
     /// No plan of the scene fits the memory budget, even fully degraded.
     #[error(transparent)]
     DoesNotFit(#[from] crate::scene::plan::DoesNotFit),

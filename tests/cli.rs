@@ -307,6 +307,10 @@ fn a_tiny_bench_reports_every_pass_as_json() {
         "samples were counted"
     );
     assert_eq!(v["image"], serde_json::json!([16, 12]));
+    // The bench carries the plan it ran.
+    assert!(v["plan"]["allocations"].as_array().unwrap().len() > 3);
+    assert!(v["plan"]["total_bytes"].as_u64().unwrap() > 0);
+    assert_eq!(v["plan"]["degradations"], serde_json::json!([]));
 }
 
 #[test]
@@ -368,4 +372,145 @@ fn a_tiny_accuracy_study_reports_every_knob_with_a_frontier() {
     assert!(settings.iter().any(|s| s["frontier"] == true));
     let plot = std::fs::read_to_string(&svg).unwrap();
     assert!(plot.starts_with("<svg") && plot.contains("Pareto frontier"));
+}
+
+fn plan_json(input: &str, extra: &[&str]) -> serde_json::Value {
+    let mut args = vec!["plan", input, "--json", "--size", "32x24"];
+    args.extend_from_slice(extra);
+    let o = morphray(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    serde_json::from_slice(&o.stdout).unwrap()
+}
+
+#[test]
+fn plan_json_is_minimal_for_each_scene() {
+    let phantom = generate(&PhantomSpec::cube(28)).unwrap();
+    let input = temp("plan28.nii");
+    write_nifti1(&phantom.volume, &input, false).unwrap();
+    let input = input.to_str().unwrap();
+    let dvr = plan_json(input, &[]);
+    for key in [
+        "passes",
+        "variants",
+        "allocations",
+        "total_bytes",
+        "degradations",
+        "held",
+    ] {
+        assert!(dvr.get(key).is_some(), "{key} missing from plan --json");
+    }
+    for a in dvr["allocations"].as_array().unwrap() {
+        for key in ["name", "bytes", "format", "memory_type"] {
+            assert!(a.get(key).is_some(), "{key} missing from {a}");
+        }
+    }
+    let total = |v: &serde_json::Value| v["total_bytes"].as_u64().unwrap();
+    let passes = |v: &serde_json::Value| -> Vec<String> {
+        v["passes"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|p| p["name"].as_str().unwrap().to_string())
+            .collect()
+    };
+    let holds = |v: &serde_json::Value, name: &str| {
+        v["allocations"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|a| a["name"] == name)
+    };
+    let curvature = plan_json(input, &["--curvature", "on"]);
+    let mip = plan_json(input, &["--mode", "mip"]);
+    let shading = plan_json(input, &["--shading", "on"]);
+    assert!(
+        total(&curvature) > total(&dvr),
+        "curvature holds a second channel"
+    );
+    assert!(total(&shading) > total(&dvr), "shading holds normals");
+    assert!(total(&mip) < total(&dvr), "MIP holds no derived volume");
+    assert!(!passes(&mip).contains(&"derivatives".to_string()));
+    assert!(passes(&dvr).contains(&"derivatives".to_string()));
+    assert!(holds(&shading, "normals") && !holds(&dvr, "normals"));
+    assert!(holds(&dvr, "gradient magnitude") && !holds(&mip, "gradient magnitude"));
+    assert!(dvr["degradations"].as_array().unwrap().is_empty());
+    // What the engine then held equals the plan (the ledger after set-up has no frame yet,
+    // so the per-frame occupancy bits are the only planned allocations missing).
+    let planned: u64 = dvr["allocations"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|a| a["transient"] == false && a["name"] != "occupancy bits")
+        .map(|a| a["bytes"].as_u64().unwrap())
+        .sum();
+    assert_eq!(dvr["held_bytes"].as_u64().unwrap(), planned);
+}
+
+#[test]
+fn an_impossible_budget_is_one_line_naming_volume_and_budget() {
+    let phantom = generate(&PhantomSpec::cube(28)).unwrap();
+    let input = temp("budget28.nii");
+    write_nifti1(&phantom.volume, &input, false).unwrap();
+    let out = temp("budget.png");
+    let o = morphray(&[
+        "--memory-budget",
+        "16K",
+        "render",
+        input.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert_one_line_failure(&o, "does not fit the memory budget of 16384 bytes");
+    assert!(stderr(&o).contains("[28, 28, 28]"), "{}", stderr(&o));
+    assert!(!out.exists());
+}
+
+#[test]
+fn a_render_over_the_budget_bricks_and_says_so() {
+    // The phantom in a wide empty field of view, so the visible bricks fit where the volume
+    // does not.
+    let side = 96;
+    let inner = generate(&PhantomSpec::cube(40)).unwrap().volume;
+    let values = inner.samples.to_f64_vec();
+    let mut padded = vec![0i16; side * side * side];
+    let o = (side - 40) / 2;
+    for z in 0..40 {
+        for y in 0..40 {
+            for x in 0..40 {
+                padded[((z + o) * side + y + o) * side + x + o] =
+                    values[(z * 40 + y) * 40 + x] as i16;
+            }
+        }
+    }
+    let mut volume = inner;
+    volume.dims = [side; 3];
+    volume.samples = morphray::volume::Samples::from_i16(&padded);
+    let input = temp("padded96.nii");
+    write_nifti1(&volume, &input, false).unwrap();
+    let out = temp("bricked.png");
+    // 96^3 R16 is 1.7 MiB; a 1 MiB budget fits only by bricking (plus gradients on the fly).
+    let o = morphray(&[
+        "--memory-budget",
+        "1M",
+        "render",
+        input.to_str().unwrap(),
+        "--size",
+        "40x32",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("bricked"), "{}", stderr(&o));
+    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&out).unwrap()));
+    let mut reader = decoder.read_info().unwrap();
+    let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    let lit = buf[..info.buffer_size()]
+        .chunks_exact(4)
+        .filter(|p| p[0] as u32 + p[1] as u32 + p[2] as u32 > 30)
+        .count();
+    assert!(
+        lit > 50,
+        "the bricked render shows the phantom ({lit} lit pixels)"
+    );
 }

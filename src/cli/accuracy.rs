@@ -290,7 +290,7 @@ pub fn run(args: &AccuracyArgs, global: &super::GlobalOptions) -> Result<(), Err
     let (width, height) = args.scene.size.unwrap_or((256, 256));
     let views = &VIEWS[..args.views];
     let volume = opened.source.volume.clone();
-    let dims = opened.prepared.dims;
+    let dims = opened.twin.prepared.dims;
     let dims_usize = volume.dims;
     let geometry = VolumeGeometry::new(dims, volume.orientation.affine)
         .map_err(|e| Error::Usage(e.to_string()))?;

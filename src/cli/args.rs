@@ -27,6 +27,12 @@ pub struct Cli {
     #[arg(long, global = true, value_name = "BYTES", value_parser = parse_bytes)]
     pub memory_budget: Option<u64>,
 
+    /// Brick the volume even when it fits whole (32^3 bricks with a 3-voxel halo, read through
+    /// a brick table), to measure what bricking costs. Bricking is otherwise automatic: over the
+    /// budget, or over the device's 3D image limit.
+    #[arg(long, global = true)]
+    pub bricked: bool,
+
     /// What to do.
     #[command(subcommand)]
     pub command: Command,
@@ -51,6 +57,27 @@ pub enum Command {
     Devices,
     /// Write the built-in digital phantom as a NIfTI-1 file (.nii or .nii.gz).
     Phantom(PhantomArgs),
+    /// Show the pass plan of a scene: passes, pipeline variants, every allocation (name, bytes,
+    /// format, memory type), the total, predicted per-pass costs and the degradations the memory
+    /// budget forced; then set the volume up and print what the engine actually holds.
+    Plan(PlanArgs),
+}
+
+/// Options of `plan`.
+#[derive(Debug, Args)]
+pub struct PlanArgs {
+    /// NIfTI-1/2 file; without one, the built-in digital phantom.
+    pub file: Option<PathBuf>,
+    /// Print JSON instead of text (keys: passes, variants, allocations, total_bytes,
+    /// peak_bytes, degradations, held, ...).
+    #[arg(long)]
+    pub json: bool,
+    /// Frame of a 4-D file (0-based).
+    #[arg(long, default_value_t = 0)]
+    pub frame: usize,
+    /// Scene to plan (the render options; --size defaults to 1024x1024).
+    #[command(flatten)]
+    pub scene: SceneArgs,
 }
 
 /// Options of `info`.

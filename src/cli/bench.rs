@@ -13,6 +13,7 @@ use super::session::{self, OpenTimings};
 use crate::error::Error;
 use crate::passes::cost::{self, DeviceModel, H100, PassCost, XE_LP};
 use crate::passes::derivatives::DerivativeOutputs;
+use crate::scene::plan::{Layout, Plan};
 use crate::scene::{GradientSource, RenderMode};
 use ash::vk;
 use std::time::Instant;
@@ -93,6 +94,13 @@ struct BenchReport<'a> {
     projection_device: DeviceModel,
     passes: Vec<PassReport>,
     raymarch: RaymarchReport,
+    /// The plan that ran (passes, variants, allocations, degradations).
+    plan: &'a Plan,
+    /// Whether the per-pass study measured every variant (false under a budget or bricking:
+    /// then only the planned passes ran, to stay within the plan's memory).
+    full_study: bool,
+    /// Live allocations after the frames, from the memory ledger.
+    held_bytes_while_rendering: u64,
 }
 
 fn pass_report(
@@ -170,40 +178,57 @@ pub fn run(args: &BenchArgs, global: &super::GlobalOptions) -> Result<(), Error>
     }
     let copy = opened.engine.copy_bandwidth(probe_bytes, 9)?;
 
-    // Analysis passes, repeated.
-    let (mut minmax, mut normalize, mut histogram) = (Vec::new(), Vec::new(), Vec::new());
-    for _ in 0..args.repeat {
-        let prepared = opened.engine.prepare(volume)?;
-        minmax.extend(times_of(&prepared.gpu_timings, "minmax"));
-        normalize.extend(times_of(&prepared.gpu_timings, "normalize"));
-        histogram.extend(times_of(&prepared.gpu_timings, "histogram"));
+    // The full study repeats every analysis pass and derivative variant, each holding its own
+    // outputs for a moment; under a budget or bricking only what the plan runs is measured.
+    let bricked = matches!(opened.plan.layout, Layout::Bricked { .. });
+    let full_study = global.memory_budget.is_none() && !bricked;
+    let normalized_bytes = if opened.plan.normalized_format == "R8_UNORM" {
+        1.0
+    } else {
+        2.0
+    };
+    let mut passes = Vec::new();
+    if !bricked {
+        let (mut minmax, mut normalize, mut histogram) = (Vec::new(), Vec::new(), Vec::new());
+        let mut record = |timings: &[crate::gpu::PassTiming]| {
+            minmax.extend(times_of(timings, "minmax"));
+            normalize.extend(times_of(timings, "normalize"));
+            histogram.extend(times_of(timings, "histogram"));
+        };
+        if full_study {
+            for _ in 0..args.repeat {
+                record(&opened.engine.prepare(volume)?.gpu_timings);
+            }
+        } else {
+            record(&opened.twin.prepared.gpu_timings);
+        }
+        passes.extend([
+            pass_report(
+                "minmax",
+                &minmax,
+                cost::minmax(sample_bytes),
+                copy,
+                documented,
+            ),
+            pass_report(
+                "normalize",
+                &normalize,
+                cost::normalize(sample_bytes, voxels, normalized_bytes),
+                copy,
+                documented,
+            ),
+            pass_report(
+                "histogram",
+                &histogram,
+                cost::histogram(voxels, normalized_bytes, raw_f32),
+                copy,
+                documented,
+            ),
+        ]);
     }
-    let mut passes = vec![
-        pass_report(
-            "minmax",
-            &minmax,
-            cost::minmax(sample_bytes),
-            copy,
-            documented,
-        ),
-        pass_report(
-            "normalize",
-            &normalize,
-            cost::normalize(sample_bytes, voxels, 2.0),
-            copy,
-            documented,
-        ),
-        pass_report(
-            "histogram",
-            &histogram,
-            cost::histogram(voxels, 2.0, raw_f32),
-            copy,
-            documented,
-        ),
-    ];
 
     // Derivative variants, repeated.
-    let variants = [
+    let all_variants = [
         (
             "derivatives |g|",
             DerivativeOutputs {
@@ -233,22 +258,50 @@ pub fn run(args: &BenchArgs, global: &super::GlobalOptions) -> Result<(), Error>
         ),
         ("derivatives max only", DerivativeOutputs::default()),
     ];
+    let planned: Vec<(String, DerivativeOutputs)> = scene
+        .effects
+        .derivative_outputs()
+        .map(|o| (format!("derivatives (planned, {:?})", o.precision), o))
+        .into_iter()
+        .collect();
+    let variants: Vec<(String, DerivativeOutputs)> = if full_study {
+        all_variants
+            .iter()
+            .map(|(name, o)| (name.to_string(), *o))
+            .collect()
+    } else {
+        planned
+    };
+    let texels = opened
+        .twin
+        .prepared
+        .normalized
+        .extent()
+        .iter()
+        .map(|&d| d as f64)
+        .product::<f64>();
     for (name, outputs) in variants {
         let mut times = Vec::new();
         for _ in 0..args.repeat {
-            let derived = opened.engine.derive(&opened.prepared, outputs)?;
+            let derived = opened.engine.derive(&opened.twin.prepared, outputs)?;
             times.extend(times_of(&derived.gpu_timings, "derivatives"));
         }
-        let stored = outputs.magnitude || outputs.curvature;
-        let c = cost::derivatives(voxels, 2.0, outputs.curvature, outputs.normal, stored);
-        passes.push(pass_report(name, &times, c, copy, documented));
+        let gradient_bytes = if outputs.magnitude || outputs.curvature {
+            outputs.gradient_texel_bytes() as f64
+        } else {
+            0.0
+        };
+        let c = cost::derivatives(
+            texels,
+            normalized_bytes,
+            outputs.curvature,
+            outputs.normal,
+            gradient_bytes,
+        );
+        passes.push(pass_report(&name, &times, c, copy, documented));
     }
 
     // Raymarch over an orbit: warm-up, timed frames without readback, then counted frames.
-    let derived = match scene.effects.derivative_outputs() {
-        Some(outputs) => Some(opened.engine.derive(&opened.prepared, outputs)?),
-        None => None,
-    };
     let mut target = opened
         .engine
         .render_target(width, height, vk::Format::R8G8B8A8_UNORM)?;
@@ -260,34 +313,25 @@ pub fn run(args: &BenchArgs, global: &super::GlobalOptions) -> Result<(), Error>
         s
     };
     for i in 0..3 {
-        opened.engine.render(
-            &mut target,
-            &opened.prepared,
-            derived.as_ref(),
-            &frame_scene(i),
-        )?;
+        opened
+            .engine
+            .render_twin(&mut target, &mut opened.twin, &frame_scene(i))?;
     }
     let (mut gpu, mut cpu) = (Vec::new(), Vec::new());
     for i in 0..args.frames {
         let start = Instant::now();
-        let frame = opened.engine.render(
-            &mut target,
-            &opened.prepared,
-            derived.as_ref(),
-            &frame_scene(i),
-        )?;
+        let frame = opened
+            .engine
+            .render_twin(&mut target, &mut opened.twin, &frame_scene(i))?;
         cpu.push(start.elapsed().as_secs_f64() * 1e3);
         gpu.extend(times_of(&frame.gpu_timings, "raymarch"));
     }
     target.count_samples = true;
     let (mut marched, mut classified) = (Vec::new(), Vec::new());
     for i in 0..args.frames {
-        let frame = opened.engine.render(
-            &mut target,
-            &opened.prepared,
-            derived.as_ref(),
-            &frame_scene(i),
-        )?;
+        let frame = opened
+            .engine
+            .render_twin(&mut target, &mut opened.twin, &frame_scene(i))?;
         if let Some(s) = frame.samples {
             marched.push(s.marched as f64);
             classified.push(s.classified as f64);
@@ -333,7 +377,7 @@ pub fn run(args: &BenchArgs, global: &super::GlobalOptions) -> Result<(), Error>
         device_type: adapter.type_name(),
         subgroup_size: adapter.subgroup_size,
         input: &opened.source.label,
-        dims: opened.prepared.dims,
+        dims: opened.twin.prepared.dims,
         sample_kind: volume.samples.kind(),
         image: [width, height],
         frames: args.frames,
@@ -345,6 +389,9 @@ pub fn run(args: &BenchArgs, global: &super::GlobalOptions) -> Result<(), Error>
         projection_device: XE_LP,
         passes,
         raymarch,
+        plan: &opened.plan,
+        full_study,
+        held_bytes_while_rendering: opened.engine.device().ledger().total_bytes(),
     };
     if let Some(path) = &args.json {
         std::fs::write(path, json(&report)).map_err(|source| Error::Write {
@@ -368,6 +415,27 @@ fn print_text(r: &BenchReport<'_>) {
     ));
     if let Some(c) = r.measured_copy_gb_per_s {
         print_line(&format!("measured device copy: {c:.1} GB/s (read + write)"));
+    }
+    let mib = |b: u64| b as f64 / (1u64 << 20) as f64;
+    print_line(&format!(
+        "plan: {} layout, I_norm {}; planned {:.1} MiB held, {:.1} MiB at the preparation peak; ledger while rendering {:.1} MiB",
+        match r.plan.layout {
+            Layout::Whole => "whole",
+            Layout::Bricked { .. } => "bricked",
+        },
+        r.plan.normalized_format,
+        mib(r.plan.total_bytes),
+        mib(r.plan.peak_bytes),
+        mib(r.held_bytes_while_rendering)
+    ));
+    for d in &r.plan.degradations {
+        print_line(&format!(
+            "degradation: {} (error: ACCURACY.md, setting \"{}\")",
+            d.what, d.accuracy_setting
+        ));
+    }
+    if !r.full_study {
+        print_line("budget or bricking: only the planned passes were measured");
     }
     print_line(
         "pass                        median ms    p5..p95 ms          MB moved   GB/s   of copy  Gtexel/s  Xe-LP model ms (bound)",

@@ -11,6 +11,7 @@ mod devices;
 mod info;
 pub mod output;
 mod peaks;
+mod plan;
 pub mod png;
 pub mod render;
 pub mod session;
@@ -59,12 +60,17 @@ pub struct GlobalOptions {
     pub validation: bool,
     /// Most GPU memory to hold, bytes.
     pub memory_budget: Option<u64>,
+    /// Brick even when the volume fits whole.
+    pub bricked: bool,
 }
 
 impl GlobalOptions {
     /// The engine configuration these options describe.
     pub fn engine_config(&self) -> crate::engine::EngineConfig {
-        session::engine_config(self.device.as_deref(), self.validation, self.memory_budget)
+        let mut config =
+            session::engine_config(self.device.as_deref(), self.validation, self.memory_budget);
+        config.force_bricking = self.bricked;
+        config
     }
 }
 
@@ -74,6 +80,7 @@ pub fn run(cli: &Cli) -> Result<(), Error> {
         device: cli.device.clone(),
         validation: cli.validation,
         memory_budget: cli.memory_budget,
+        bricked: cli.bricked,
     };
     let global = &global;
     match &cli.command {
@@ -83,6 +90,7 @@ pub fn run(cli: &Cli) -> Result<(), Error> {
         Command::Bench(args) => bench::run(args, global),
         Command::Accuracy(args) => accuracy::run(args, global),
         Command::Devices => devices::run(),
+        Command::Plan(args) => plan::run(args, global),
         Command::Phantom(args) => {
             let spec = crate::volume::phantom::PhantomSpec {
                 dims: args.dims,

@@ -53,12 +53,12 @@ pub fn run(args: &PeaksArgs, global: &super::GlobalOptions) -> Result<(), Error>
     ] {
         timings.insert(name.to_string(), ms(value));
     }
-    for pass in &opened.prepared.gpu_timings {
+    for pass in &opened.twin.prepared.gpu_timings {
         timings.insert(format!("gpu_{}", pass.name), ms(pass.gpu_ms));
     }
     let report = PeaksReport {
         file: &opened.source.label,
-        dims: opened.prepared.dims,
+        dims: opened.twin.prepared.dims,
         total_voxels: r.total_voxels,
         used_voxels: r.used_voxels,
         used_voxels_definition: "finite voxels whose I_norm bin is at or above the background threshold",
@@ -121,6 +121,7 @@ pub fn run(args: &PeaksArgs, global: &super::GlobalOptions) -> Result<(), Error>
         }
     }
     let gpu: Vec<String> = opened
+        .twin
         .prepared
         .gpu_timings
         .iter()

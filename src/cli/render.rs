@@ -114,10 +114,6 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
             "morphray: note: no {name} peak was found in this volume, so {name} cannot be shown"
         );
     }
-    let derived = match base.effects.derivative_outputs() {
-        Some(outputs) => Some(opened.engine.derive(&opened.prepared, outputs)?),
-        None => None,
-    };
     let (width, height) = args.scene.size.unwrap_or((1024, 1024));
     let mut target = opened
         .engine
@@ -130,10 +126,9 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
             scene.camera.azimuth_deg = args.scene.azimuth + 360.0 * index as f64 / frames as f64;
             scene.frame = index;
         }
-        let frame =
-            opened
-                .engine
-                .render(&mut target, &opened.prepared, derived.as_ref(), &scene)?;
+        let frame = opened
+            .engine
+            .render_twin(&mut target, &mut opened.twin, &scene)?;
         let path = if args.turntable.is_some() {
             frame_path(&args.output, index)
         } else {
@@ -147,6 +142,9 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
             "turntable_index": args.turntable.map(|_| index),
             "scene": scene,
             "device": opened.engine.device().adapter().name,
+            "layout": opened.plan.layout,
+            "normalized_format": opened.plan.normalized_format,
+            "degradations": opened.plan.degradations,
         });
         let provenance = Provenance {
             input: opened.source.label.clone(),

@@ -8,12 +8,11 @@ use super::args::SceneArgs;
 use super::render::scene_from_args;
 use super::source::{self, Source};
 use crate::analysis::{TissueReport, analyze};
-use crate::engine::{Engine, EngineConfig, HostPrepared, PreparedVolume};
+use crate::engine::{Engine, EngineConfig, OpenedVolume, Twin};
 use crate::error::Error;
 use crate::gpu::{DeviceConfig, DeviceSelector, Validation};
 use crate::scene::Scene;
-use crate::scene::plan::{Layout, Plan, STORAGE_BRICK, STORAGE_HALO, plan};
-use ash::vk;
+use crate::scene::plan::Plan;
 use std::path::Path;
 use std::time::Instant;
 
@@ -26,7 +25,8 @@ pub struct OpenTimings {
     pub device_ms: f64,
     /// Pipeline creation for this volume's sample kind.
     pub pipelines_ms: f64,
-    /// Upload, min/max, normalize and histogram, host wall time.
+    /// Plan, upload, min/max, normalize, histogram (or host preparation and brick upload), and
+    /// the derived volumes the scene needs; host wall time.
     pub prepare_ms: f64,
     /// Peak finding on the CPU.
     pub peaks_ms: f64,
@@ -40,8 +40,8 @@ pub struct Opened {
     pub source: Source,
     /// The engine (device, cached pipelines).
     pub engine: Engine,
-    /// Normalized volume and histogram.
-    pub prepared: PreparedVolume,
+    /// Normalized volume with its histogram, and the derived volumes of `scene`.
+    pub twin: Twin,
     /// Peaks, Table-1 row, windows.
     pub report: TissueReport,
     /// The scene the arguments describe, with the planned (possibly degraded) effects.
@@ -100,48 +100,24 @@ pub fn open(
     let mut engine = engine?;
     let image = scene_args.and_then(|a| a.size).unwrap_or((1024, 1024));
     let image = [image.0, image.1];
-    let effects = effects_from_args(scene_args)?;
-    let volume = &source.volume;
-    let prepare_start = Instant::now();
-    let first = plan(effects, &engine.plan_input(volume, image, 1.0));
-    let whole = matches!(
-        first,
-        Ok(Plan {
-            layout: Layout::Whole,
-            ..
+    // Validates the scene arguments once; after this, building the scene cannot fail.
+    let default_scene = scene_for(scene_args, &analyze(&[0; 256], 0.0, 1.0, 0, 0))?;
+    let make_scene = |report: &TissueReport| {
+        scene_for(scene_args, report).unwrap_or_else(|_| {
+            let mut scene = default_scene;
+            scene.classification =
+                crate::scene::Classification::from_tissue_windows(&report.adaptive_windows);
+            scene
         })
-    );
-    let (prepared, report, scene, plan) = if let (true, Ok(plan)) = (whole, first.clone()) {
-        let format = if plan.normalized_format == "R8_UNORM" {
-            vk::Format::R8_UNORM
-        } else {
-            vk::Format::R16_UNORM
-        };
-        engine.set_normalized_format(format)?;
-        let prepared = engine.prepare(volume)?;
-        let report = report_of(&prepared.histogram, &prepared, prepared.nonfinite_voxels());
-        let scene = scene_for(scene_args, &report, plan.effects)?;
-        (prepared, report, scene, plan)
-    } else {
-        // Bricked: the histogram and windows come from the host; residency then follows what the
-        // scene's tissues can see, and the plan is made again with that occupancy.
-        let host = engine.prepare_on_host(volume, vk::Format::R16_UNORM)?;
-        let report = report_of_host(&host);
-        let scene = scene_for(scene_args, &report, effects)?;
-        let fraction = host
-            .brick_ranges(STORAGE_BRICK, STORAGE_HALO)
-            .occupied_fraction(&scene.classification);
-        let plan = plan(effects, &engine.plan_input(volume, image, fraction))?;
-        let host = if plan.normalized_format == "R8_UNORM" {
-            engine.prepare_on_host(volume, vk::Format::R8_UNORM)?
-        } else {
-            host
-        };
-        let mut scene = scene;
-        scene.effects = plan.effects;
-        let prepared = engine.upload_bricked(&host, &scene.classification)?;
-        (prepared, report, scene, plan)
     };
+    let prepare_start = Instant::now();
+    let opened = engine.open_volume(&source.volume, image, &make_scene)?;
+    let OpenedVolume {
+        twin,
+        report,
+        scene,
+        plan,
+    } = opened;
     let prepare_ms = prepare_start.elapsed().as_secs_f64() * 1e3;
     for degradation in &plan.degradations {
         eprintln!(
@@ -155,7 +131,7 @@ pub fn open(
     let timings = OpenTimings {
         load: source.timings.clone(),
         device_ms,
-        pipelines_ms: prepared.timings.pipelines_ms,
+        pipelines_ms: twin.prepared.timings.pipelines_ms,
         prepare_ms,
         peaks_ms: 0.0,
         wall_ms: start.elapsed().as_secs_f64() * 1e3,
@@ -163,7 +139,7 @@ pub fn open(
     Ok(Opened {
         source,
         engine,
-        prepared,
+        twin,
         report,
         scene,
         plan,
@@ -171,57 +147,15 @@ pub fn open(
     })
 }
 
-/// The effects the arguments ask for (the defaults without arguments).
-fn effects_from_args(args: Option<&SceneArgs>) -> Result<crate::scene::Effects, Error> {
-    let report = crate::analysis::analyze(&[0; 256], 0.0, 1.0, 0, 0);
-    Ok(match args {
-        Some(a) => scene_from_args(a, &report)?.effects,
-        None => crate::scene::Effects::default(),
-    })
-}
-
-/// The scene for the arguments around a histogram analysis, with the planned effects.
-fn scene_for(
-    args: Option<&SceneArgs>,
-    report: &TissueReport,
-    effects: crate::scene::Effects,
-) -> Result<Scene, Error> {
-    let mut scene = match args {
-        Some(a) => scene_from_args(a, report)?,
-        None => Scene::new(crate::scene::Classification::from_tissue_windows(
-            &report.adaptive_windows,
+/// The scene the arguments describe around a histogram analysis (the defaults without
+/// arguments).
+fn scene_for(args: Option<&SceneArgs>, report: &TissueReport) -> Result<Scene, Error> {
+    match args {
+        Some(a) => scene_from_args(a, report),
+        None => Ok(Scene::new(
+            crate::scene::Classification::from_tissue_windows(&report.adaptive_windows),
         )),
-    };
-    scene.effects = effects;
-    Ok(scene)
-}
-
-fn report_of(histogram: &[u32; 256], prepared: &PreparedVolume, nonfinite: u64) -> TissueReport {
-    let (imin, imax) = match (prepared.normalization.imin, prepared.normalization.imax) {
-        (Some(lo), Some(hi)) => (lo, hi),
-        _ => (0.0, 0.0),
-    };
-    analyze(
-        histogram,
-        imin,
-        imax,
-        prepared.voxel_count as usize,
-        nonfinite as usize,
-    )
-}
-
-fn report_of_host(host: &HostPrepared) -> TissueReport {
-    let (imin, imax) = match (host.normalization.imin, host.normalization.imax) {
-        (Some(lo), Some(hi)) => (lo, hi),
-        _ => (0.0, 0.0),
-    };
-    analyze(
-        &host.histogram,
-        imin,
-        imax,
-        host.voxel_count as usize,
-        (host.voxel_count - host.finite_voxels) as usize,
-    )
+    }
 }
 
 /// Fails when the validation layer reported errors (used with `--validation`).

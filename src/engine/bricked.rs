@@ -25,14 +25,11 @@ use crate::passes::occupancy::BRICK_SIDE;
 use crate::reference;
 use crate::scene::Classification;
 use crate::scene::occupancy::BrickRanges;
-use crate::scene::plan::{STORAGE_BRICK, STORAGE_HALO};
+use crate::scene::plan::{STORAGE_BRICK, STORAGE_HALO, atlas_slots};
 use crate::volume::{SampleKind, Volume};
 use ash::vk;
 use std::sync::Arc;
 use std::time::Instant;
-
-/// Slots per staging batch (64 slots of 38^3 R16 texels: 7 MB).
-const SLOTS_PER_BATCH: usize = 64;
 
 /// A volume normalized on the host, ready to be bricked.
 pub struct HostPrepared {
@@ -198,7 +195,9 @@ impl Engine {
         &mut self,
         host: &HostPrepared,
         classification: &Classification,
+        staging_slots: u32,
     ) -> GpuResult<PreparedVolume> {
+        let slots_per_batch = staging_slots.max(1) as usize;
         let start = Instant::now();
         let storage = host.brick_ranges(STORAGE_BRICK, STORAGE_HALO);
         let bits = storage.occupancy_bits(classification);
@@ -207,16 +206,13 @@ impl Engine {
             .collect();
         let slot = (STORAGE_BRICK + 2 * STORAGE_HALO) as usize;
         let max = self.device.adapter().max_image_dimension_3d as usize;
-        let per_axis = (max / slot).max(1);
         let count = resident.len().max(1);
-        let sx = count.min(per_axis);
-        let sy = count.div_ceil(sx).min(per_axis);
-        let sz = count.div_ceil(sx * sy);
-        if sz > per_axis {
+        let Some([sx, sy, sz]) = atlas_slots(count as u32, (max / slot) as u32) else {
             return Err(GpuError::Unsupported(format!(
                 "{count} resident bricks do not fit an atlas within the 3D image limit of {max}"
             )));
-        }
+        };
+        let [sx, sy, sz] = [sx as usize, sy as usize, sz as usize];
         let atlas_dims = [(sx * slot) as u32, (sy * slot) as u32, (sz * slot) as u32];
         let atlas = Image::new(
             &self.device,
@@ -243,16 +239,16 @@ impl Engine {
             &self.device,
             BufferDesc::staging(
                 "brick upload (staging)",
-                (SLOTS_PER_BATCH * slot_texels * bytes) as u64,
+                (slots_per_batch.min(count) * slot_texels * bytes) as u64,
             ),
         )?;
         let grid = storage.grid;
         let mut first = true;
         let mut gpu_timings = Vec::new();
         for batch in resident
-            .chunks(SLOTS_PER_BATCH)
+            .chunks(slots_per_batch)
             .enumerate()
-            .map(|(k, c)| (k * SLOTS_PER_BATCH, c))
+            .map(|(k, c)| (k * slots_per_batch, c))
         {
             let (first_slot, bricks) = batch;
             let mut data = vec![0u8; bricks.len() * slot_texels * bytes];

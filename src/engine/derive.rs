@@ -62,6 +62,7 @@ impl Engine {
     ) -> GpuResult<Derived> {
         let device = self.device.clone();
         let nearest = self.nearest.clone();
+        self.counters.derivative_runs += 1;
         let pass = self.derivative_pass(outputs)?;
         let stats_gpu = Buffer::new(
             &device,
@@ -81,7 +82,7 @@ impl Engine {
             prepared.linear_part,
             DEFAULT_TAU,
             store_scale,
-            prepared.slot_side(),
+            prepared.slot_shape(),
             &stats_gpu,
         )?;
         rec.end_pass();

@@ -12,16 +12,20 @@
 mod bricked;
 mod derive;
 mod occupancy;
+mod open;
 mod prepare;
 mod probe;
 pub mod readback;
 mod render;
+mod twin;
 pub mod upload;
 
 pub use bricked::HostPrepared;
 pub use derive::Derived;
+pub use open::{OpenError, OpenedVolume};
 pub use prepare::{BrickAtlas, PrepareTimings, PreparedVolume, VolumeLayout};
 pub use render::{FRAMES_IN_FLIGHT, Frame, RenderTarget, SampleCounts};
+pub use twin::{Twin, TwinUpdate};
 
 use crate::gpu::{
     Access, Buffer, BufferDesc, Device, DeviceConfig, Filter, GpuResult, Image, ImageDesc,
@@ -48,6 +52,8 @@ pub struct EngineConfig {
     pub normalized_format: vk::Format,
     /// Most GPU memory the engine may hold at once (bytes); None: what the device allows.
     pub memory_budget: Option<u64>,
+    /// Brick volumes even when they fit whole (to measure what bricking costs).
+    pub force_bricking: bool,
 }
 
 impl Default for EngineConfig {
@@ -56,6 +62,7 @@ impl Default for EngineConfig {
             device: DeviceConfig::default(),
             normalized_format: vk::Format::R16_UNORM,
             memory_budget: None,
+            force_bricking: false,
         }
     }
 }
@@ -74,6 +81,37 @@ struct Placeholders {
     occupancy: Arc<Buffer>,
 }
 
+/// What the engine has done since it was created: how often it compiled a pipeline and ran each
+/// kind of compute work. Integrators and tests use it to check that a scene change ran only what
+/// it had to (a tissue toggle runs nothing; switching back to a variant compiles nothing).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct EngineCounters {
+    /// Compute pipelines created (each variant once; later uses hit the cache).
+    pub pipelines_created: u32,
+    /// Volumes prepared on the GPU (upload, min/max, normalize, histogram).
+    pub prepares: u32,
+    /// Derivative dispatches (an 8-bit plan runs two: the maximum, then the stores).
+    pub derivative_runs: u32,
+    /// Brick-range (occupancy) passes.
+    pub occupancy_runs: u32,
+    /// Frames rendered.
+    pub frames: u32,
+}
+
+/// Image sizes as this device will allocate them (for plans).
+struct DeviceImageSizes<'a>(&'a Device);
+
+impl crate::scene::plan::ImageSizes for DeviceImageSizes<'_> {
+    fn image_bytes(&self, extent: [u32; 3], format: vk::Format, volume: bool) -> u64 {
+        let desc = if volume {
+            ImageDesc::volume("plan", extent, format)
+        } else {
+            ImageDesc::render_target("plan", extent[0], extent[1], format)
+        };
+        self.0.image_memory_bytes(&desc)
+    }
+}
+
 /// The GPU engine.
 pub struct Engine {
     device: Device,
@@ -86,6 +124,7 @@ pub struct Engine {
     linear: Arc<Sampler>,
     placeholders: Placeholders,
     pipeline_cache: vk::PipelineCache,
+    counters: EngineCounters,
 }
 
 impl Engine {
@@ -146,7 +185,13 @@ impl Engine {
             linear,
             placeholders,
             pipeline_cache: vk::PipelineCache::null(),
+            counters: EngineCounters::default(),
         })
+    }
+
+    /// What the engine has compiled and run so far.
+    pub fn counters(&self) -> EngineCounters {
+        self.counters
     }
 
     /// The device.
@@ -180,7 +225,24 @@ impl Engine {
             unified_memory: a.unified_memory,
             budget: self.memory_budget(),
             occupied_fraction,
+            force_bricking: self.config.force_bricking,
         }
+    }
+
+    /// Plans `effects` for `volume` at an `image`-pixel target on this device within the budget
+    /// (`occupied_fraction` as in [`Engine::plan_input`]).
+    pub fn plan(
+        &self,
+        effects: crate::scene::Effects,
+        volume: &crate::volume::Volume,
+        image: [u32; 2],
+        occupied_fraction: f64,
+    ) -> Result<crate::scene::plan::Plan, crate::scene::plan::DoesNotFit> {
+        crate::scene::plan::plan(
+            effects,
+            &self.plan_input(volume, image, occupied_fraction),
+            &DeviceImageSizes(&self.device),
+        )
     }
 
     /// The format the next `prepare` stores I_norm in.
@@ -211,6 +273,7 @@ impl Engine {
                 histogram: HistogramPass::new(&self.device, kind, self.pipeline_cache)?,
             };
             self.kind_passes.insert(kind, passes);
+            self.counters.pipelines_created += 3;
         }
         self.kind_passes
             .get(&kind)
@@ -221,6 +284,7 @@ impl Engine {
         if !self.derivative_passes.contains_key(&outputs) {
             let pass = DerivativePass::new(&self.device, outputs, self.pipeline_cache)?;
             self.derivative_passes.insert(outputs, pass);
+            self.counters.pipelines_created += 1;
         }
         self.derivative_passes
             .get(&outputs)

@@ -15,7 +15,9 @@ impl Engine {
         }
         if self.occupancy_pass.is_none() {
             self.occupancy_pass = Some(OccupancyPass::new(&self.device, self.pipeline_cache)?);
+            self.counters.pipelines_created += 1;
         }
+        self.counters.occupancy_runs += 1;
         let Some(pass) = &self.occupancy_pass else {
             return Err(crate::gpu::GpuError::InvalidRequest(
                 "occupancy pass missing".into(),

@@ -92,12 +92,12 @@ impl BrickAtlas {
 }
 
 impl PreparedVolume {
-    /// Side of the atlas slots when bricked, 0 for a whole volume (the derivative pass clamps
-    /// its stencils at slot faces).
-    pub fn slot_side(&self) -> i32 {
+    /// Side and halo of the atlas slots when bricked, [0, 0] for a whole volume (the derivative
+    /// pass clamps its stencils at slot faces and takes max |g| over each slot's own brick).
+    pub fn slot_shape(&self) -> [i32; 2] {
         match &self.layout {
-            VolumeLayout::Whole => 0,
-            VolumeLayout::Bricked(atlas) => atlas.slot_side() as i32,
+            VolumeLayout::Whole => [0, 0],
+            VolumeLayout::Bricked(atlas) => [atlas.slot_side() as i32, atlas.halo as i32],
         }
     }
 
@@ -133,6 +133,7 @@ impl Engine {
     pub fn prepare(&mut self, volume: &Volume) -> GpuResult<PreparedVolume> {
         let start = Instant::now();
         let dims = checked_dims(self, volume)?;
+        self.counters.prepares += 1;
         let kind = volume.samples.kind();
         let voxel_count = volume.voxel_count() as u64;
         let before_pipelines = Instant::now();

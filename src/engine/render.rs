@@ -143,6 +143,7 @@ impl Engine {
         if !self.raymarch_passes.contains_key(&variant) {
             let pass = RaymarchPass::new(&self.device, variant, self.pipeline_cache)?;
             self.raymarch_passes.insert(variant, pass);
+            self.counters.pipelines_created += 1;
         }
         self.raymarch_passes
             .get(&variant)
@@ -157,6 +158,7 @@ impl Engine {
         derived: Option<&Derived>,
         scene: &Scene,
     ) -> GpuResult<Frame> {
+        self.counters.frames += 1;
         let effects = scene.effects;
         let needed = effects.derivative_outputs();
         let (gradient, normal, stats, store_scale) = match (needed, derived) {

@@ -36,7 +36,7 @@ pub struct DeviceShared {
     pub(crate) memory_properties: vk::PhysicalDeviceMemoryProperties,
     pub(crate) queue: Mutex<vk::Queue>,
     pub(crate) allocator: ManuallyDrop<Mutex<Allocator>>,
-    pub(crate) ledger: MemoryLedger,
+    pub(crate) ledger: Arc<MemoryLedger>,
     // Dropped last: the instance must outlive the device.
     pub(crate) instance: ManuallyDrop<Instance>,
 }
@@ -110,7 +110,7 @@ impl Device {
                 memory_properties,
                 queue: Mutex::new(queue),
                 allocator: ManuallyDrop::new(Mutex::new(allocator)),
-                ledger: MemoryLedger::default(),
+                ledger: Arc::new(MemoryLedger::default()),
                 instance: ManuallyDrop::new(instance),
             }),
         })
@@ -132,7 +132,7 @@ impl Device {
     }
 
     /// Live allocations.
-    pub fn ledger(&self) -> &MemoryLedger {
+    pub fn ledger(&self) -> &Arc<MemoryLedger> {
         &self.shared.ledger
     }
 

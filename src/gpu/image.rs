@@ -54,6 +54,41 @@ impl ImageDesc {
     }
 }
 
+fn create_info(desc: &ImageDesc) -> vk::ImageCreateInfo<'static> {
+    vk::ImageCreateInfo::default()
+        .image_type(desc.image_type)
+        .format(desc.format)
+        .extent(vk::Extent3D {
+            width: desc.extent[0],
+            height: desc.extent[1],
+            depth: desc.extent[2],
+        })
+        .mip_levels(1)
+        .array_layers(1)
+        .samples(vk::SampleCountFlags::TYPE_1)
+        .tiling(vk::ImageTiling::OPTIMAL)
+        .usage(desc.usage)
+        .sharing_mode(vk::SharingMode::EXCLUSIVE)
+        .initial_layout(vk::ImageLayout::UNDEFINED)
+}
+
+impl Device {
+    /// Bytes of device memory an image of `desc` would take, asked before it exists
+    /// (vkGetDeviceImageMemoryRequirements, core in Vulkan 1.3): the driver's padding included.
+    pub fn image_memory_bytes(&self, desc: &ImageDesc) -> u64 {
+        let info = create_info(desc);
+        let query = vk::DeviceImageMemoryRequirements::default().create_info(&info);
+        let mut requirements = vk::MemoryRequirements2::default();
+        // SAFETY: a query with a valid create info on a live Vulkan 1.3 device.
+        unsafe {
+            self.shared
+                .raw
+                .get_device_image_memory_requirements(&query, &mut requirements)
+        };
+        requirements.memory_requirements.size
+    }
+}
+
 /// A Vulkan image with its memory and a view of the whole image.
 pub struct Image {
     pub(crate) raw: vk::Image,
@@ -77,21 +112,7 @@ impl Image {
                 desc.name, desc.extent[0], desc.extent[1], desc.extent[2]
             )));
         }
-        let info = vk::ImageCreateInfo::default()
-            .image_type(desc.image_type)
-            .format(desc.format)
-            .extent(vk::Extent3D {
-                width: desc.extent[0],
-                height: desc.extent[1],
-                depth: desc.extent[2],
-            })
-            .mip_levels(1)
-            .array_layers(1)
-            .samples(vk::SampleCountFlags::TYPE_1)
-            .tiling(vk::ImageTiling::OPTIMAL)
-            .usage(desc.usage)
-            .sharing_mode(vk::SharingMode::EXCLUSIVE)
-            .initial_layout(vk::ImageLayout::UNDEFINED);
+        let info = create_info(&desc);
         // SAFETY: valid create info on a live device.
         let raw =
             unsafe { shared.raw.create_image(&info, None) }.map_err(vk_err("vkCreateImage"))?;

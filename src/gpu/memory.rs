@@ -55,10 +55,11 @@ pub struct AllocationRecord {
     pub memory_type: String,
 }
 
-/// Every live allocation of one device.
+/// Every live allocation of one device, and how many were ever made and freed.
 #[derive(Debug, Default)]
 pub struct MemoryLedger {
     next_id: AtomicU64,
+    freed: AtomicU64,
     live: Mutex<BTreeMap<u64, AllocationRecord>>,
 }
 
@@ -79,6 +80,16 @@ impl MemoryLedger {
             .unwrap_or(0)
     }
 
+    /// Allocations made since the device was created.
+    pub fn allocations_made(&self) -> u64 {
+        self.next_id.load(Ordering::Relaxed)
+    }
+
+    /// Allocations freed since the device was created.
+    pub fn allocations_freed(&self) -> u64 {
+        self.freed.load(Ordering::Relaxed)
+    }
+
     fn insert(&self, record: AllocationRecord) -> u64 {
         let id = self.next_id.fetch_add(1, Ordering::Relaxed);
         if let Ok(mut live) = self.live.lock() {
@@ -88,8 +99,10 @@ impl MemoryLedger {
     }
 
     fn remove(&self, id: u64) {
-        if let Ok(mut live) = self.live.lock() {
-            live.remove(&id);
+        if let Ok(mut live) = self.live.lock()
+            && live.remove(&id).is_some()
+        {
+            self.freed.fetch_add(1, Ordering::Relaxed);
         }
     }
 }

@@ -63,21 +63,16 @@ pub fn histogram(voxels: f64, normalized_texel_bytes: f64, raw_f32: bool) -> Pas
     }
 }
 
-/// Derivatives: I_norm read once (the 7 or 19 loads per voxel hit the cache), outputs written.
+/// Derivatives: I_norm read once (the 7 or 19 loads per voxel hit the cache), outputs written
+/// (`gradient_texel_bytes` per voxel for |g| and k, 0 when nothing is stored).
 pub fn derivatives(
     voxels: f64,
     normalized_texel_bytes: f64,
     curvature: bool,
     normals: bool,
-    stored: bool,
+    gradient_texel_bytes: f64,
 ) -> PassCost {
-    let gradient_bytes = if !stored {
-        0.0
-    } else if curvature {
-        4.0
-    } else {
-        2.0
-    };
+    let gradient_bytes = gradient_texel_bytes;
     let normal_bytes = if normals { 4.0 } else { 0.0 };
     PassCost {
         bytes_read: voxels * normalized_texel_bytes,

@@ -60,6 +60,8 @@ pub struct DerivativeParams {
     pub scale_k: f32,
     /// Side of the atlas slots of a bricked volume, 0 for a whole volume.
     pub slot_side: i32,
+    /// Halo of the atlas slots (their brick's own voxels alone count towards max |g|).
+    pub slot_halo: i32,
 }
 
 /// The derived images one dispatch produced.
@@ -72,6 +74,18 @@ pub struct DerivedVolumes {
     pub outputs: DerivativeOutputs,
     /// Stored values are |g| * scale[0] and k * scale[1]; readers divide.
     pub store_scale: [f32; 2],
+}
+
+impl DerivativeOutputs {
+    /// Bytes per texel of the gradient (and curvature) volume in this precision.
+    pub fn gradient_texel_bytes(&self) -> u64 {
+        let channel = match self.precision {
+            DerivedPrecision::F32 => 4,
+            DerivedPrecision::F16 => 2,
+            DerivedPrecision::Snorm8 => 1,
+        };
+        channel * if self.curvature { 2 } else { 1 }
+    }
 }
 
 /// The texel format of the gradient (and curvature) volume.
@@ -126,8 +140,9 @@ impl DerivativePass {
 
     /// Allocates the requested outputs and records the pass. `normalized` must be in
     /// `Access::ComputeSampled`; the outputs are left in `Access::ComputeWriteImage`. `stats`
-    /// `slot_side` > 0 marks `normalized` as a brick atlas of slots of that side (stencils clamp
-    /// at slot faces). `stats` (STAT_BYTES) receives the bits of max |g| in 256 slots and is left in `Access::ComputeWriteBuffer`.
+    /// `slot` = [side, halo] with side > 0 marks `normalized` as a brick atlas of slots of that
+    /// shape (stencils clamp at slot faces; only each slot's brick counts towards max |g|).
+    /// `stats` (STAT_BYTES) receives the bits of max |g| in 256 slots and is left in `Access::ComputeWriteBuffer`.
     #[allow(clippy::too_many_arguments)]
     pub fn record(
         &self,
@@ -138,7 +153,7 @@ impl DerivativePass {
         linear_part: [[f64; 3]; 3],
         tau: f32,
         store_scale: [f32; 2],
-        slot_side: i32,
+        slot: [i32; 2],
         stats: &Arc<Buffer>,
     ) -> GpuResult<DerivedVolumes> {
         let extent = normalized.extent();
@@ -190,7 +205,8 @@ impl DerivativePass {
             tau,
             scale_g: store_scale[0],
             scale_k: store_scale[1],
-            slot_side,
+            slot_side: slot[0],
+            slot_halo: slot[1],
         };
         let groups = self.pipeline.workgroups_for(extent);
         rec.dispatch(&self.pipeline, &[set], bytemuck::bytes_of(&params), groups)?;

@@ -85,6 +85,37 @@ impl RaymarchVariant {
         }
     }
 
+    /// The variant as its specialization constants read, for plans and logs.
+    pub fn describe(&self) -> String {
+        let on = |b: bool| if b { "on" } else { "off" };
+        let mut text = format!(
+            "raymarch (MODE={}, CURVATURE={}, SHADING={}, GRADIENT={}, INTERPOLATION={}",
+            ["dvr", "mip", "minip"]
+                .get(self.mode as usize)
+                .unwrap_or(&"?"),
+            ["off", "stored", "on-the-fly"]
+                .get(self.curvature_mode as usize)
+                .unwrap_or(&"?"),
+            on(self.shading),
+            ["stored", "central", "sobel"]
+                .get(self.gradient_mode as usize)
+                .unwrap_or(&"?"),
+            ["nearest", "trilinear", "tricubic"]
+                .get(self.interpolation as usize)
+                .unwrap_or(&"?"),
+        );
+        for (name, value) in [
+            ("NAIVE_OPACITY", self.naive_opacity),
+            ("SKIP_EMPTY", self.skip_empty),
+            ("COUNT_SAMPLES", self.count_samples),
+            ("BRICKED", self.bricked),
+        ] {
+            text.push_str(&format!(", {name}={}", on(value)));
+        }
+        text.push(')');
+        text
+    }
+
     /// Trilinear fetches per marched sample and per classified sample (for cost models).
     pub fn fetches(&self) -> (f64, f64) {
         let per_fetch = match self.interpolation {

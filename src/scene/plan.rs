@@ -7,8 +7,9 @@
 //!   derived volume at all (the derivative pass then only reduces max |g|); empty-space skipping
 //!   adds the brick ranges and bits. Tissue toggles and window drags change no plan: they are
 //!   uniforms.
-//! - Sizes are what the engine allocates (texels x bytes per texel, buffers as sized); drivers may
-//!   round images up, and the engine's memory ledger reports the real numbers.
+//! - Sizes are what the engine allocates: images as the device reports them before they exist
+//!   (vkGetDeviceImageMemoryRequirements, which includes the driver's padding), buffers as sized;
+//!   the memory ledger reports the real numbers, and a test holds the two equal.
 //! - The budget caps the GPU memory held at once. Transient buffers (the sample upload, staging,
 //!   readback of the histogram) are counted in the preparation peak, which must fit too.
 //! - Over budget, the plan degrades in a fixed order, cheapest accuracy first, each step named with
@@ -22,6 +23,7 @@ use crate::passes::cost::{self, PassCost};
 use crate::passes::derivatives::DerivativeOutputs;
 use crate::passes::occupancy::{BRICK_SIDE, brick_grid};
 use crate::volume::SampleKind;
+use ash::vk;
 
 /// Side of a storage brick of the bricked layout, in voxels (without halo).
 pub const STORAGE_BRICK: u32 = 32;
@@ -49,6 +51,8 @@ pub struct PlanInput {
     /// Fraction of storage bricks a visible tissue can occupy (1 when unknown); bricked plans hold
     /// only those.
     pub occupied_fraction: f64,
+    /// Brick even when the whole volume fits (to measure what bricking costs).
+    pub force_bricking: bool,
 }
 
 /// How the normalized volume is laid out on the GPU.
@@ -68,6 +72,8 @@ pub enum Layout {
         grid: [u32; 3],
         /// Bricks held on the GPU.
         resident: u32,
+        /// Bricks per upload batch (the staging buffer's size in slots).
+        staging_slots: u32,
     },
 }
 
@@ -171,58 +177,114 @@ fn format_name(bytes: u64) -> &'static str {
     if bytes == 1 { "R8_UNORM" } else { "R16_UNORM" }
 }
 
-fn gradient_texel(precision: DerivedPrecision, curvature: bool) -> (u64, &'static str) {
-    let channels = if curvature { 2 } else { 1 };
-    match precision {
-        DerivedPrecision::F32 => (
-            4 * channels,
-            if curvature {
-                "R32G32_SFLOAT"
-            } else {
-                "R32_SFLOAT"
-            },
-        ),
-        DerivedPrecision::F16 => (
-            2 * channels,
-            if curvature {
-                "R16G16_SFLOAT"
-            } else {
-                "R16_SFLOAT"
-            },
-        ),
-        DerivedPrecision::Snorm8 => (channels, if curvature { "R8G8_SNORM" } else { "R8_SNORM" }),
+/// What an image really takes in device memory: drivers pad rows and tiles (lavapipe aligns a
+/// 40-texel R16F row to 128 bytes), so the engine asks the device; plans made without one use
+/// [`TexelSizes`].
+pub trait ImageSizes {
+    /// Bytes of an image of `extent` texels of `format` (a 3D volume, or a 2D render target
+    /// when `extent[2]` is 1 and `volume` is false).
+    fn image_bytes(&self, extent: [u32; 3], format: vk::Format, volume: bool) -> u64;
+}
+
+/// Texels x bytes per texel, with no driver padding.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct TexelSizes;
+
+impl ImageSizes for TexelSizes {
+    fn image_bytes(&self, extent: [u32; 3], format: vk::Format, _volume: bool) -> u64 {
+        extent.iter().map(|&e| e as u64).product::<u64>() * texel_bytes(format)
     }
 }
 
-/// The texels the volume occupies in the chosen layout (atlas texels for a bricked plan).
-fn layout_texels(input: &PlanInput, bricked: bool) -> (u64, Layout) {
+/// Bytes per texel of the formats the engine uses (4 for any other).
+pub fn texel_bytes(format: vk::Format) -> u64 {
+    match format {
+        vk::Format::R8_UNORM | vk::Format::R8_SNORM => 1,
+        vk::Format::R16_UNORM | vk::Format::R16_SFLOAT | vk::Format::R8G8_SNORM => 2,
+        vk::Format::R32G32_SFLOAT => 8,
+        vk::Format::R32G32B32A32_SFLOAT => 16,
+        _ => 4,
+    }
+}
+
+/// Slots along x, y, z of an atlas holding `count` bricks with at most `per_axis` slots per axis
+/// (the 3D image limit over the slot side), packed with the fewest unused slots (ties: the widest
+/// x, then y: drivers pad rows, so long rows waste the least); None when even a full atlas is
+/// too small.
+pub fn atlas_slots(count: u32, per_axis: u32) -> Option<[u32; 3]> {
+    let count = count.max(1) as u64;
+    let per_axis = per_axis.max(1) as u64;
+    if count > per_axis.pow(3) {
+        return None;
+    }
+    let mut best: Option<([u64; 3], u64)> = None;
+    for sx in 1..=per_axis.min(count) {
+        for sy in 1..=per_axis.min(count.div_ceil(sx)) {
+            let sz = count.div_ceil(sx * sy);
+            if sz > per_axis {
+                continue;
+            }
+            let slots = sx * sy * sz;
+            let better = match best {
+                None => true,
+                Some((b, b_slots)) => {
+                    slots < b_slots || (slots == b_slots && (sx, sy) > (b[0], b[1]))
+                }
+            };
+            if better {
+                best = Some(([sx, sy, sz], slots));
+            }
+        }
+    }
+    best.map(|(s, _)| s.map(|v| v as u32))
+}
+
+/// The extent of the volume's images in the chosen layout (the atlas for a bricked plan).
+fn layout_extent(input: &PlanInput, bricked: bool) -> ([u32; 3], Layout) {
     if !bricked {
-        return (voxels(input.dims), Layout::Whole);
+        return (input.dims, Layout::Whole);
     }
     let grid = input.dims.map(|d| d.div_ceil(STORAGE_BRICK));
     let total = grid.iter().map(|&g| g as u64).product::<u64>();
     let resident =
         ((total as f64 * input.occupied_fraction.clamp(0.0, 1.0)).ceil() as u64).clamp(1, total);
     let slot = (STORAGE_BRICK + 2 * STORAGE_HALO) as u64;
+    let per_axis = input.max_image_dimension_3d / (STORAGE_BRICK + 2 * STORAGE_HALO);
+    // An atlas the image limit cannot hold is sized as if it could; the upload then fails with
+    // the limit named (only for volumes of over per_axis^3 resident bricks, ~10^6 at 4096).
+    let slots = atlas_slots(resident as u32, per_axis).unwrap_or([resident as u32, 1, 1]);
     (
-        resident * slot * slot * slot,
+        slots.map(|s| (s as u64 * slot).min(u32::MAX as u64) as u32),
         Layout::Bricked {
             brick: STORAGE_BRICK,
             halo: STORAGE_HALO,
             grid,
             resident: resident as u32,
+            staging_slots: 0,
         },
     )
 }
 
-fn build(input: &PlanInput, choices: Choices, degradations: Vec<Degradation>) -> Plan {
+fn build(
+    input: &PlanInput,
+    sizes: &dyn ImageSizes,
+    choices: Choices,
+    degradations: Vec<Degradation>,
+) -> Plan {
     let Choices {
         effects,
         normalized_bytes,
         bricked,
     } = choices;
     let n = voxels(input.dims);
-    let (texels, layout) = layout_texels(input, bricked);
+    let (extent, layout) = layout_extent(input, bricked);
+    let texels = extent.iter().map(|&e| e as u64).product::<u64>();
+    let volume_bytes = |format: vk::Format| sizes.image_bytes(extent, format, true);
+    let normalized_format = if normalized_bytes == 1 {
+        vk::Format::R8_UNORM
+    } else {
+        vk::Format::R16_UNORM
+    };
     let sample_bytes = n * input.sample_kind.size_bytes() as u64;
     let padded_samples = sample_bytes.div_ceil(16).max(1) * 16;
     let mut allocations = Vec::new();
@@ -240,19 +302,41 @@ fn build(input: &PlanInput, choices: Choices, degradations: Vec<Degradation>) ->
     } else {
         "device-local"
     };
+    // The engine's own 1-texel stand-ins, bound where a variant declares an input it never reads.
+    alloc(
+        "placeholder (gradient)",
+        sizes.image_bytes([1; 3], vk::Format::R16G16_SFLOAT, true),
+        "R16G16_SFLOAT",
+        "device-local",
+        false,
+    );
+    alloc(
+        "placeholder (normals)",
+        sizes.image_bytes([1; 3], vk::Format::R8G8B8A8_SNORM, true),
+        "R8G8B8A8_SNORM",
+        "device-local",
+        false,
+    );
+    alloc(
+        "placeholder (occupancy)",
+        16,
+        "buffer",
+        "host-visible",
+        false,
+    );
     let mut passes = Vec::new();
     let mut variants = Vec::new();
     let kind = input.sample_kind.name();
     if bricked {
         // Bricked volumes are normalized on the CPU brick by brick (the whole-volume sample
         // buffer the GPU kernels read is what does not fit) and uploaded through staging.
-        alloc(
-            "brick upload (staging)",
-            (STORAGE_BRICK as u64 + 2 * STORAGE_HALO as u64).pow(3) * normalized_bytes * 64,
-            "buffer",
-            "host (staging)",
-            true,
-        );
+        // (The staging buffer is sized last, from what the budget leaves.)
+        passes.push(PlannedPass {
+            name: "host prepare".into(),
+            runs: "per volume (CPU)",
+            variant: "f64 min/max, normalize, histogram; bricks cut with their halo".into(),
+            cost: cost::normalize(sample_bytes as f64, texels as f64, normalized_bytes as f64),
+        });
     } else {
         alloc(
             "volume samples",
@@ -275,7 +359,21 @@ fn build(input: &PlanInput, choices: Choices, degradations: Vec<Degradation>) ->
             );
         }
         alloc("min/max result", 8, "buffer", "device-local", true);
+        alloc(
+            "min/max result (host)",
+            8,
+            "buffer",
+            "host (readback)",
+            true,
+        );
         alloc("histogram bins", 1024, "buffer", "device-local", true);
+        alloc(
+            "histogram bins (host)",
+            1024,
+            "buffer",
+            "host (readback)",
+            true,
+        );
         passes.push(PlannedPass {
             name: "minmax".into(),
             runs: "per volume",
@@ -311,7 +409,7 @@ fn build(input: &PlanInput, choices: Choices, degradations: Vec<Degradation>) ->
     };
     alloc(
         normalized_name,
-        texels * normalized_bytes,
+        volume_bytes(normalized_format),
         format_name(normalized_bytes),
         device_local,
         false,
@@ -328,19 +426,33 @@ fn build(input: &PlanInput, choices: Choices, degradations: Vec<Degradation>) ->
     if let Some(outputs) = effects.derivative_outputs() {
         let stored = outputs.magnitude || outputs.curvature;
         if stored {
-            let (bytes, format) = gradient_texel(outputs.precision, outputs.curvature);
+            let format =
+                crate::passes::derivatives::gradient_format(outputs.precision, outputs.curvature);
             alloc(
                 "gradient magnitude",
-                texels * bytes,
-                format,
+                volume_bytes(format),
+                &format!("{format:?}"),
                 device_local,
                 false,
             );
         }
         if outputs.normal {
-            alloc("normals", texels * 4, "R8G8B8A8_SNORM", device_local, false);
+            alloc(
+                "normals",
+                volume_bytes(vk::Format::R8G8B8A8_SNORM),
+                "R8G8B8A8_SNORM",
+                device_local,
+                false,
+            );
         }
         alloc("gradient maximum", 1024, "buffer", "device-local", true);
+        alloc(
+            "gradient maximum (host)",
+            1024,
+            "buffer",
+            "host (readback)",
+            true,
+        );
         let variant = derivative_variant(&outputs);
         passes.push(PlannedPass {
             name: "derivatives".into(),
@@ -351,7 +463,11 @@ fn build(input: &PlanInput, choices: Choices, degradations: Vec<Degradation>) ->
                 normalized_bytes as f64,
                 outputs.curvature,
                 outputs.normal,
-                stored,
+                if stored {
+                    outputs.gradient_texel_bytes() as f64
+                } else {
+                    0.0
+                },
             ),
         });
         variants.push(variant);
@@ -360,15 +476,28 @@ fn build(input: &PlanInput, choices: Choices, degradations: Vec<Degradation>) ->
     if skip {
         let g = brick_grid(input.dims);
         let bricks = g.iter().map(|&x| x as u64).product::<u64>();
-        alloc("brick ranges", 8 * bricks, "buffer", "device-local", true);
-        alloc(
-            "occupancy bits",
-            4 * bricks.div_ceil(32),
-            "buffer",
-            "host-visible",
-            false,
-        );
-        passes.push(PlannedPass {
+        if !bricked {
+            alloc("brick ranges", 8 * bricks, "buffer", "device-local", true);
+            alloc(
+                "brick ranges (host)",
+                8 * bricks,
+                "buffer",
+                "host (readback)",
+                true,
+            );
+        }
+        // One per frame in flight: the CPU writes the next frame's bits while the GPU reads these.
+        for _ in 0..2 {
+            alloc(
+                "occupancy bits",
+                4 * bricks.div_ceil(32),
+                "buffer",
+                "host-visible",
+                false,
+            );
+        }
+        // A bricked volume's ranges come from the host data it was cut from.
+        passes.extend((!bricked).then(|| PlannedPass {
             name: "occupancy".into(),
             runs: "per volume",
             variant: "occupancy".into(),
@@ -378,23 +507,48 @@ fn build(input: &PlanInput, choices: Choices, degradations: Vec<Degradation>) ->
                 texel_loads: n as f64 * ((BRICK_SIDE + 4) as f64 / BRICK_SIDE as f64).powi(3),
                 ..Default::default()
             },
-        });
-        variants.push("occupancy".into());
+        }));
+        if !bricked {
+            variants.push("occupancy".into());
+        }
     }
     let [w, h] = input.image;
     let pixels = w as u64 * h as u64;
     alloc(
         "render target",
-        pixels * 4,
+        sizes.image_bytes([w, h, 1], vk::Format::R8G8B8A8_UNORM, false),
         "R8G8B8A8_UNORM",
         "device-local",
         false,
     );
     alloc(
-        "uniforms (2 frames in flight)",
-        2 * std::mem::size_of::<super::uniforms::RaymarchUniforms>() as u64,
+        "render target (host)",
+        pixels * 4,
         "buffer",
-        "host-visible",
+        "host (readback)",
+        false,
+    );
+    for frame in 0..2 {
+        alloc(
+            &format!("raymarch uniforms (frame {frame})"),
+            std::mem::size_of::<super::uniforms::RaymarchUniforms>() as u64,
+            "buffer",
+            "host-visible",
+            false,
+        );
+    }
+    alloc(
+        "raymarch sample counters",
+        4 * crate::passes::raymarch::COUNTER_WORDS as u64,
+        "buffer",
+        "device-local",
+        false,
+    );
+    alloc(
+        "raymarch sample counters (host)",
+        4 * crate::passes::raymarch::COUNTER_WORDS as u64,
+        "buffer",
+        "host (readback)",
         false,
     );
     let diagonal = input
@@ -404,12 +558,14 @@ fn build(input: &PlanInput, choices: Choices, degradations: Vec<Degradation>) ->
         .sum::<f64>()
         .sqrt();
     let samples = pixels as f64 * diagonal / 0.5 * 0.5; // half the pixels' rays cross the volume, at step 0.5
-    let variant = super::super::passes::raymarch::RaymarchVariant::of(&effects, false);
-    let (per_marched, per_classified) = variant.fetches();
+    let variant =
+        crate::passes::raymarch::RaymarchVariant::of_layout(&effects, false, bricked).describe();
+    let (per_marched, per_classified) =
+        crate::passes::raymarch::RaymarchVariant::of_layout(&effects, false, bricked).fetches();
     passes.push(PlannedPass {
         name: "raymarch".into(),
         runs: "per frame",
-        variant: format!("raymarch {variant:?}"),
+        variant: variant.clone(),
         cost: cost::raymarch(
             pixels as f64,
             samples * per_marched,
@@ -417,7 +573,28 @@ fn build(input: &PlanInput, choices: Choices, degradations: Vec<Degradation>) ->
             per_classified,
         ),
     });
-    variants.push(format!("raymarch {variant:?}"));
+    variants.push(variant);
+    let mut layout = layout;
+    if let Layout::Bricked {
+        resident,
+        ref mut staging_slots,
+        ..
+    } = layout
+    {
+        // Bricks go up in batches through one staging buffer sized to what the budget leaves
+        // (at least one slot, at most 64 or all resident bricks).
+        let slot_bytes = (STORAGE_BRICK as u64 + 2 * STORAGE_HALO as u64).pow(3) * normalized_bytes;
+        let others: u64 = allocations.iter().map(|a| a.bytes).sum();
+        let room = input.budget.saturating_sub(others) / slot_bytes;
+        *staging_slots = room.clamp(1, 64.min(resident as u64).max(1)) as u32;
+        allocations.push(PlannedAllocation {
+            name: "brick upload (staging)".into(),
+            bytes: *staging_slots as u64 * slot_bytes,
+            format: "buffer".into(),
+            memory_type: "host (staging)".into(),
+            transient: true,
+        });
+    }
     let total_bytes = allocations
         .iter()
         .filter(|a| !a.transient)
@@ -450,19 +627,26 @@ fn derivative_variant(o: &DerivativeOutputs) -> String {
 type LadderStep = (&'static str, &'static str, fn(&mut Choices) -> bool);
 
 /// Plans `effects` on `input`, degrading to fit the budget; `DoesNotFit` when nothing does.
-pub fn plan(effects: Effects, input: &PlanInput) -> Result<Plan, DoesNotFit> {
+/// `sizes` says what images take on the device (the engine passes its device).
+pub fn plan(
+    effects: Effects,
+    input: &PlanInput,
+    sizes: &dyn ImageSizes,
+) -> Result<Plan, DoesNotFit> {
     let too_large = input.dims.iter().any(|&d| d > input.max_image_dimension_3d);
     let sample_bytes = voxels(input.dims) * input.sample_kind.size_bytes() as u64;
     let samples_too_large = sample_bytes > input.max_storage_buffer_range;
-    let mut choices = Choices {
+    let choices = Choices {
         effects,
         normalized_bytes: 2,
-        bricked: too_large || samples_too_large,
+        bricked: too_large || samples_too_large || input.force_bricking,
     };
     let mut degradations = Vec::new();
     if choices.bricked {
         degradations.push(Degradation {
-            what: if too_large {
+            what: if !too_large && !samples_too_large {
+                "bricked: asked for (--bricked)".to_string()
+            } else if too_large {
                 format!("bricked: a side of {:?} exceeds the device's 3D image limit of {}", input.dims, input.max_image_dimension_3d)
             } else {
                 format!("bricked: {sample_bytes} bytes of samples exceed the largest storage buffer ({})", input.max_storage_buffer_range)
@@ -472,7 +656,6 @@ pub fn plan(effects: Effects, input: &PlanInput) -> Result<Plan, DoesNotFit> {
         });
     }
     let fits = |p: &Plan| p.peak_bytes <= input.budget;
-    let mut current = build(input, choices, degradations.clone());
     let ladder: [LadderStep; 4] = [
         (
             "derived volumes stored as 8-bit SNORM",
@@ -527,25 +710,50 @@ pub fn plan(effects: Effects, input: &PlanInput) -> Result<Plan, DoesNotFit> {
             },
         ),
     ];
-    for (what, setting, step) in ladder {
-        if fits(&current) {
-            return Ok(current);
+    // The steps of `mask` that change something, applied in ladder order.
+    let apply = |mask: u32| {
+        let mut c = choices;
+        let mut applied = Vec::new();
+        for (i, (_, _, step)) in ladder.iter().enumerate() {
+            if mask >> i & 1 == 1 && step(&mut c) {
+                applied.push(i);
+            }
         }
-        let before = current.peak_bytes;
-        if step(&mut choices) {
-            let next = build(input, choices, degradations.clone());
-            degradations.push(Degradation {
-                what: what.to_string(),
-                saved_bytes: before.saturating_sub(next.peak_bytes),
-                accuracy_setting: setting,
-            });
-            current = build(input, choices, degradations.clone());
+        (c, applied)
+    };
+    let peak = |mask: u32| build(input, sizes, apply(mask).0, Vec::new()).peak_bytes;
+    // The shortest prefix of the ladder that fits, then without every step it turns out not to
+    // need (gradients on the fly make the 8-bit step moot, bricking may make R8 unnecessary).
+    let Some(mut mask) = (0..=ladder.len() as u32)
+        .map(|k| (1u32 << k) - 1)
+        .find(|&m| fits(&build(input, sizes, apply(m).0, Vec::new())))
+    else {
+        let smallest = build(input, sizes, apply((1 << ladder.len()) - 1).0, Vec::new());
+        return Err(does_not_fit(input, &smallest));
+    };
+    for i in 0..ladder.len() {
+        let without = mask & !(1 << i);
+        if without != mask && fits(&build(input, sizes, apply(without).0, Vec::new())) {
+            mask = without;
         }
     }
-    if fits(&current) {
-        return Ok(current);
+    let (final_choices, applied) = apply(mask);
+    let final_peak = peak(mask);
+    for i in applied {
+        let (what, setting, _) = ladder[i];
+        degradations.push(Degradation {
+            what: what.to_string(),
+            saved_bytes: peak(mask & !(1 << i)).saturating_sub(final_peak),
+            accuracy_setting: setting,
+        });
     }
-    Err(DoesNotFit {
+    Ok(build(input, sizes, final_choices, degradations))
+}
+
+/// The error for a plan whose smallest form, `smallest`, still exceeds the budget.
+fn does_not_fit(input: &PlanInput, smallest: &Plan) -> DoesNotFit {
+    let current = smallest;
+    DoesNotFit {
         dims: input.dims,
         volume_bytes: 2 * voxels(input.dims),
         budget: input.budget,
@@ -559,7 +767,7 @@ pub fn plan(effects: Effects, input: &PlanInput) -> Result<Plan, DoesNotFit> {
             current.effects.gradient_source
         ),
         smallest_bytes: current.peak_bytes,
-    })
+    }
 }
 
 #[cfg(test)]
@@ -577,15 +785,111 @@ mod tests {
             unified_memory: false,
             budget: u64::MAX,
             occupied_fraction: 1.0,
+            force_bricking: false,
         }
     }
 
+    /// Allocations every plan holds whatever the scene (stand-ins, target, uniforms, counters).
+    const FIXED: [&str; 9] = [
+        "placeholder (gradient)",
+        "placeholder (normals)",
+        "placeholder (occupancy)",
+        "render target",
+        "render target (host)",
+        "raymarch uniforms (frame 0)",
+        "raymarch uniforms (frame 1)",
+        "raymarch sample counters",
+        "raymarch sample counters (host)",
+    ];
+
+    /// The held allocations that depend on the scene.
     fn names(p: &Plan) -> Vec<&str> {
         p.allocations
             .iter()
-            .filter(|a| !a.transient)
+            .filter(|a| !a.transient && !FIXED.contains(&a.name.as_str()))
             .map(|a| a.name.as_str())
             .collect()
+    }
+
+    fn held(p: &Plan, name: &str) -> (String, u64) {
+        let a = p.allocations.iter().find(|a| a.name == name).unwrap();
+        (a.format.clone(), a.bytes)
+    }
+
+    const N: u64 = 256 * 256 * 192;
+
+    #[test]
+    fn example_scenes_plan_exactly_the_passes_and_memory_they_need() {
+        let dvr = |curvature, shading| Effects {
+            curvature,
+            shading,
+            ..Effects::default()
+        };
+        let analysis = ["minmax", "normalize", "histogram"];
+        // DVR, no curvature, no shading: |g| only, as R16F.
+        let p = plan(dvr(false, false), &input(), &TexelSizes).unwrap();
+        assert_eq!(
+            passes(&p),
+            [&analysis[..], &["derivatives", "occupancy", "raymarch"]].concat()
+        );
+        assert_eq!(
+            names(&p),
+            [
+                "normalized volume",
+                "gradient magnitude",
+                "occupancy bits",
+                "occupancy bits"
+            ]
+        );
+        assert_eq!(held(&p, "gradient magnitude"), ("R16_SFLOAT".into(), 2 * N));
+        assert!(
+            p.variants
+                .iter()
+                .any(|v| v.contains("WANT_CURVATURE=false, WANT_NORMAL=false"))
+        );
+        // Curvature on: the same passes, a second channel (the Hessian variant).
+        let c = plan(dvr(true, false), &input(), &TexelSizes).unwrap();
+        assert_eq!(passes(&c), passes(&p));
+        assert_eq!(
+            held(&c, "gradient magnitude"),
+            ("R16G16_SFLOAT".into(), 4 * N)
+        );
+        assert_eq!(c.total_bytes - p.total_bytes, 2 * N);
+        assert!(c.variants.iter().any(|v| v.contains("WANT_CURVATURE=true")));
+        // Shading on: normals, 4 bytes a voxel.
+        let s = plan(dvr(false, true), &input(), &TexelSizes).unwrap();
+        assert_eq!(
+            names(&s),
+            [
+                "normalized volume",
+                "gradient magnitude",
+                "normals",
+                "occupancy bits",
+                "occupancy bits"
+            ]
+        );
+        assert_eq!(s.total_bytes - p.total_bytes, 4 * N);
+        // Gradients on the fly: the derivative pass only reduces max |g|; nothing is stored.
+        let f = plan(
+            Effects {
+                gradient_source: GradientSource::OnTheFly,
+                ..dvr(true, true)
+            },
+            &input(),
+            &TexelSizes,
+        )
+        .unwrap();
+        assert_eq!(
+            names(&f),
+            ["normalized volume", "occupancy bits", "occupancy bits"]
+        );
+        assert!(
+            f.variants
+                .iter()
+                .any(|v| v.contains("CURVATURE=on-the-fly"))
+        );
+        // Tissue visibility is not an effect: every plan above is the same for any tissue set,
+        // because `plan` never sees the classification.
     }
 
     fn passes(p: &Plan) -> Vec<&str> {
@@ -600,22 +904,17 @@ mod tests {
                 ..Effects::default()
             },
             &input(),
+            &TexelSizes,
         )
         .unwrap();
         assert_eq!(passes(&p), ["minmax", "normalize", "histogram", "raymarch"]);
-        assert_eq!(
-            names(&p),
-            [
-                "normalized volume",
-                "render target",
-                "uniforms (2 frames in flight)"
-            ]
-        );
+        assert_eq!(names(&p), ["normalized volume"]);
+        assert!(p.variants.iter().all(|v| !v.starts_with("derivatives")));
     }
 
     #[test]
     fn dvr_without_curvature_holds_no_curvature_and_shading_off_no_normals() {
-        let plain = plan(Effects::default(), &input()).unwrap();
+        let plain = plan(Effects::default(), &input(), &TexelSizes).unwrap();
         let g = plain
             .allocations
             .iter()
@@ -632,6 +931,7 @@ mod tests {
                 ..Effects::default()
             },
             &input(),
+            &TexelSizes,
         )
         .unwrap();
         let g = curved
@@ -649,6 +949,7 @@ mod tests {
                 ..Effects::default()
             },
             &input(),
+            &TexelSizes,
         )
         .unwrap();
         assert!(names(&shaded).contains(&"normals"));
@@ -662,7 +963,7 @@ mod tests {
             },
             ..Effects::default()
         };
-        let p = plan(fly, &input()).unwrap();
+        let p = plan(fly, &input(), &TexelSizes).unwrap();
         assert_eq!(
             p.allocations
                 .iter()
@@ -682,16 +983,34 @@ mod tests {
                 ..Effects::default()
             },
             &input(),
+            &TexelSizes,
         )
         .unwrap();
         let mut tight = input();
         tight.budget = full.peak_bytes - 1;
-        let p = plan(full.effects, &tight).unwrap();
+        let p = plan(full.effects, &tight, &TexelSizes).unwrap();
         assert_eq!(p.degradations[0].accuracy_setting, "gradient 8-bit");
+        assert_eq!(p.degradations.len(), 1);
         assert!(p.peak_bytes <= tight.budget);
+        // Where gradients on the fly are needed anyway, the 8-bit step bought nothing and is not
+        // applied (the plan keeps only the steps it needs).
+        let no_derived = plan(
+            Effects {
+                gradient_source: GradientSource::OnTheFly,
+                ..full.effects
+            },
+            &input(),
+            &TexelSizes,
+        )
+        .unwrap();
+        tight.budget = no_derived.peak_bytes;
+        let p = plan(full.effects, &tight, &TexelSizes).unwrap();
+        let settings: Vec<_> = p.degradations.iter().map(|d| d.accuracy_setting).collect();
+        assert_eq!(settings, ["gradient on the fly"]);
+        assert_eq!(p.effects.quality.derived_precision, DerivedPrecision::F16);
         tight.budget = 40 << 20;
         tight.occupied_fraction = 0.2;
-        let p = plan(full.effects, &tight).unwrap();
+        let p = plan(full.effects, &tight, &TexelSizes).unwrap();
         assert!(
             matches!(p.layout, Layout::Bricked { .. }),
             "{:?}",
@@ -699,7 +1018,7 @@ mod tests {
         );
         assert!(p.peak_bytes <= tight.budget);
         tight.budget = 1 << 20;
-        let err = plan(full.effects, &tight).unwrap_err();
+        let err = plan(full.effects, &tight, &TexelSizes).unwrap_err();
         assert!(
             err.to_string()
                 .contains("does not fit the memory budget of 1048576 bytes"),
@@ -712,7 +1031,7 @@ mod tests {
         let mut i = input();
         i.dims = [2100, 64, 64];
         i.max_image_dimension_3d = 2048;
-        let p = plan(Effects::default(), &i).unwrap();
+        let p = plan(Effects::default(), &i, &TexelSizes).unwrap();
         assert!(matches!(
             p.layout,
             Layout::Bricked {

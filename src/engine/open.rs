@@ -1,0 +1,135 @@
+//! Opening a volume: plan the scene within the memory budget, prepare the volume whole on the GPU
+//! or bricked from the host, analyse its histogram, and derive what the scene needs.
+//!
+//! Decisions:
+//! - The plan comes first, from the scene's effects and the device's limits; the volume is then
+//!   prepared the way the plan says, so what the engine holds is what the plan lists.
+//! - A whole volume is normalized and histogrammed on the GPU. A bricked one (over the budget or
+//!   the 3D image limit) is normalized in f64 on the host, because the whole-volume sample buffer
+//!   the GPU kernels read is exactly what does not fit; the histogram then comes from the host,
+//!   the scene's classification decides which bricks are resident, and the plan is made again
+//!   with that occupancy.
+//! - The caller builds the scene from the histogram analysis (adaptive windows need the peaks),
+//!   so `open_volume` takes a function from the analysis to the scene.
+
+use super::Engine;
+use super::bricked::HostPrepared;
+use super::prepare::PreparedVolume;
+use super::twin::Twin;
+use crate::analysis::{TissueReport, analyze};
+use crate::gpu::GpuError;
+use crate::scene::Scene;
+use crate::scene::plan::{DoesNotFit, Layout, Plan, STORAGE_BRICK, STORAGE_HALO};
+use crate::volume::Volume;
+use ash::vk;
+
+/// Why a volume could not be opened.
+#[derive(Debug, thiserror::Error)]
+pub enum OpenError {
+    /// Vulkan, device memory or shaders.
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+    /// No plan of the scene fits the memory budget.
+    #[error(transparent)]
+    DoesNotFit(#[from] DoesNotFit),
+}
+
+/// A volume ready to render: the twin (prepared volume and derived volumes), the histogram
+/// analysis, the scene with its planned effects, and the plan.
+pub struct OpenedVolume {
+    /// Prepared volume and the derived volumes of `scene`'s effects.
+    pub twin: Twin,
+    /// Peaks, the paper's Table-1 row, tissue windows.
+    pub report: TissueReport,
+    /// The caller's scene with the planned (possibly degraded) effects.
+    pub scene: Scene,
+    /// The plan it was prepared for.
+    pub plan: Plan,
+}
+
+impl Engine {
+    /// Plans the scene `make_scene` builds for `volume` at an `image`-pixel target within the
+    /// memory budget, prepares the volume the way the plan says, and derives what the scene
+    /// needs. `make_scene` is called with the histogram analysis (and once, earlier, with an
+    /// empty one to learn the effects to plan for).
+    pub fn open_volume(
+        &mut self,
+        volume: &Volume,
+        image: [u32; 2],
+        make_scene: &dyn Fn(&TissueReport) -> Scene,
+    ) -> Result<OpenedVolume, OpenError> {
+        let effects = make_scene(&analyze(&[0; 256], 0.0, 1.0, 0, 0)).effects;
+        let first = self.plan(effects, volume, image, 1.0);
+        let (prepared, report, mut scene, plan) = match first {
+            Ok(plan) if plan.layout == Layout::Whole => {
+                let format = if plan.normalized_format == "R8_UNORM" {
+                    vk::Format::R8_UNORM
+                } else {
+                    vk::Format::R16_UNORM
+                };
+                self.set_normalized_format(format)?;
+                let prepared = self.prepare(volume)?;
+                let report = report_of(&prepared);
+                let scene = make_scene(&report);
+                (prepared, report, scene, plan)
+            }
+            _ => {
+                let host = self.prepare_on_host(volume, vk::Format::R16_UNORM)?;
+                let report = report_of_host(&host);
+                let scene = make_scene(&report);
+                let fraction = host
+                    .brick_ranges(STORAGE_BRICK, STORAGE_HALO)
+                    .occupied_fraction(&scene.classification);
+                let plan = self.plan(effects, volume, image, fraction)?;
+                let host = if plan.normalized_format == "R8_UNORM" {
+                    self.prepare_on_host(volume, vk::Format::R8_UNORM)?
+                } else {
+                    host
+                };
+                let staging_slots = match plan.layout {
+                    Layout::Bricked { staging_slots, .. } => staging_slots,
+                    Layout::Whole => 64,
+                };
+                let prepared = self.upload_bricked(&host, &scene.classification, staging_slots)?;
+                (prepared, report, scene, plan)
+            }
+        };
+        scene.effects = plan.effects;
+        let mut twin = Twin::new(prepared);
+        self.update_twin(&mut twin, &scene.effects)?;
+        Ok(OpenedVolume {
+            twin,
+            report,
+            scene,
+            plan,
+        })
+    }
+}
+
+fn report_of(prepared: &PreparedVolume) -> TissueReport {
+    let (imin, imax) = match (prepared.normalization.imin, prepared.normalization.imax) {
+        (Some(lo), Some(hi)) => (lo, hi),
+        _ => (0.0, 0.0),
+    };
+    analyze(
+        &prepared.histogram,
+        imin,
+        imax,
+        prepared.voxel_count as usize,
+        prepared.nonfinite_voxels() as usize,
+    )
+}
+
+fn report_of_host(host: &HostPrepared) -> TissueReport {
+    let (imin, imax) = match (host.normalization.imin, host.normalization.imax) {
+        (Some(lo), Some(hi)) => (lo, hi),
+        _ => (0.0, 0.0),
+    };
+    analyze(
+        &host.histogram,
+        imin,
+        imax,
+        host.voxel_count as usize,
+        (host.voxel_count - host.finite_voxels) as usize,
+    )
+}
