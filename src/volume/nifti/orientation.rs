@@ -2,10 +2,12 @@
 //! invertible affine out, never a panic).
 //!
 //! Decisions (NIFTI.md point 7):
-//! - Voxel size: `pixdim[1..=3]`; a value that is non-finite or <= 0 is repaired to 1 mm with a
-//!   warning (the contract's rule: a negative pixdim is not read as a flip). Then converted to mm
-//!   by `xyzt_units` (metres x1000, microns x0.001; "unknown" (0) is taken as mm silently
-//!   because most files leave it 0; codes 4..7 are not spatial units: mm, with a warning).
+//! - Voxel size: `pixdim[1..=3]`, converted to mm by `xyzt_units` (metres x1000, microns
+//!   x0.001; "unknown" (0) is taken as mm silently because most files leave it 0; codes 4..7
+//!   are not spatial units: mm, with a warning). A value that is non-finite or <= 0 is repaired
+//!   to 1 mm with a warning (the contract's rule: a negative pixdim is not read as a flip), and
+//!   so is one outside [1e-30, 1e30] mm (found by fuzzing: NIfTI-2's f64 fields can hold sizes
+//!   whose product underflows or overflows, leaving no invertible affine).
 //!   The same factor scales the whole affine, so world coordinates are always mm.
 //! - Priority: sform if `sform_code > 0`, else qform if `qform_code > 0`, else the pixdim
 //!   diagonal (NIfTI "method 1", also used for ANALYZE: no flip, origin at voxel 0, which is what
@@ -73,12 +75,28 @@ fn unit_factor(xyzt_units: i32, warnings: &mut Vec<String>) -> f64 {
     }
 }
 
+/// Smallest and largest voxel size (mm) taken from pixdim. Found by fuzzing: NIfTI-2's f64
+/// pixdim can hold 1e-309 or 1e300, which are "positive and finite" but make the pixdim
+/// diagonal (or the qform) numerically singular: the determinant, a product of three sizes,
+/// underflows to 0 or overflows to infinity, and no inverse exists in f64. Within
+/// [1e-30, 1e30] the determinant and the inverse stay far inside f64's normal range; no imaging
+/// modality comes within 20 orders of magnitude of either bound.
+const MIN_SPACING_MM: f64 = 1e-30;
+const MAX_SPACING_MM: f64 = 1e30;
+
 fn repaired_spacing(pixdim: [f64; 3], factor: f64, warnings: &mut Vec<String>) -> [f64; 3] {
     std::array::from_fn(|axis| {
         let p = pixdim[axis];
         let mm = p * factor;
-        if p.is_finite() && p > 0.0 && mm.is_finite() && mm > 0.0 {
+        if p.is_finite() && p > 0.0 && (MIN_SPACING_MM..=MAX_SPACING_MM).contains(&mm) {
             mm
+        } else if p.is_finite() && p > 0.0 {
+            warnings.push(format!(
+                "pixdim[{}] (voxel size along {}) is {p}, {mm:e} mm, outside the usable range {MIN_SPACING_MM:e}..{MAX_SPACING_MM:e} mm; 1 mm is used",
+                axis + 1,
+                AXES[axis]
+            ));
+            1.0
         } else {
             warnings.push(format!(
                 "pixdim[{}] (voxel size along {}) is {p}, which is not a positive finite size; 1 mm is used",
