@@ -399,3 +399,46 @@ fn gzip_member_with_a_wrong_header_crc16_is_accepted() {
     assert_eq!(members, 1);
     assert!(!out.is_empty());
 }
+
+/// nifti_header: a NIfTI-2 sform whose third row is subnormal (2e-317): the 3x3 part passed the
+/// loader's relative determinant test, but 1/det overflows, so the affine had no f64 inverse.
+/// Now a form with a column length outside [1e-30, 1e30] mm is skipped with a warning (here
+/// the qform is used instead).
+#[test]
+fn subnormal_sform_row_is_skipped() {
+    let bytes = include_bytes!("data/fuzz/nifti_header-subnormal-sform.nii");
+    let l = parse(bytes.to_vec(), "fuzz.nii", &LoadOptions::default()).unwrap();
+    invariants::check_loaded(&l);
+    assert!(l.header.sform_code > 0);
+    assert_ne!(
+        l.volume.orientation.source,
+        morphray::volume::AffineSource::Sform
+    );
+    assert!(
+        l.volume.warnings.iter().any(|w| w.contains("sform")),
+        "{:?}",
+        l.volume.warnings
+    );
+}
+
+/// nifti_header (pair path): an ANALYZE float64 image with a voxel at -1.797e308, within half an
+/// f32 ulp of f64's range. convert.rs stores f64 data as f32 times a power-of-two scale; the
+/// f32 rounding moved the stored value past the voxel, and its physical value (stored * scale)
+/// became -inf. Now such a value is stored one f32 step toward zero, and the reach handed to
+/// the scaling check is measured on the f32 values actually stored.
+#[test]
+fn float64_voxel_at_the_edge_of_f64_stays_finite() {
+    let data = include_bytes!("data/fuzz/nifti_header-float64-near-max-pair.bin");
+    let (hdr, img) = data.split_at(invariants::split_point(data));
+    let frame = usize::from(data[data.len() - 1] >> 6);
+    let l = parse_pair(hdr, img.to_vec(), "fuzz.hdr", &LoadOptions { frame }).unwrap();
+    invariants::check_loaded(&l);
+    let physical: Vec<f64> = (0..l.volume.samples.len())
+        .map(|i| l.volume.to_physical.apply(l.volume.samples.get(i)))
+        .filter(|p| !p.is_nan())
+        .collect();
+    assert!(
+        physical.iter().any(|&p| p < -1.7e308) && physical.iter().all(|p| p.is_finite()),
+        "{physical:?}"
+    );
+}

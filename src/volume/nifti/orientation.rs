@@ -13,8 +13,9 @@
 //!   diagonal (NIfTI "method 1", also used for ANALYZE: no flip, origin at voxel 0, which is what
 //!   the NIfTI standard says and avoids guessing ANALYZE's radiological convention).
 //! - A method whose fields are non-finite, or whose 3x3 part is singular (columns nearly
-//!   coplanar, |det| <= 1e-9 * product of column lengths), is skipped with a warning and the next
-//!   method is used: the renderer needs an invertible affine.
+//!   coplanar, |det| <= 1e-9 * product of column lengths, or a column length outside
+//!   [1e-30, 1e30] mm, where the inverse would leave f64's range), is skipped with a warning and
+//!   the next method is used: the renderer needs an invertible affine.
 //! - Quaternion: with s = b^2 + c^2 + d^2, a = sqrt(1 - s) when s < 1 - 1e-7; when s is within
 //!   (1 - 1e-7, 1 + 1e-5] (rounding of a unit quaternion stored in f32) a = 0 and (b, c, d) is
 //!   normalised silently (as nifti_clib does); when s > 1 + 1e-5 the quaternion is normalised
@@ -122,12 +123,21 @@ fn det3(m: &[[f64; 4]; 4]) -> f64 {
         + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
 }
 
-/// True when the 3x3 part is finite and clearly invertible.
+/// True when the 3x3 part is finite and clearly invertible, with every column (the voxel size
+/// along that index axis) in the usable range: without that bound, found by fuzzing, a sform
+/// with subnormal entries passed the relative determinant test yet had an inverse beyond f64
+/// (1/det overflowed). With columns in [1e-30, 1e30] and |det| > 1e-9 of their product, det is
+/// at least 1e-99 and every inverse entry is finite.
 fn invertible(m: &[[f64; 4]; 4]) -> bool {
     let n = column_norms(m);
     let scale = n[0] * n[1] * n[2];
     let det = det3(m);
-    m.iter().all(all_finite) && scale.is_finite() && det.is_finite() && det.abs() > 1e-9 * scale
+    m.iter().all(all_finite)
+        && n.iter()
+            .all(|len| (MIN_SPACING_MM..=MAX_SPACING_MM).contains(len))
+        && scale.is_finite()
+        && det.is_finite()
+        && det.abs() > 1e-9 * scale
 }
 
 /// Rotation matrix of the quaternion (b, c, d), repaired as the module doc describes.
@@ -246,7 +256,7 @@ fn sform_affine(
     if invertible(&m) {
         Some(m)
     } else {
-        warnings.push("the sform's 3x3 part is singular (or not finite after unit conversion), so it is not used".to_string());
+        warnings.push("the sform's 3x3 part is singular (or not finite after unit conversion, or a column is outside 1e-30..1e30 mm), so it is not used".to_string());
         None
     }
 }
