@@ -93,7 +93,7 @@ fn repaired_spacing(pixdim: [f64; 3], factor: f64, warnings: &mut Vec<String>) -
             mm
         } else if p.is_finite() && p > 0.0 {
             warnings.push(format!(
-                "pixdim[{}] (voxel size along {}) is {p}, {mm:e} mm, outside the usable range {MIN_SPACING_MM:e}..{MAX_SPACING_MM:e} mm; 1 mm is used",
+                "pixdim[{}] (voxel size along {}) is {p:e} ({mm:e} mm), outside the usable range {MIN_SPACING_MM:e}..{MAX_SPACING_MM:e} mm; 1 mm is used",
                 axis + 1,
                 AXES[axis]
             ));
