@@ -1294,6 +1294,146 @@ fn cases() -> Vec<Case> {
         },
     ));
 
+    // --- contract points the table did not yet pin down (coverage audit, issue 6) ---
+    t.push(fails("empty input", Vec::new(), |e| {
+        assert!(matches!(e, NiftiError::TooShort { len: 0, .. }), "{e}")
+    }));
+    t.push(fails(
+        "nifti2 header cut short",
+        base_i16().nifti2().bytes()[..400].to_vec(),
+        |e| {
+            assert!(
+                matches!(
+                    e,
+                    NiftiError::TooShort {
+                        len: 400,
+                        needed: 540,
+                        what: "NIfTI-2"
+                    }
+                ),
+                "{e}"
+            )
+        },
+    ));
+    t.push(fails(
+        "byte order cross-check: sizeof_hdr little-endian, dim[0] big-endian",
+        {
+            let mut b = base_i16().bytes();
+            b[40..42].copy_from_slice(&3i16.to_be_bytes());
+            b
+        },
+        |e| assert!(matches!(e, NiftiError::BadDimCount { dim0: 768 }), "{e}"),
+    ));
+    t.push(fails(
+        "unknown 348-byte magic (n+3) is ANALYZE, whose voxels are in the .img",
+        base_i16().with(|h| h.magic = *b"n+3\0").bytes(),
+        |e| {
+            assert!(matches!(e, NiftiError::SeparateImageFile { .. }), "{e}");
+            assert!(e.to_string().contains("ANALYZE 7.5"), "{e}");
+        },
+    ));
+    t.push(fails(
+        "ni2 header given to parse",
+        base_i16().nifti2().with(|h| h.magic = *b"ni2\0").bytes(),
+        |e| {
+            assert!(
+                matches!(
+                    e,
+                    NiftiError::SeparateImageFile {
+                        version: "NIfTI-2 (ni2)"
+                    }
+                ),
+                "{e}"
+            )
+        },
+    ));
+    t.push(fails(
+        "nifti2 negative vox_offset (an i64 field)",
+        base_i16().nifti2().with(|h| h.vox_offset = -8.0).bytes(),
+        |e| {
+            assert!(
+                matches!(e, NiftiError::BadVoxOffset { value } if *value == -8.0),
+                "{e}"
+            )
+        },
+    ));
+    t.push(loads(
+        "xyzt_units with a time code in the spatial bits: mm, with a warning",
+        &base_i16().with(|h| h.xyzt_units = 4),
+        |l| {
+            assert_eq!(l.volume.spacing_mm, [0.5, 1.5, 2.5]);
+            assert!(warned(l, "not a length unit"), "{:?}", l.volume.warnings);
+        },
+    ));
+    t.push(loads(
+        "non-finite qoffset: the qform is not used, with a warning",
+        &base_i16().with(|h| {
+            h.qform_code = 1;
+            h.qoffset = [f64::NAN, 0.0, 0.0];
+        }),
+        |l| {
+            assert_eq!(l.volume.orientation.source, AffineSource::Pixdim);
+            assert!(warned(l, "qform offsets"), "{:?}", l.volume.warnings);
+        },
+    ));
+    t.push(loads(
+        "esize 0: all extensions ignored with a warning",
+        &with_ext(ext_bytes(0, 6, 8), 368.0),
+        |l| {
+            assert!(l.header.extensions.is_empty());
+            assert!(warned(l, "esize 0"), "{:?}", l.volume.warnings);
+            assert_eq!(stored(l)[0], -7.0);
+        },
+    ));
+    t.push(loads(
+        "extension head cut off by vox_offset: ignored with a warning",
+        &with_ext([ext_bytes(16, 6, 8), vec![7, 0, 0, 0]].concat(), 372.0),
+        |l| {
+            assert!(l.header.extensions.is_empty());
+            assert!(warned(l, "cut off"), "{:?}", l.volume.warnings);
+            assert_eq!(stored(l)[0], -7.0);
+        },
+    ));
+    t.push(loads(
+        "nifti2 pixdim too small or too large for an invertible affine: 1 mm, with a warning",
+        &base_i16()
+            .nifti2()
+            .with(|h| h.pixdim[1..4].copy_from_slice(&[1e-35, 1e35, 2.5])),
+        |l| {
+            assert_eq!(l.volume.spacing_mm, [1.0, 1.0, 2.5]);
+            assert!(warned(l, "pixdim[1] (voxel size along i) is 1e-35"));
+            assert!(warned(l, "pixdim[2] (voxel size along j) is 1e35"));
+            assert_affine(&l.volume.orientation.affine, &diag([1.0, 1.0, 2.5]), 0.0);
+        },
+    ));
+    t.push(loads(
+        "nifti2 sform with a column outside 1e-30..1e30 mm falls back, with a warning",
+        &base_i16().nifti2().with(|h| {
+            h.sform_code = 1;
+            h.srow = [
+                [1e-40, 0.0, 0.0, 0.0],
+                [0.0, 1.5, 0.0, 0.0],
+                [0.0, 0.0, 2.5, 0.0],
+            ];
+        }),
+        |l| {
+            assert_eq!(l.volume.orientation.source, AffineSource::Pixdim);
+            assert!(warned(l, "sform's 3x3 part"), "{:?}", l.volume.warnings);
+        },
+    ));
+    t.push(loads(
+        "float64 at -f64::MAX and f64::MAX: every physical value finite",
+        &File::new(&[4], Data::F64(vec![-f64::MAX, f64::MAX, 0.0, 1.0])),
+        |l| {
+            let p = physical(l);
+            assert!(p.iter().all(|v| v.is_finite()), "{p:?}");
+            assert!((p[0] / -f64::MAX - 1.0).abs() < 1e-6, "{p:?}");
+            assert!((p[1] / f64::MAX - 1.0).abs() < 1e-6, "{p:?}");
+            let st = intensity_stats(&l.volume);
+            assert_eq!(st.finite, 4);
+        },
+    ));
+
     // --- header summary ---
     t.push(loads(
         "description is trimmed lossy UTF-8",

@@ -285,15 +285,15 @@ fn integers<const N: usize>(
         lo + (hi - lo) / 2
     };
     let mut out = alloc(src.len() / N * 4)?;
+    // The reach is measured on the f32 values written, not on the exact integers: rounding to
+    // f32 can move a value up by half an ulp, and `safe_map` must bound what is stored.
+    let mut reach = 0.0f64;
     for x in arrays::<N>(src).map(&read) {
-        out.extend_from_slice(&((x - offset) as f32).to_le_bytes());
+        let stored = (x - offset) as f32;
+        reach = reach.max(f64::from(stored).abs());
+        out.extend_from_slice(&stored.to_le_bytes());
     }
-    let reach = if lo > hi {
-        0
-    } else {
-        (hi - offset).abs().max((lo - offset).abs())
-    };
-    Ok((out, offset as f64, 1.0, reach as f64))
+    Ok((out, offset as f64, 1.0, reach))
 }
 
 /// float64 to f32 with the offset/scale rule of the module doc. Returns (bytes, offset, scale,
@@ -311,7 +311,7 @@ fn floats(src: &[u8], big: bool) -> Result<(Vec<u8>, f64, f64, f64), NiftiError>
         lo = lo.min(x);
         hi = hi.max(x);
     }
-    let (offset, scale, stored_reach) = if lo <= hi {
+    let (offset, scale) = if lo <= hi {
         // Halves first: (lo + hi) could overflow for values near f64::MAX.
         let mid = lo / 2.0 + hi / 2.0;
         let half = hi / 2.0 - lo / 2.0;
@@ -323,13 +323,23 @@ fn floats(src: &[u8], big: bool) -> Result<(Vec<u8>, f64, f64, f64), NiftiError>
         while reach.is_finite() && reach / scale > 1e36 {
             scale *= 65536.0;
         }
-        (offset, scale, reach / scale)
+        (offset, scale)
     } else {
-        (0.0, 1.0, 0.0)
+        (0.0, 1.0)
     };
     let mut out = alloc(src.len() / 8 * 4)?;
+    let mut stored_reach = 0.0f64;
     for x in arrays::<8>(src).map(read) {
-        let stored = ((x - offset) / scale) as f32;
+        let mut stored = ((x - offset) / scale) as f32;
+        // Found by fuzzing: for |x| within half an f32 ulp of f64::MAX, rounding to f32 moves
+        // the stored value past x, and `stored * scale + offset` overflows to infinity. One
+        // f32 step toward zero (an error no larger than the rounding itself) keeps it finite.
+        if x.is_finite() && !(f64::from(stored) * scale + offset).is_finite() {
+            stored = f32::from_bits(stored.to_bits().saturating_sub(1));
+        }
+        if stored.is_finite() {
+            stored_reach = stored_reach.max(f64::from(stored).abs());
+        }
         out.extend_from_slice(&stored.to_le_bytes());
     }
     Ok((out, offset, scale, stored_reach))

@@ -2,17 +2,20 @@
 //! invertible affine out, never a panic).
 //!
 //! Decisions (NIFTI.md point 7):
-//! - Voxel size: `pixdim[1..=3]`; a value that is non-finite or <= 0 is repaired to 1 mm with a
-//!   warning (the contract's rule: a negative pixdim is not read as a flip). Then converted to mm
-//!   by `xyzt_units` (metres x1000, microns x0.001; "unknown" (0) is taken as mm silently
-//!   because most files leave it 0; codes 4..7 are not spatial units: mm, with a warning).
+//! - Voxel size: `pixdim[1..=3]`, converted to mm by `xyzt_units` (metres x1000, microns
+//!   x0.001; "unknown" (0) is taken as mm silently because most files leave it 0; codes 4..7
+//!   are not spatial units: mm, with a warning). A value that is non-finite or <= 0 is repaired
+//!   to 1 mm with a warning (the contract's rule: a negative pixdim is not read as a flip), and
+//!   so is one outside [1e-30, 1e30] mm (found by fuzzing: NIfTI-2's f64 fields can hold sizes
+//!   whose product underflows or overflows, leaving no invertible affine).
 //!   The same factor scales the whole affine, so world coordinates are always mm.
 //! - Priority: sform if `sform_code > 0`, else qform if `qform_code > 0`, else the pixdim
 //!   diagonal (NIfTI "method 1", also used for ANALYZE: no flip, origin at voxel 0, which is what
 //!   the NIfTI standard says and avoids guessing ANALYZE's radiological convention).
 //! - A method whose fields are non-finite, or whose 3x3 part is singular (columns nearly
-//!   coplanar, |det| <= 1e-9 * product of column lengths), is skipped with a warning and the next
-//!   method is used: the renderer needs an invertible affine.
+//!   coplanar, |det| <= 1e-9 * product of column lengths, or a column length outside
+//!   [1e-30, 1e30] mm, where the inverse would leave f64's range), is skipped with a warning and
+//!   the next method is used: the renderer needs an invertible affine.
 //! - Quaternion: with s = b^2 + c^2 + d^2, a = sqrt(1 - s) when s < 1 - 1e-7; when s is within
 //!   (1 - 1e-7, 1 + 1e-5] (rounding of a unit quaternion stored in f32) a = 0 and (b, c, d) is
 //!   normalised silently (as nifti_clib does); when s > 1 + 1e-5 the quaternion is normalised
@@ -73,12 +76,28 @@ fn unit_factor(xyzt_units: i32, warnings: &mut Vec<String>) -> f64 {
     }
 }
 
+/// Smallest and largest voxel size (mm) taken from pixdim. Found by fuzzing: NIfTI-2's f64
+/// pixdim can hold 1e-309 or 1e300, which are "positive and finite" but make the pixdim
+/// diagonal (or the qform) numerically singular: the determinant, a product of three sizes,
+/// underflows to 0 or overflows to infinity, and no inverse exists in f64. Within
+/// [1e-30, 1e30] the determinant and the inverse stay far inside f64's normal range; no imaging
+/// modality comes within 20 orders of magnitude of either bound.
+const MIN_SPACING_MM: f64 = 1e-30;
+const MAX_SPACING_MM: f64 = 1e30;
+
 fn repaired_spacing(pixdim: [f64; 3], factor: f64, warnings: &mut Vec<String>) -> [f64; 3] {
     std::array::from_fn(|axis| {
         let p = pixdim[axis];
         let mm = p * factor;
-        if p.is_finite() && p > 0.0 && mm.is_finite() && mm > 0.0 {
+        if p.is_finite() && p > 0.0 && (MIN_SPACING_MM..=MAX_SPACING_MM).contains(&mm) {
             mm
+        } else if p.is_finite() && p > 0.0 {
+            warnings.push(format!(
+                "pixdim[{}] (voxel size along {}) is {p:e} ({mm:e} mm), outside the usable range {MIN_SPACING_MM:e}..{MAX_SPACING_MM:e} mm; 1 mm is used",
+                axis + 1,
+                AXES[axis]
+            ));
+            1.0
         } else {
             warnings.push(format!(
                 "pixdim[{}] (voxel size along {}) is {p}, which is not a positive finite size; 1 mm is used",
@@ -104,12 +123,21 @@ fn det3(m: &[[f64; 4]; 4]) -> f64 {
         + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
 }
 
-/// True when the 3x3 part is finite and clearly invertible.
+/// True when the 3x3 part is finite and clearly invertible, with every column (the voxel size
+/// along that index axis) in the usable range: without that bound, found by fuzzing, a sform
+/// with subnormal entries passed the relative determinant test yet had an inverse beyond f64
+/// (1/det overflowed). With columns in [1e-30, 1e30] and |det| > 1e-9 of their product, det is
+/// at least 1e-99 and every inverse entry is finite.
 fn invertible(m: &[[f64; 4]; 4]) -> bool {
     let n = column_norms(m);
     let scale = n[0] * n[1] * n[2];
     let det = det3(m);
-    m.iter().all(all_finite) && scale.is_finite() && det.is_finite() && det.abs() > 1e-9 * scale
+    m.iter().all(all_finite)
+        && n.iter()
+            .all(|len| (MIN_SPACING_MM..=MAX_SPACING_MM).contains(len))
+        && scale.is_finite()
+        && det.is_finite()
+        && det.abs() > 1e-9 * scale
 }
 
 /// Rotation matrix of the quaternion (b, c, d), repaired as the module doc describes.
@@ -228,7 +256,7 @@ fn sform_affine(
     if invertible(&m) {
         Some(m)
     } else {
-        warnings.push("the sform's 3x3 part is singular (or not finite after unit conversion), so it is not used".to_string());
+        warnings.push("the sform's 3x3 part is singular (or not finite after unit conversion, or a column is outside 1e-30..1e30 mm), so it is not used".to_string());
         None
     }
 }
