@@ -424,6 +424,7 @@ fn check(engine: &mut Engine, v: &Volume) -> Result<(), TestCaseError> {
         magnitude: true,
         curvature: true,
         normal: true,
+        ..Default::default()
     };
     let derived = engine
         .derive(&prepared, all)
@@ -475,21 +476,24 @@ fn check(engine: &mut Engine, v: &Volume) -> Result<(), TestCaseError> {
         max_g.is_finite() && (max_g - g_scale).abs() <= 1e-6 * g_scale + 1e-7,
         "max |g|: gpu {max_g} vs twin {g_scale}"
     );
+    // Stored values are |g| s[0] and k s[1] (voxel units, s = [h, h^2]); the f16 floor applies
+    // to the stored value, so in world units it is F16_FLOOR / s.
+    let [sg, sk] = derived.volumes.store_scale.map(f64::from);
     for i in 0..n {
         let (gm, gk) = (
-            f64::from(grad.values[2 * i]),
-            f64::from(grad.values[2 * i + 1]),
+            f64::from(grad.values[2 * i]) / sg,
+            f64::from(grad.values[2 * i + 1]) / sk,
         );
         // f16 storage: 2^-11 relative for normal f16 values, plus F16_FLOOR for values in f16's
         // subnormal range; f32 arithmetic on the same inputs: far below that.
         ensure!(
-            (gm - magnitude[i]).abs() <= 1e-3 * magnitude[i] + 1e-5 * g_scale + F16_FLOOR,
+            (gm - magnitude[i]).abs() <= 1e-3 * magnitude[i] + 1e-5 * g_scale + F16_FLOOR / sg,
             "|g| at {i}: gpu {gm} vs twin {} (max {g_scale})",
             magnitude[i]
         );
         if magnitude[i] > 1e-3 * g_scale {
             ensure!(
-                (gk - curvature[i]).abs() <= 2e-3 * k_scale + F16_FLOOR,
+                (gk - curvature[i]).abs() <= 2e-3 * k_scale + F16_FLOOR / sk,
                 "k at {i}: gpu {gk} vs twin {} (max |k| {k_scale})",
                 curvature[i]
             );

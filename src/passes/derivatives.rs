@@ -104,12 +104,30 @@ pub fn gradient_format(precision: DerivedPrecision, curvature: bool) -> vk::Form
 pub fn world_transform(linear: [[f64; 3]; 3]) -> GpuResult<DMat3> {
     let a = DMat3::from_cols_array_2d(&linear).transpose(); // rows in, glam is column-major
     let det = a.determinant();
-    if !det.is_finite() || det.abs() < 1e-12 {
+    // Singular relative to the axes' lengths (as the f64 twin judges it), so micrometre voxels
+    // (det ~ 1e-15 mm^3) are fine and only truly degenerate affines are refused.
+    let lengths = a.x_axis.length() * a.y_axis.length() * a.z_axis.length();
+    if !det.is_finite()
+        || lengths.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
+        || det.abs() < 1e-12 * lengths
+    {
         return Err(GpuError::InvalidRequest(format!(
             "the volume's affine is singular (determinant {det:e}); derivatives need an invertible affine"
         )));
     }
-    Ok(a.inverse().transpose())
+    let m = a.inverse().transpose();
+    // The shader squares gradients built from M in f32 (max 3.4e38): entries past 1e15 per mm
+    // (voxels under 1e-15 mm) would overflow to infinity.
+    let largest = m
+        .to_cols_array()
+        .iter()
+        .fold(0.0f64, |acc, v| acc.max(v.abs()));
+    if !largest.is_finite() || largest > 1e15 {
+        return Err(GpuError::InvalidRequest(format!(
+            "the volume's voxels are too small to differentiate in f32 (index-to-world inverse entries up to {largest:e} per mm)"
+        )));
+    }
+    Ok(m)
 }
 
 /// The derivative pass for one combination of outputs.
@@ -242,5 +260,19 @@ mod tests {
     fn singular_affines_are_rejected() {
         assert!(world_transform([[1.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 1.0]]).is_err());
         assert!(world_transform([[f64::NAN, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]).is_err());
+    }
+
+    #[test]
+    fn tiny_voxels_are_invertible_until_f32_cannot_hold_their_gradients() {
+        // 1e-5 mm voxels: det 1e-15, which an absolute 1e-12 threshold wrongly called singular
+        // (found by the loader fuzzing, which accepts such pixdim).
+        let diag = |h: f64| [[h, 0.0, 0.0], [0.0, h, 0.0], [0.0, 0.0, h]];
+        let m = world_transform(diag(1e-5)).unwrap();
+        assert!((m.x_axis.x - 1e5).abs() < 1e-6);
+        let err = world_transform(diag(1e-20)).unwrap_err().to_string();
+        assert!(err.contains("too small to differentiate"), "{err}");
+        // Nearly parallel axes stay singular whatever their length.
+        let flat = [[1e-5, 1e-5, 0.0], [0.0, 1e-18, 0.0], [0.0, 0.0, 1e-5]];
+        assert!(world_transform(flat).is_err());
     }
 }
