@@ -25,6 +25,9 @@
 #extension GL_KHR_shader_subgroup_basic : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
 
+// The workgroup size is specializable (spec ids 100-102) for profiling variants (`--wg`); the
+// numbers here are the defaults.
+layout(local_size_x_id = 100, local_size_y_id = 101, local_size_z_id = 102) in;
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 4) in;
 
 layout(constant_id = 0) const bool WANT_MAGNITUDE = true;
@@ -36,6 +39,9 @@ layout(set = 0, binding = 1) uniform writeonly image3D gradient_out;
 layout(set = 0, binding = 2) uniform writeonly image3D normal_out;
 const uint STAT_SLOTS = 256u;
 layout(set = 0, binding = 3, std430) buffer GradientStats { uint max_magnitude_bits[STAT_SLOTS]; } stats;
+// Brick atlas only: per slot, the box of texels inside the volume, as x | y << 8 | z << 16 for
+// the low corner (.x) and the exclusive high corner (.y). Read only when slot_side > 0.
+layout(set = 0, binding = 4, std430) readonly buffer SlotBounds { uvec2 bounds[]; } slot_bounds;
 
 shared uint workgroup_max_bits;
 
@@ -62,8 +68,9 @@ ivec3 axis_offset(int axis, int d) {
     return o;
 }
 
-// Derivatives of one voxel: stores the requested outputs and returns |g_w|.
-float derive_voxel(ivec3 p, ivec3 n) {
+// Derivatives of voxel p of the region (extent n): stores the requested outputs at texel `store`
+// and returns |g_w|.
+float derive_voxel(ivec3 p, ivec3 n, ivec3 store) {
     float center = I(p);
     vec3 g_idx = vec3(0.0);
     vec3 second = vec3(0.0);   // d2/dx2, d2/dy2, d2/dz2 in index space
@@ -132,10 +139,10 @@ float derive_voxel(ivec3 p, ivec3 n) {
         store_gradient = true;
     }
     if (store_gradient) {
-        imageStore(gradient_out, region_origin + p, vec4(magnitude * params.scale_g, k * params.scale_k, 0.0, 0.0));
+        imageStore(gradient_out, store, vec4(magnitude * params.scale_g, k * params.scale_k, 0.0, 0.0));
     }
     if (WANT_NORMAL) {
-        imageStore(normal_out, region_origin + p, vec4(direction, 0.0));
+        imageStore(normal_out, store, vec4(direction, 0.0));
     }
     return magnitude;
 }
@@ -151,20 +158,29 @@ void main() {
     ivec3 n = params.dims.xyz;
     bool inside = all(lessThan(p, n));
     bool counted = inside;
-    // A brick atlas: each slot is its own little volume (brick plus halo), so the stencils clamp
-    // at the slot's faces and never read a neighbouring slot; the halo makes the brick's own
-    // voxels (and the halo's first layer) exact.
-    if (params.slot_side > 0) {
-        region_origin = (p / params.slot_side) * params.slot_side;
-        p -= region_origin;
-        n = min(ivec3(params.slot_side), n - region_origin);
-        // Halo texels repeat a neighbour brick's voxels, and their stencils are one-sided at the
-        // slot's faces (a step edge's one-sided difference is twice the central one), so they
-        // would inflate the maximum the whole volume has; each voxel counts once, in its brick.
-        counted = inside && all(greaterThanEqual(p, ivec3(params.slot_halo)))
-            && all(lessThan(p, ivec3(params.slot_side - params.slot_halo)));
+    // A brick atlas: each slot is its own little volume, the box of its texels that lie inside
+    // the scan (a brick plus its halo, cut at the volume's faces). The stencils see only that
+    // box, so at the volume's faces they are one-sided exactly as for the whole volume, and
+    // never read a neighbouring slot. Texels outside the box (replicated past the volume's
+    // faces) store their nearest inside texel's values, which is what clamp-to-edge sampling of
+    // a whole derived volume returns there.
+    ivec3 store = p;
+    if (params.slot_side > 0 && inside) {
+        ivec3 slot = p / params.slot_side;
+        ivec3 slots = params.dims.xyz / params.slot_side;
+        uvec2 box = slot_bounds.bounds[slot.x + slots.x * (slot.y + slots.y * slot.z)];
+        ivec3 lo = ivec3(box.x & 0xffu, (box.x >> 8) & 0xffu, (box.x >> 16) & 0xffu);
+        ivec3 hi = ivec3(box.y & 0xffu, (box.y >> 8) & 0xffu, (box.y >> 16) & 0xffu);
+        ivec3 local = p - slot * params.slot_side;
+        region_origin = slot * params.slot_side + lo;
+        n = max(hi - lo, ivec3(1));
+        p = clamp(local - lo, ivec3(0), n - 1);
+        // Halo texels repeat a neighbour brick's voxels and replicated texels repeat the face's,
+        // so each voxel counts towards the maximum once: in its own brick, inside the volume.
+        counted = inside && all(greaterThanEqual(local, max(lo, ivec3(params.slot_halo))))
+            && all(lessThan(local, min(hi, ivec3(params.slot_side - params.slot_halo))));
     }
-    float magnitude = inside ? derive_voxel(p, n) : 0.0;
+    float magnitude = inside ? derive_voxel(p, n, store) : 0.0;
     float subgroup_max = subgroupMax(counted ? magnitude : 0.0);
     if (subgroupElect()) {
         atomicMax(workgroup_max_bits, floatBitsToUint(subgroup_max));

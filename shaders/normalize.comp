@@ -13,6 +13,9 @@
 // study): the binding has no format qualifier (shaderStorageImageWriteWithoutFormat).
 #extension GL_GOOGLE_include_directive : require
 
+// The workgroup size is specializable (spec ids 100-102) for profiling variants (`--wg`); the
+// numbers here are the defaults.
+layout(local_size_x_id = 100, local_size_y_id = 101, local_size_z_id = 102) in;
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 4) in;
 
 layout(constant_id = 0) const uint SAMPLE_KIND = 4u;

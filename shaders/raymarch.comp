@@ -28,6 +28,9 @@
 #extension GL_KHR_shader_subgroup_basic : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
 
+// The workgroup size is specializable (spec ids 100-102) for profiling variants (`--wg`); the
+// numbers here are the defaults.
+layout(local_size_x_id = 100, local_size_y_id = 101, local_size_z_id = 102) in;
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
 layout(constant_id = 0) const uint MODE = 0u;             // 0 DVR, 1 MIP, 2 MinIP

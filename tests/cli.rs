@@ -514,3 +514,46 @@ fn a_render_over_the_budget_bricks_and_says_so() {
         "the bricked render shows the phantom ({lit} lit pixels)"
     );
 }
+
+#[test]
+fn profiles_and_tuning_apply_or_fail_in_one_line() {
+    let phantom = generate(&PhantomSpec::cube(24)).unwrap();
+    let input = temp("profile24.nii");
+    write_nifti1(&phantom.volume, &input, false).unwrap();
+    let input = input.to_str().unwrap();
+    let o = morphray(&[
+        "--profile",
+        "gen12",
+        "--wg",
+        "raymarch=16x4",
+        "plan",
+        input,
+        "--json",
+        "--size",
+        "16x16",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["device_profile"]["name"], "gen12");
+    assert_eq!(v["device_profile"]["max_image_dimension_3d"], 2048);
+    assert_eq!(
+        v["tuning"]["workgroups"][0][1],
+        serde_json::json!([8, 8, 1]),
+        "the profile's default"
+    );
+    assert_eq!(
+        v["tuning"]["workgroups"][1],
+        serde_json::json!(["raymarch", [16, 4, 1]])
+    );
+
+    let bad = temp("bad-profile.toml");
+    std::fs::write(&bad, "name = \"x\"\nmax_image_dimension_3d = \"big\"\n").unwrap();
+    let o = morphray(&["--profile", bad.to_str().unwrap(), "peaks", input]);
+    assert_one_line_failure(&o, "bad-profile.toml");
+    let o = morphray(&["--profile", "xe-hpg", "peaks", input]);
+    assert_one_line_failure(&o, "unknown profile");
+    let o = morphray(&["--subgroup", "1024", "peaks", input]);
+    assert_one_line_failure(&o, "subgroup size 1024");
+    let o = morphray(&["--wg", "histogram=64", "peaks", input]);
+    assert_one_line_failure(&o, "has no selectable workgroup");
+}

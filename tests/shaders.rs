@@ -87,10 +87,47 @@ fn every_pipeline_is_created_without_validation_errors() {
 }
 
 #[test]
+fn every_pipeline_is_created_under_the_gen12_profile_with_its_workgroup_and_subgroup() {
+    // Gen12: no float atomics (a module declaring them is refused at creation), 8x8 workgroups
+    // for the tunable kernels, and the smallest subgroup size both this device and Xe-LP have.
+    let probe = common::engine();
+    let range = probe.device().adapter().subgroup_size_range;
+    drop(probe);
+    let profile = morphray::gpu::DeviceProfile::load("gen12").unwrap();
+    let common_size =
+        range.and_then(|(lo, hi)| [8, 16, 32].into_iter().find(|s| (lo..=hi).contains(s)));
+    let device = Device::new(&DeviceConfig {
+        validation: Validation::Required,
+        profile: Some(profile),
+        tuning: morphray::gpu::KernelTuning {
+            subgroup_size: common_size,
+            ..Default::default()
+        },
+        ..Default::default()
+    })
+    .unwrap();
+    assert!(!device.adapter().float_atomics);
+    for shader in table::ALL {
+        let pipeline = ComputePipeline::new(&device, shader, &[], ash::vk::PipelineCache::null())
+            .unwrap_or_else(|e| panic!("{}: {e}", shader.name));
+        let expected = if shader.workgroup_spec_ids.is_some() {
+            [8, 8, 1]
+        } else {
+            shader.workgroup_size
+        };
+        assert_eq!(pipeline.workgroup_size(), expected, "{}", shader.name);
+        assert_eq!(pipeline.subgroup_size(), common_size, "{}", shader.name);
+    }
+    let errors = device.validation_log().errors();
+    assert!(errors.is_empty(), "{}", errors.join("\n---\n"));
+}
+
+#[test]
 fn a_missing_device_is_named_with_the_devices_that_exist() {
     let config = DeviceConfig {
         selector: DeviceSelector::Name("no such gpu 9000".into()),
         validation: Validation::Off,
+        ..Default::default()
     };
     match Device::new(&config) {
         Err(GpuError::DeviceNotFound { wanted, available }) => {
@@ -108,6 +145,7 @@ fn a_missing_device_is_named_with_the_devices_that_exist() {
     let by_index = DeviceConfig {
         selector: DeviceSelector::Index(999),
         validation: Validation::Off,
+        ..Default::default()
     };
     assert!(matches!(
         Device::new(&by_index),

@@ -33,6 +33,24 @@ pub struct Cli {
     #[arg(long, global = true)]
     pub bricked: bool,
 
+    /// Run under a device profile: `gen12` (Intel Xe-LP: 2048-texel 3D images, unified memory
+    /// without staging, a 12 GiB budget from 16 GiB of RAM, subgroup sizes 8/16/32, no float
+    /// atomics, 36-bit timestamps) or the path of a .toml profile with the same keys. A profile
+    /// only clamps what the real device offers, so the constrained paths really run.
+    #[arg(long, global = true, value_name = "gen12|FILE.toml")]
+    pub profile: Option<String>,
+
+    /// Workgroup size of the tunable kernels, for profiling: `8x8` for all of them (z = 1), or
+    /// `raymarch=16x8`, `normalize=8x8x4`, `derivatives=8x8x2` for one (repeatable; later wins).
+    /// The WGSL reductions (minmax, histogram) keep their 256 invocations.
+    #[arg(long, global = true, value_name = "[PASS=]XxY[xZ]")]
+    pub wg: Vec<String>,
+
+    /// Pin the subgroup size of every kernel (requiredSubgroupSize), for profiling SIMD8/16/32 on
+    /// devices with subgroup size control; an unsupported size is an error naming the range.
+    #[arg(long, global = true, value_name = "N")]
+    pub subgroup: Option<u32>,
+
     /// What to do.
     #[command(subcommand)]
     pub command: Command,

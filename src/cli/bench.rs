@@ -101,6 +101,12 @@ struct BenchReport<'a> {
     full_study: bool,
     /// Live allocations after the frames, from the memory ledger.
     held_bytes_while_rendering: u64,
+    /// The device profile applied, if any.
+    device_profile: Option<crate::gpu::DeviceProfile>,
+    /// Workgroup and subgroup choices of the tunable kernels.
+    tuning: crate::gpu::KernelTuning,
+    /// Valid timestamp bits after the profile's clamp.
+    timestamp_valid_bits: u32,
 }
 
 fn pass_report(
@@ -392,6 +398,9 @@ pub fn run(args: &BenchArgs, global: &super::GlobalOptions) -> Result<(), Error>
         plan: &opened.plan,
         full_study,
         held_bytes_while_rendering: opened.engine.device().ledger().total_bytes(),
+        device_profile: opened.engine.device().profile().cloned(),
+        tuning: opened.engine.device().tuning().clone(),
+        timestamp_valid_bits: adapter.timestamp_valid_bits,
     };
     if let Some(path) = &args.json {
         std::fs::write(path, json(&report)).map_err(|source| Error::Write {
@@ -417,6 +426,12 @@ fn print_text(r: &BenchReport<'_>) {
         print_line(&format!("measured device copy: {c:.1} GB/s (read + write)"));
     }
     let mib = |b: u64| b as f64 / (1u64 << 20) as f64;
+    if let Some(p) = &r.device_profile {
+        print_line(&format!("device profile {}: {}", p.name, p.description));
+    }
+    if !r.tuning.workgroups.is_empty() || r.tuning.subgroup_size.is_some() {
+        print_line(&format!("kernel tuning: {:?}", r.tuning));
+    }
     print_line(&format!(
         "plan: {} layout, I_norm {}; planned {:.1} MiB held, {:.1} MiB at the preparation peak; ledger while rendering {:.1} MiB",
         match r.plan.layout {

@@ -62,6 +62,10 @@ pub struct GlobalOptions {
     pub memory_budget: Option<u64>,
     /// Brick even when the volume fits whole.
     pub bricked: bool,
+    /// Device profile to apply.
+    pub profile: Option<crate::gpu::DeviceProfile>,
+    /// Workgroup and subgroup choices.
+    pub tuning: crate::gpu::KernelTuning,
 }
 
 impl GlobalOptions {
@@ -70,17 +74,34 @@ impl GlobalOptions {
         let mut config =
             session::engine_config(self.device.as_deref(), self.validation, self.memory_budget);
         config.force_bricking = self.bricked;
+        config.device.profile = self.profile.clone();
+        config.device.tuning = self.tuning.clone();
         config
     }
 }
 
 /// Dispatches a parsed command line.
 pub fn run(cli: &Cli) -> Result<(), Error> {
+    let mut tuning = crate::gpu::KernelTuning {
+        subgroup_size: cli.subgroup,
+        ..Default::default()
+    };
+    for wg in &cli.wg {
+        tuning
+            .add_workgroup(wg)
+            .map_err(|e| Error::Usage(format!("--wg: {e}")))?;
+    }
     let global = GlobalOptions {
         device: cli.device.clone(),
         validation: cli.validation,
         memory_budget: cli.memory_budget,
         bricked: cli.bricked,
+        profile: cli
+            .profile
+            .as_deref()
+            .map(crate::gpu::DeviceProfile::load)
+            .transpose()?,
+        tuning,
     };
     let global = &global;
     match &cli.command {

@@ -11,7 +11,7 @@ use super::args::PlanArgs;
 use super::output::{json, print_line};
 use super::session;
 use crate::error::Error;
-use crate::gpu::AllocationRecord;
+use crate::gpu::{AllocationRecord, DeviceProfile, KernelTuning};
 use crate::passes::cost::{DeviceModel, XE_LP};
 use crate::scene::plan::{Layout, Plan};
 use ash::vk;
@@ -37,6 +37,8 @@ struct PlanReport<'a> {
     accuracy_study: &'static str,
     held: Vec<AllocationRecord>,
     held_bytes: u64,
+    device_profile: Option<&'a DeviceProfile>,
+    tuning: &'a KernelTuning,
 }
 
 /// Runs the command.
@@ -76,6 +78,8 @@ pub fn run(args: &PlanArgs, global: &super::GlobalOptions) -> Result<(), Error> 
         accuracy_study: "ACCURACY.md (morphray accuracy measures each degradation's error)",
         held,
         held_bytes,
+        device_profile: engine.device().profile(),
+        tuning: engine.device().tuning(),
     };
     if args.json {
         print_line(&json(&report));
@@ -100,6 +104,27 @@ fn print_text(r: &PlanReport<'_>) {
         r.image[1],
         mib(p.budget)
     ));
+    if let Some(profile) = r.device_profile {
+        print_line(&format!(
+            "device profile {}: {}",
+            profile.name, profile.description
+        ));
+    }
+    let t = r.tuning;
+    if !t.workgroups.is_empty() || t.subgroup_size.is_some() {
+        let groups: Vec<String> = t
+            .workgroups
+            .iter()
+            .map(|(pass, [x, y, z])| format!("{}={x}x{y}x{z}", pass.as_deref().unwrap_or("all")))
+            .collect();
+        print_line(&format!(
+            "kernel tuning: workgroups [{}], subgroup size {}",
+            groups.join(", "),
+            t.subgroup_size
+                .map(|s| s.to_string())
+                .unwrap_or_else(|| "device default".into())
+        ));
+    }
     let layout = match p.layout {
         Layout::Whole => "whole volume".to_string(),
         Layout::Bricked {

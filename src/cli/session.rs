@@ -67,6 +67,7 @@ pub fn engine_config(
             } else {
                 Validation::from_build_and_env()
             },
+            ..DeviceConfig::default()
         },
         ..EngineConfig::default()
     }

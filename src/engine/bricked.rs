@@ -109,6 +109,11 @@ impl HostPrepared {
     }
 }
 
+/// x | y << 8 | z << 16 (slot coordinates are below 256).
+fn pack_box(corner: [u32; 3]) -> u32 {
+    corner[0] | corner[1] << 8 | corner[2] << 16
+}
+
 fn texel_bytes(format: vk::Format) -> usize {
     if format == vk::Format::R8_UNORM { 1 } else { 2 }
 }
@@ -339,6 +344,29 @@ impl Engine {
         let fine = host.brick_ranges(BRICK_SIDE, 2);
         let ranges = std::sync::OnceLock::new();
         let _ = ranges.set(Arc::new(fine));
+        // Each slot's box inside the volume (unused slots: the whole slot), for the derivative
+        // stencils.
+        let mut bounds = vec![[0u32, pack_box([slot as u32; 3])]; sx * sy * sz];
+        for (s, &b) in resident.iter().enumerate() {
+            let brick = [
+                b % grid[0] as usize,
+                (b / grid[0] as usize) % grid[1] as usize,
+                b / (grid[0] as usize * grid[1] as usize),
+            ];
+            let mut lo = [0u32; 3];
+            let mut hi = [0u32; 3];
+            for axis in 0..3 {
+                let origin = (brick[axis] * STORAGE_BRICK as usize) as i64 - STORAGE_HALO as i64;
+                lo[axis] = (-origin).clamp(0, slot as i64) as u32;
+                hi[axis] = (host.dims[axis] as i64 - origin).clamp(0, slot as i64) as u32;
+            }
+            bounds[s] = [pack_box(lo), pack_box(hi)];
+        }
+        let slot_bounds = Buffer::with_data(
+            &self.device,
+            BufferDesc::host_storage("atlas slot bounds", (8 * bounds.len()) as u64),
+            bytemuck::cast_slice(&bounds),
+        )?;
         let layout = VolumeLayout::Bricked(BrickAtlas {
             brick: STORAGE_BRICK,
             halo: STORAGE_HALO,
@@ -346,6 +374,7 @@ impl Engine {
             slots: [sx as u32, sy as u32, sz as u32],
             resident: resident.len() as u32,
             table: table_buffer,
+            slot_bounds,
         });
         Ok(PreparedVolume {
             dims: host.dims,

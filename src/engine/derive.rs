@@ -1,7 +1,7 @@
 //! Derived volumes (gradient magnitude, curvature, normals) of a prepared volume.
 
 use super::Engine;
-use super::prepare::PreparedVolume;
+use super::prepare::{PreparedVolume, VolumeLayout};
 use crate::gpu::{Access, Buffer, BufferDesc, GpuResult, PassTiming, Recording};
 use crate::passes::derivatives::{DEFAULT_TAU, DerivativeOutputs, DerivedVolumes, STAT_BYTES};
 use crate::scene::DerivedPrecision;
@@ -62,6 +62,8 @@ impl Engine {
     ) -> GpuResult<Derived> {
         let device = self.device.clone();
         let nearest = self.nearest.clone();
+        // Bound but unread for a whole volume (any small buffer satisfies the layout).
+        let placeholder = self.placeholders.occupancy.clone();
         self.counters.derivative_runs += 1;
         let pass = self.derivative_pass(outputs)?;
         let stats_gpu = Buffer::new(
@@ -83,6 +85,10 @@ impl Engine {
             DEFAULT_TAU,
             store_scale,
             prepared.slot_shape(),
+            match &prepared.layout {
+                VolumeLayout::Bricked(atlas) => &atlas.slot_bounds,
+                VolumeLayout::Whole => &placeholder,
+            },
             &stats_gpu,
         )?;
         rec.end_pass();

@@ -82,6 +82,9 @@ pub struct BrickAtlas {
     pub resident: u32,
     /// Slot + 1 per brick, 0 when not resident (host-visible storage buffer).
     pub table: Arc<Buffer>,
+    /// Per atlas slot, the box of its texels inside the volume (low corner, exclusive high
+    /// corner, 8 bits per axis), so the derivative stencils end at the volume's faces.
+    pub slot_bounds: Arc<Buffer>,
 }
 
 impl BrickAtlas {

@@ -84,6 +84,12 @@ pub struct AdapterInfo {
     pub max_storage_buffer_range: u32,
     /// Largest workgroup count along x.
     pub max_workgroup_count_x: u32,
+    /// Largest workgroup size per axis.
+    pub max_workgroup_size: [u32; 3],
+    /// Most invocations in one workgroup.
+    pub max_workgroup_invocations: u32,
+    /// Most subgroups in one workgroup (subgroup size control).
+    pub max_workgroup_subgroups: u32,
     /// Largest push-constant block in bytes.
     pub max_push_constants_size: u32,
     /// Whether VK_EXT_memory_budget is available.
@@ -97,6 +103,10 @@ pub struct AdapterInfo {
     pub unified_memory: bool,
     /// Reasons this device cannot run morphray (empty when suitable).
     pub rejections: Vec<String>,
+    /// The device profile clamping these properties (`gen12`, a file's name), if any.
+    pub profile: Option<String>,
+    /// Whether shaders may use float atomics (a profile of a device without them says no).
+    pub float_atomics: bool,
 }
 
 impl AdapterInfo {
@@ -326,7 +336,10 @@ fn describe(
         && (properties.device_type == vk::PhysicalDeviceType::CPU
             || properties.device_type == vk::PhysicalDeviceType::INTEGRATED_GPU);
     let has_subgroup_size_control = features13.subgroup_size_control == vk::TRUE
-        && features13.compute_full_subgroups == vk::TRUE;
+        && features13.compute_full_subgroups == vk::TRUE
+        && size_control
+            .required_subgroup_size_stages
+            .contains(vk::ShaderStageFlags::COMPUTE);
 
     Ok(AdapterInfo {
         index,
@@ -348,11 +361,16 @@ fn describe(
         max_image_dimension_3d: properties.limits.max_image_dimension3_d,
         max_storage_buffer_range: properties.limits.max_storage_buffer_range,
         max_workgroup_count_x: properties.limits.max_compute_work_group_count[0],
+        max_workgroup_size: properties.limits.max_compute_work_group_size,
+        max_workgroup_invocations: properties.limits.max_compute_work_group_invocations,
+        max_workgroup_subgroups: size_control.max_compute_workgroup_subgroups,
         max_push_constants_size: properties.limits.max_push_constants_size,
         has_memory_budget: has_extension(ash::ext::memory_budget::NAME),
         has_subgroup_size_control,
         heaps,
         unified_memory,
         rejections,
+        profile: None,
+        float_atomics: true,
     })
 }

@@ -14,6 +14,7 @@ use super::debug::ValidationLog;
 use super::error::{GpuError, GpuResult, vk_err};
 use super::instance::{Instance, Validation};
 use super::memory::MemoryLedger;
+use super::profile::{DeviceProfile, KernelTuning};
 use ash::vk;
 use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
 use std::mem::ManuallyDrop;
@@ -26,6 +27,10 @@ pub struct DeviceConfig {
     pub selector: DeviceSelector,
     /// Whether to load the validation layer.
     pub validation: Validation,
+    /// Limits of a constrained device class to apply on top of the real device.
+    pub profile: Option<DeviceProfile>,
+    /// Workgroup and subgroup sizes of the tunable kernels.
+    pub tuning: KernelTuning,
 }
 
 /// State shared by the device and every resource created on it.
@@ -37,6 +42,8 @@ pub struct DeviceShared {
     pub(crate) queue: Mutex<vk::Queue>,
     pub(crate) allocator: ManuallyDrop<Mutex<Allocator>>,
     pub(crate) ledger: Arc<MemoryLedger>,
+    pub(crate) profile: Option<DeviceProfile>,
+    pub(crate) tuning: KernelTuning,
     // Dropped last: the instance must outlive the device.
     pub(crate) instance: ManuallyDrop<Instance>,
 }
@@ -56,6 +63,18 @@ impl Device {
             other => other.clone(),
         };
         let (physical, adapter) = select(&instance, &selector)?;
+        // A profile clamps what the engine may use (never more than the device offers).
+        let adapter = match &config.profile {
+            Some(profile) => profile.clamp(adapter),
+            None => adapter,
+        };
+        let tuning = config
+            .tuning
+            .clone()
+            .with_profile_defaults(config.profile.as_ref());
+        if let Some(size) = tuning.subgroup_size {
+            super::profile::check_subgroup_size(&adapter, size)?;
+        }
         let priorities = [1.0f32];
         let queue_info = [vk::DeviceQueueCreateInfo::default()
             .queue_family_index(adapter.queue_family)
@@ -111,6 +130,8 @@ impl Device {
                 queue: Mutex::new(queue),
                 allocator: ManuallyDrop::new(Mutex::new(allocator)),
                 ledger: Arc::new(MemoryLedger::default()),
+                profile: config.profile.clone(),
+                tuning,
                 instance: ManuallyDrop::new(instance),
             }),
         })
@@ -169,9 +190,30 @@ impl Device {
                     .raw
                     .get_physical_device_memory_properties2(shared.physical, &mut props)
             };
-            return budget.heap_budget[index].saturating_sub(budget.heap_usage[index]);
+            let available = budget.heap_budget[index].saturating_sub(budget.heap_usage[index]);
+            return self.profile_cap(available);
         }
-        size.saturating_sub(shared.ledger.total_bytes())
+        self.profile_cap(size.saturating_sub(shared.ledger.total_bytes()))
+    }
+
+    /// `available` capped by the profile's heap (the modelled machine's, minus what the engine
+    /// holds).
+    fn profile_cap(&self, available: u64) -> u64 {
+        let shared = &self.shared;
+        match shared.profile.as_ref().and_then(|p| p.heap_bytes()) {
+            Some(heap) => available.min(heap.saturating_sub(shared.ledger.total_bytes())),
+            None => available,
+        }
+    }
+
+    /// The profile applied to this device, if any.
+    pub fn profile(&self) -> Option<&DeviceProfile> {
+        self.shared.profile.as_ref()
+    }
+
+    /// The workgroup and subgroup sizes pipelines are created with.
+    pub fn tuning(&self) -> &KernelTuning {
+        &self.shared.tuning
     }
 
     /// True when `format` has all of `features` for optimally tiled images on this device.

@@ -50,6 +50,8 @@ pub struct ComputePipeline {
     pub(crate) layout: vk::PipelineLayout,
     pub(crate) set_layouts: Vec<vk::DescriptorSetLayout>,
     shader: &'static ShaderInfo,
+    workgroup_size: [u32; 3],
+    subgroup_size: Option<u32>,
     device: Arc<DeviceShared>,
 }
 
@@ -100,6 +102,46 @@ impl ComputePipeline {
             });
             data.push(value.bits());
         }
+        // The device's tuning: a chosen workgroup for kernels that declare one specializable,
+        // and a pinned subgroup size (checked against the device when it was created).
+        let mut workgroup_size = shader.workgroup_size;
+        if let (Some(ids), Some(size)) = (
+            shader.workgroup_spec_ids,
+            shared.tuning.workgroup_for(shader.source),
+        ) {
+            super::profile::check_workgroup(
+                &shared.adapter,
+                shader.name,
+                shader.workgroup_size,
+                size,
+            )?;
+            for (id, value) in ids.into_iter().zip(size) {
+                entries.push(vk::SpecializationMapEntry {
+                    constant_id: id,
+                    offset: data.len() as u32 * 4,
+                    size: 4,
+                });
+                data.push(value);
+            }
+            workgroup_size = size;
+        }
+        let subgroup_size = shared.tuning.subgroup_size;
+        if let Some(size) = subgroup_size {
+            let subgroups = workgroup_size.iter().product::<u32>().div_ceil(size);
+            if subgroups > shared.adapter.max_workgroup_subgroups {
+                return Err(GpuError::Unsupported(format!(
+                    "{}: {subgroups} subgroups of {size} per workgroup exceed the device's {}",
+                    shader.name, shared.adapter.max_workgroup_subgroups
+                )));
+            }
+        }
+        if !shared.adapter.float_atomics && uses_float_atomics(&shader.spirv_words()) {
+            return Err(GpuError::Unsupported(format!(
+                "{} uses float atomics, which the {} profile does not have",
+                shader.name,
+                shared.adapter.profile.as_deref().unwrap_or("device's")
+            )));
+        }
         let data_bytes: Vec<u8> = data.iter().flat_map(|w| w.to_le_bytes()).collect();
 
         let mut pipeline = ComputePipeline {
@@ -107,6 +149,8 @@ impl ComputePipeline {
             layout: vk::PipelineLayout::null(),
             set_layouts: Vec::new(),
             shader,
+            workgroup_size,
+            subgroup_size,
             device: shared.clone(),
         };
         let set_count = shader.bindings.iter().map(|b| b.set + 1).max().unwrap_or(0);
@@ -156,11 +200,16 @@ impl ComputePipeline {
         let spec_info = vk::SpecializationInfo::default()
             .map_entries(&entries)
             .data(&data_bytes);
-        let stage = vk::PipelineShaderStageCreateInfo::default()
+        let mut required = vk::PipelineShaderStageRequiredSubgroupSizeCreateInfo::default()
+            .required_subgroup_size(subgroup_size.unwrap_or(0));
+        let mut stage = vk::PipelineShaderStageCreateInfo::default()
             .stage(vk::ShaderStageFlags::COMPUTE)
             .module(module)
             .name(&entry)
             .specialization_info(&spec_info);
+        if subgroup_size.is_some() {
+            stage = stage.push_next(&mut required);
+        }
         let create = [vk::ComputePipelineCreateInfo::default()
             .stage(stage)
             .layout(pipeline.layout)];
@@ -186,15 +235,51 @@ impl ComputePipeline {
         self.shader
     }
 
+    /// The workgroup size this pipeline runs with (the shader's, or the tuning's choice).
+    pub fn workgroup_size(&self) -> [u32; 3] {
+        self.workgroup_size
+    }
+
+    /// Invocations per workgroup.
+    pub fn invocations_per_workgroup(&self) -> u32 {
+        self.workgroup_size.iter().product()
+    }
+
+    /// The pinned subgroup size, if any.
+    pub fn subgroup_size(&self) -> Option<u32> {
+        self.subgroup_size
+    }
+
     /// Workgroups needed to cover `extent` invocations along each axis.
     pub fn workgroups_for(&self, extent: [u32; 3]) -> [u32; 3] {
-        let w = self.shader.workgroup_size;
+        let w = self.workgroup_size;
         [
             extent[0].div_ceil(w[0]),
             extent[1].div_ceil(w[1]),
             extent[2].div_ceil(w[2]),
         ]
     }
+}
+
+/// True when the module declares a float-atomic capability (SPV_EXT_shader_atomic_float_add and
+/// _min_max): `OpCapability AtomicFloat{16,32,64}{Add,MinMax}EXT`.
+fn uses_float_atomics(words: &[u32]) -> bool {
+    const OP_CAPABILITY: u32 = 17;
+    const FLOAT_ATOMICS: [u32; 6] = [5612, 5613, 5616, 6033, 6034, 6095];
+    let mut at = 5;
+    while at < words.len() {
+        let count = (words[at] >> 16) as usize;
+        if count == 0 {
+            return false;
+        }
+        if words[at] & 0xffff == OP_CAPABILITY
+            && words.get(at + 1).is_some_and(|c| FLOAT_ATOMICS.contains(c))
+        {
+            return true;
+        }
+        at += count;
+    }
+    false
 }
 
 impl Drop for ComputePipeline {
@@ -217,5 +302,39 @@ impl Drop for ComputePipeline {
 impl ComputePipeline {
     pub(crate) fn device_shared(&self) -> Arc<DeviceShared> {
         self.device.clone()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::uses_float_atomics;
+
+    /// A module header plus the given instructions.
+    fn module(instructions: &[&[u32]]) -> Vec<u32> {
+        let mut words = vec![0x0723_0203, 0x0001_0300, 0, 100, 0];
+        for i in instructions {
+            words.push(((i.len() as u32) << 16) | i[0]);
+            words.extend_from_slice(&i[1..]);
+        }
+        words
+    }
+
+    #[test]
+    fn float_atomic_capabilities_are_found() {
+        // OpCapability Shader (1), OpCapability AtomicFloat32AddEXT (6033).
+        let plain = module(&[&[17, 1]]);
+        let float_add = module(&[&[17, 1], &[17, 6033]]);
+        assert!(!uses_float_atomics(&plain));
+        assert!(uses_float_atomics(&float_add));
+        // A malformed zero-length instruction ends the scan instead of looping.
+        assert!(!uses_float_atomics(&[0x0723_0203, 0, 0, 0, 0, 0]));
+        // No shipped shader needs them (Xe-LP has none).
+        for shader in crate::gpu::shaders::table::ALL {
+            assert!(
+                !uses_float_atomics(&shader.spirv_words()),
+                "{}",
+                shader.name
+            );
+        }
     }
 }

@@ -80,8 +80,11 @@ pub struct ShaderInfo {
     pub entry_point: &'static str,
     /// SPIR-V, little-endian bytes (realigned to words when the module is created).
     pub spirv: &'static [u8],
-    /// `LocalSize` of the entry point.
+    /// `LocalSize` of the entry point (the default when specializable).
     pub workgroup_size: [u32; 3],
+    /// Spec ids of the workgroup size when the shader lets pipelines choose it
+    /// (`layout(local_size_x_id = ...)`), None when it is fixed.
+    pub workgroup_spec_ids: Option<[u32; 3]>,
     /// Size of the push-constant block in bytes (0 if none).
     pub push_constant_bytes: u32,
     /// Descriptor bindings, sorted by (set, binding).

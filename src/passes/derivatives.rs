@@ -159,7 +159,8 @@ impl DerivativePass {
     /// Allocates the requested outputs and records the pass. `normalized` must be in
     /// `Access::ComputeSampled`; the outputs are left in `Access::ComputeWriteImage`. `stats`
     /// `slot` = [side, halo] with side > 0 marks `normalized` as a brick atlas of slots of that
-    /// shape (stencils clamp at slot faces; only each slot's brick counts towards max |g|).
+    /// shape, and `slot_bounds` holds each slot's box inside the volume (see derivatives.comp);
+    /// for a whole volume any small buffer does, unread.
     /// `stats` (STAT_BYTES) receives the bits of max |g| in 256 slots and is left in `Access::ComputeWriteBuffer`.
     #[allow(clippy::too_many_arguments)]
     pub fn record(
@@ -172,6 +173,7 @@ impl DerivativePass {
         tau: f32,
         store_scale: [f32; 2],
         slot: [i32; 2],
+        slot_bounds: &Arc<Buffer>,
         stats: &Arc<Buffer>,
     ) -> GpuResult<DerivedVolumes> {
         let extent = normalized.extent();
@@ -200,6 +202,7 @@ impl DerivativePass {
                 ("gradient_out", Resource::StorageImage(gradient.clone())),
                 ("normal_out", Resource::StorageImage(normal.clone())),
                 ("stats", Resource::Buffer(stats.clone())),
+                ("slot_bounds", Resource::Buffer(slot_bounds.clone())),
             ],
         )?;
         rec.fill_buffer(stats, 0, STAT_BYTES, 0);

@@ -72,7 +72,7 @@ impl HistogramPass {
         let voxels = x as u64 * y as u64 * z as u64;
         let shape = linear_dispatch(
             voxels,
-            self.pipeline.shader().invocations_per_workgroup(),
+            self.pipeline.invocations_per_workgroup(),
             VOXELS_PER_INVOCATION,
             device.adapter().max_workgroup_count_x,
         );

@@ -61,7 +61,7 @@ impl MinMaxPass {
         let quads = quads_for(self.kind, sample_count);
         linear_dispatch(
             quads,
-            self.pipeline.shader().invocations_per_workgroup(),
+            self.pipeline.invocations_per_workgroup(),
             QUADS_PER_INVOCATION,
             device.adapter().max_workgroup_count_x,
         )

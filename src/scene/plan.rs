@@ -422,6 +422,14 @@ fn build(
             "host-visible",
             false,
         );
+        let slot = STORAGE_BRICK + 2 * STORAGE_HALO;
+        alloc(
+            "atlas slot bounds",
+            8 * extent.iter().map(|&e| (e / slot) as u64).product::<u64>(),
+            "buffer",
+            "host-visible",
+            false,
+        );
     }
     if let Some(outputs) = effects.derivative_outputs() {
         let stored = outputs.magnitude || outputs.curvature;

@@ -29,6 +29,7 @@ pub fn table(entries: &[ReflectedEntry], out_dir: &Path) -> String {
             spv.display().to_string()
         );
         let _ = writeln!(s, "    workgroup_size: {:?},", e.workgroup_size);
+        let _ = writeln!(s, "    workgroup_spec_ids: {:?},", e.workgroup_spec_ids);
         let _ = writeln!(s, "    push_constant_bytes: {},", e.push_constant_bytes);
         s.push_str("    bindings: &[\n");
         for b in &e.bindings {

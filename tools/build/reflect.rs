@@ -52,9 +52,65 @@ pub struct ReflectedEntry {
     pub source: String,
     pub entry_point: String,
     pub workgroup_size: [u32; 3],
+    /// Spec ids of the workgroup size when it is specializable (`local_size_x_id` etc.).
+    pub workgroup_spec_ids: Option<[u32; 3]>,
     pub bindings: Vec<Binding>,
     pub push_constant_bytes: u32,
     pub spec_constants: Vec<SpecConstant>,
+}
+
+/// The SpecIds of a specializable workgroup size, if the module has one: the operands of
+/// `OpExecutionModeId LocalSizeId` (SPIR-V 1.2+), or the constituents of the spec-constant
+/// composite decorated `BuiltIn WorkgroupSize` (what glslang emits for SPIR-V 1.0-1.1 targets).
+fn local_size_spec_ids(words: &[u32]) -> Result<Option<[u32; 3]>, String> {
+    const OP_SPEC_CONSTANT_COMPOSITE: u32 = 51;
+    const OP_DECORATE: u32 = 71;
+    const OP_EXECUTION_MODE_ID: u32 = 331;
+    const DECORATION_SPEC_ID: u32 = 1;
+    const DECORATION_BUILT_IN: u32 = 11;
+    const BUILT_IN_WORKGROUP_SIZE: u32 = 25;
+    const MODE_LOCAL_SIZE_ID: u32 = 38;
+    let mut spec_ids = std::collections::HashMap::new();
+    let mut composites = std::collections::HashMap::new();
+    let mut workgroup_builtin = None;
+    let mut local_size = None;
+    let mut at = 5; // after the header
+    while at < words.len() {
+        let count = (words[at] >> 16) as usize;
+        let opcode = words[at] & 0xffff;
+        if count == 0 || at + count > words.len() {
+            return Err("malformed SPIR-V instruction stream".into());
+        }
+        let operands = &words[at + 1..at + count];
+        match (opcode, operands) {
+            (OP_DECORATE, [target, DECORATION_SPEC_ID, id]) => {
+                spec_ids.insert(*target, *id);
+            }
+            (OP_DECORATE, [target, DECORATION_BUILT_IN, BUILT_IN_WORKGROUP_SIZE]) => {
+                workgroup_builtin = Some(*target);
+            }
+            (OP_SPEC_CONSTANT_COMPOSITE, [_, result, x, y, z]) => {
+                composites.insert(*result, [*x, *y, *z]);
+            }
+            (OP_EXECUTION_MODE_ID, [_, MODE_LOCAL_SIZE_ID, x, y, z]) => {
+                local_size = Some([*x, *y, *z]);
+            }
+            _ => {}
+        }
+        at += count;
+    }
+    let Some(ids) =
+        local_size.or_else(|| workgroup_builtin.and_then(|b| composites.get(&b).copied()))
+    else {
+        return Ok(None);
+    };
+    let mut out = [0; 3];
+    for (slot, id) in out.iter_mut().zip(ids) {
+        *slot = *spec_ids
+            .get(&id)
+            .ok_or("LocalSizeId operands must all be specialization constants")?;
+    }
+    Ok(Some(out))
 }
 
 /// Reflects the single compute entry point of one module.
@@ -78,8 +134,12 @@ pub fn reflect(shader: &CompiledShader) -> Result<ReflectedEntry, String> {
     };
 
     let mut workgroup_size = None;
+    // spirq reports `LocalSizeId` as `LocalSize` with the default values and no spec ids, so the
+    // ids come from the module's words.
+    let workgroup_spec_ids = local_size_spec_ids(&shader.words)?;
     for mode in &entry.exec_modes {
-        if mode.exec_mode == spirq::spirv::ExecutionMode::LocalSize {
+        let by_id = mode.exec_mode == spirq::spirv::ExecutionMode::LocalSizeId;
+        if by_id || mode.exec_mode == spirq::spirv::ExecutionMode::LocalSize {
             let dims: Option<Vec<u32>> = mode
                 .operands
                 .iter()
@@ -155,6 +215,12 @@ pub fn reflect(shader: &CompiledShader) -> Result<ReflectedEntry, String> {
                 push_constant_bytes =
                     ty.nbyte().ok_or("push-constant block has no fixed size")? as u32;
             }
+            Variable::SpecConstant { spec_id, .. }
+                if workgroup_spec_ids.is_some_and(|ids| ids.contains(spec_id)) =>
+            {
+                // The workgroup size's own constants (unnamed in GLSL): set through
+                // `workgroup_spec_ids`, not by name.
+            }
             Variable::SpecConstant { name, spec_id, ty } => {
                 let kind = match ty {
                     Type::Scalar(ScalarType::Boolean) => SpecKind::Bool,
@@ -198,6 +264,7 @@ pub fn reflect(shader: &CompiledShader) -> Result<ReflectedEntry, String> {
         source: shader.source.clone(),
         entry_point: entry.name.clone(),
         workgroup_size,
+        workgroup_spec_ids,
         bindings,
         push_constant_bytes,
         spec_constants,
