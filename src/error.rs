@@ -19,6 +19,9 @@ pub enum Error {
         /// What is wrong with it.
         source: NiftiError,
     },
+    /// Raw voxels that cannot form a volume.
+    #[error(transparent)]
+    Volume(#[from] crate::volume::VolumeError),
     /// Building the phantom.
     #[error(transparent)]
     Phantom(#[from] PhantomError),

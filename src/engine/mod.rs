@@ -131,6 +131,12 @@ impl Engine {
     /// Creates the device and the shared objects; pipelines are created on first use.
     pub fn new(config: EngineConfig) -> GpuResult<Engine> {
         let device = Device::new(&config.device)?;
+        Self::with_device(device, config)
+    }
+
+    /// An engine on a device the caller made, for example one adopted from an integrator's
+    /// Vulkan handles ([`Device::adopt`]); `config.device` is not used.
+    pub fn with_device(device: Device, config: EngineConfig) -> GpuResult<Engine> {
         let nearest = Sampler::new(&device, Filter::Nearest)?;
         let linear = Sampler::new(&device, Filter::Linear)?;
         let placeholders = Placeholders {

@@ -57,6 +57,7 @@ pub struct SampleCounts {
 }
 
 /// One rendered frame, read back.
+#[derive(Clone, Debug)]
 pub struct Frame {
     /// Width in pixels.
     pub width: u32,
@@ -158,6 +159,42 @@ impl Engine {
         derived: Option<&Derived>,
         scene: &Scene,
     ) -> GpuResult<Frame> {
+        self.render_frame(target, prepared, derived, scene, None)
+    }
+
+    /// Renders `scene` into `target` and copies the pixels straight into `out`, a buffer the
+    /// caller owns (`width * height * 4` bytes for RGBA8, rows top to bottom; 16 bytes a pixel
+    /// for RGBA32F); the returned frame carries timings and counts but no pixel vectors.
+    pub fn render_into(
+        &mut self,
+        target: &mut RenderTarget,
+        prepared: &PreparedVolume,
+        derived: Option<&Derived>,
+        scene: &Scene,
+        out: &mut [u8],
+    ) -> GpuResult<Frame> {
+        let needed = target.readback.size() as usize;
+        if out.len() != needed {
+            return Err(GpuError::InvalidRequest(format!(
+                "the output buffer has {} bytes; a {}x{} frame of {:?} needs {needed}",
+                out.len(),
+                target.width,
+                target.height,
+                target.image.format()
+            )));
+        }
+        self.render_frame(target, prepared, derived, scene, Some(out))
+    }
+
+    fn render_frame(
+        &mut self,
+        target: &mut RenderTarget,
+        prepared: &PreparedVolume,
+        derived: Option<&Derived>,
+        scene: &Scene,
+        out: Option<&mut [u8]>,
+    ) -> GpuResult<Frame> {
+        let read_back = target.read_back || out.is_some();
         self.counters.frames += 1;
         let effects = scene.effects;
         let needed = effects.derivative_outputs();
@@ -316,7 +353,7 @@ impl Engine {
                 &[],
             );
         }
-        if target.read_back {
+        if read_back {
             // Orders the raymarch's writes before the copy to host memory.
             rec.barriers(
                 &[],
@@ -337,11 +374,13 @@ impl Engine {
         let gpu_timings = rec.submit()?.wait()?;
 
         let mut bytes = Vec::new();
-        if target.read_back {
+        if let Some(out) = out {
+            target.readback.read(0, out)?;
+        } else if read_back {
             bytes = vec![0u8; target.readback.size() as usize];
             target.readback.read(0, &mut bytes)?;
         }
-        let (rgba8, values) = if !target.read_back {
+        let (rgba8, values) = if bytes.is_empty() {
             (Vec::new(), Vec::new())
         } else if target.image.format() == vk::Format::R8G8B8A8_UNORM {
             (bytes, Vec::new())

@@ -113,4 +113,17 @@ impl Engine {
         self.update_twin(twin, &scene.effects)?;
         self.render(target, &twin.prepared, twin.derived.as_ref(), scene)
     }
+
+    /// [`Engine::render_twin`] with the pixels copied into `out`, a buffer the caller owns (see
+    /// [`Engine::render_into`]).
+    pub fn render_twin_into(
+        &mut self,
+        target: &mut RenderTarget,
+        twin: &mut Twin,
+        scene: &Scene,
+        out: &mut [u8],
+    ) -> GpuResult<Frame> {
+        self.update_twin(twin, &scene.effects)?;
+        self.render_into(target, &twin.prepared, twin.derived.as_ref(), scene, out)
+    }
 }

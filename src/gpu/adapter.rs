@@ -149,6 +149,20 @@ pub fn enumerate(instance: &Instance) -> GpuResult<Vec<(vk::PhysicalDevice, Adap
     Ok(out)
 }
 
+/// What the engine knows about `physical`, a device of `instance` (for adopted devices).
+pub(crate) fn describe_physical(
+    instance: &Instance,
+    physical: vk::PhysicalDevice,
+) -> GpuResult<AdapterInfo> {
+    // SAFETY: enumeration on a live instance.
+    let devices = unsafe { instance.raw.enumerate_physical_devices() }
+        .map_err(vk_err("vkEnumeratePhysicalDevices"))?;
+    let index = devices.iter().position(|&d| d == physical).ok_or_else(|| {
+        GpuError::InvalidRequest("the physical device does not belong to the instance".into())
+    })?;
+    describe(instance, physical, index)
+}
+
 /// Picks a device per `selector`; errors list every device and why it was not usable.
 pub fn select(
     instance: &Instance,

@@ -33,6 +33,18 @@ pub struct DeviceConfig {
     pub tuning: KernelTuning,
 }
 
+/// A created or adopted device before its allocator exists.
+pub(crate) struct DeviceParts {
+    pub(crate) instance: Instance,
+    pub(crate) physical: vk::PhysicalDevice,
+    pub(crate) adapter: AdapterInfo,
+    pub(crate) raw: ash::Device,
+    pub(crate) queue: vk::Queue,
+    pub(crate) profile: Option<DeviceProfile>,
+    pub(crate) tuning: KernelTuning,
+    pub(crate) owned: bool,
+}
+
 /// State shared by the device and every resource created on it.
 pub struct DeviceShared {
     pub(crate) raw: ash::Device,
@@ -44,6 +56,8 @@ pub struct DeviceShared {
     pub(crate) ledger: Arc<MemoryLedger>,
     pub(crate) profile: Option<DeviceProfile>,
     pub(crate) tuning: KernelTuning,
+    // False for an integrator's device (`Device::adopt`): the integrator destroys it.
+    pub(crate) owned: bool,
     // Dropped last: the instance must outlive the device.
     pub(crate) instance: ManuallyDrop<Instance>,
 }
@@ -99,6 +113,31 @@ impl Device {
             .map_err(vk_err("vkCreateDevice"))?;
         // SAFETY: queue family and index 0 were requested above.
         let queue = unsafe { raw.get_device_queue(adapter.queue_family, 0) };
+        let parts = DeviceParts {
+            instance,
+            physical,
+            adapter,
+            raw,
+            queue,
+            profile: config.profile.clone(),
+            tuning,
+            owned: true,
+        };
+        Self::assemble(parts)
+    }
+
+    /// The allocator and the shared state around a created (or adopted) device.
+    pub(crate) fn assemble(parts: DeviceParts) -> GpuResult<Self> {
+        let DeviceParts {
+            instance,
+            physical,
+            adapter,
+            raw,
+            queue,
+            profile,
+            tuning,
+            owned,
+        } = parts;
         // SAFETY: query on the physical device this device was created from.
         let memory_properties =
             unsafe { instance.raw.get_physical_device_memory_properties(physical) };
@@ -113,8 +152,10 @@ impl Device {
         let allocator = match allocator {
             Ok(a) => a,
             Err(e) => {
-                // SAFETY: nothing was created on the device yet.
-                unsafe { raw.destroy_device(None) };
+                if owned {
+                    // SAFETY: nothing was created on the device yet.
+                    unsafe { raw.destroy_device(None) };
+                }
                 return Err(GpuError::OutOfDeviceMemory {
                     during: "creating the memory allocator".into(),
                     detail: e.to_string(),
@@ -130,8 +171,9 @@ impl Device {
                 queue: Mutex::new(queue),
                 allocator: ManuallyDrop::new(Mutex::new(allocator)),
                 ledger: Arc::new(MemoryLedger::default()),
-                profile: config.profile.clone(),
+                profile,
                 tuning,
+                owned,
                 instance: ManuallyDrop::new(instance),
             }),
         })
@@ -241,9 +283,16 @@ impl Drop for DeviceShared {
         // submitted but never waited for. The allocator frees its blocks through the device, so
         // it goes first; the instance goes last.
         unsafe {
-            let _ = self.raw.device_wait_idle();
+            if self.owned {
+                let _ = self.raw.device_wait_idle();
+            } else if let Ok(queue) = self.queue.lock() {
+                // Not the whole device: the integrator's other queues are not ours to wait on.
+                let _ = self.raw.queue_wait_idle(*queue);
+            }
             ManuallyDrop::drop(&mut self.allocator);
-            self.raw.destroy_device(None);
+            if self.owned {
+                self.raw.destroy_device(None);
+            }
             ManuallyDrop::drop(&mut self.instance);
         }
     }

@@ -52,6 +52,8 @@ pub struct Instance {
     messenger: Option<(ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
     log: Arc<ValidationLog>,
     validation_enabled: bool,
+    // False for an integrator's instance (see `Instance::adopt`): the integrator destroys it.
+    owned: bool,
 }
 
 impl Instance {
@@ -137,7 +139,22 @@ impl Instance {
             messenger,
             log,
             validation_enabled: use_validation,
+            owned: true,
         })
+    }
+
+    /// Wraps an instance the integrator created and will destroy (after every morphray object
+    /// made from it is dropped). Its validation messages, if any, go to the integrator's own
+    /// messenger; morphray's log stays empty.
+    pub fn adopt(entry: ash::Entry, raw: ash::Instance) -> Instance {
+        Instance {
+            _entry: entry,
+            raw,
+            messenger: None,
+            log: new_log(),
+            validation_enabled: false,
+            owned: false,
+        }
     }
 
     /// True when the Khronos validation layer is active.
@@ -181,7 +198,9 @@ impl Drop for Instance {
             if let Some((loader, messenger)) = self.messenger.take() {
                 loader.destroy_debug_utils_messenger(messenger, None);
             }
-            self.raw.destroy_instance(None);
+            if self.owned {
+                self.raw.destroy_instance(None);
+            }
         }
     }
 }

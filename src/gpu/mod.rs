@@ -9,6 +9,7 @@
 //! - Every Vulkan result becomes a typed [`GpuError`]; nothing here unwraps or panics.
 
 pub mod adapter;
+pub mod adopt;
 pub mod buffer;
 pub mod commands;
 pub mod debug;
@@ -26,6 +27,7 @@ pub mod sync;
 pub mod timestamps;
 
 pub use adapter::{AdapterInfo, DeviceSelector};
+pub use adopt::AdoptedHandles;
 pub use buffer::{Buffer, BufferDesc};
 pub use commands::{Recording, Submission};
 pub use descriptors::{DescriptorSet, Resource};

@@ -72,7 +72,7 @@ pub struct DerivedVolumes {
     pub normal: Option<Arc<Image>>,
     /// What was computed.
     pub outputs: DerivativeOutputs,
-    /// Stored values are |g| * scale[0] and k * scale[1]; readers divide.
+    /// Stored values are `|g| * scale[0]` and `k * scale[1]`; readers divide.
     pub store_scale: [f32; 2],
 }
 

@@ -78,7 +78,7 @@ pub struct AtlasInfo {
 pub struct FrameInputs {
     /// max |g| and tau of the derived volumes.
     pub gradients: GradientStats,
-    /// How the stored derived values were scaled (|g| * s[0], k * s[1]).
+    /// How the stored derived values were scaled (`|g| * s[0]`, `k * s[1]`).
     pub store_scale: [f32; 2],
     /// Brick grid and side of the occupancy bits.
     pub bricks: [u32; 4],
