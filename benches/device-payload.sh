@@ -24,7 +24,7 @@ for line in sys.stdin:
 while read -r name kind path; do
     case "$name/$kind" in
         morphray/lib) cp "$path" .gpu/lib_tests ;;
-        gpu_kernels/test|gpu_raymarch/test|shaders/test|cli/test) cp "$path" ".gpu/$name" ;;
+        */test) cp "$path" ".gpu/$name" ;;
     esac
 done <<< "$executables"
 strip .gpu/*

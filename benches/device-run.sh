@@ -1,8 +1,11 @@
 #!/usr/bin/env bash
 # Runs on the lent GPU machine (see device-payload.sh): unpacks the Vulkan loader and validation
-# layers (../shared/GPU.md), then runs the GPU tests with validation, `peaks`, two 1920x1080
-# benchmarks of the phantom (all tissues visible, step 0.5 voxel, curvature on and off) and the
-# accuracy study (256x256, 3 views), writing at most 8 files under $OUT.
+# layers (../shared/GPU.md), then runs every test binary with validation, `peaks`, 1920x1080
+# benchmarks of the phantom (all tissues visible, step 0.5 voxel): the full plan (curvature and
+# shading), DVR without curvature, MIP, the full plan bricked, the full plan under the gen12
+# profile; the plans of those scenes; a render under a 64 MiB budget (bricking); and the accuracy
+# study (256x256, 3 views). The device returns at most 8 files: run-log.txt and tests.txt beside
+# results.tgz, which holds every JSON, SVG and PNG.
 set -uo pipefail
 for f in .gl/lib{vulkan1,egl1,glvnd0,opengl0,gl1,glx0,gles2}_*.deb; do dpkg -x "$f" /; done
 ldconfig
@@ -20,16 +23,27 @@ $G/morphray devices
 # The cli tests start the binary at the path cargo compiled into them.
 cli_binary=$(grep -a -o '/[[:alnum:]_./-]*/target/release/morphray' $G/cli | head -n 1 || true)
 if [ -n "$cli_binary" ]; then mkdir -p "$(dirname "$cli_binary")" && cp $G/morphray "$cli_binary"; fi
-for t in lib_tests shaders gpu_kernels gpu_raymarch cli; do
+W=/tmp/morphray-work
+rm -rf "$W" && mkdir -p "$W"
+# CPU-only test binaries (loader, phantom, reference twins, fuzz seeds) ran on the CI machine.
+for t in $(ls $G | grep -v -E '^(morphray|fuzz_regressions|nifti_properties|nifti_loader|phantom|reference|reference_raymarch|peaks)$'); do
     echo "== $t"
-    [ -x "$G/$t" ] && $G/$t --test-threads=4 --nocapture 2>&1 | grep -E "PSNR|^test |test result|panicked|error"
+    $G/$t --test-threads=4 --nocapture 2>&1 | grep -E "PSNR|^test |test result|panicked|error"
 done 2>&1 | tee "$OUT/tests.txt" | grep -E "==|test result|FAILED|panicked"
-$G/morphray peaks --json > "$OUT/peaks.json"
-# Text reports go to one log (the device returns at most 8 files); JSON beside it.
-for curvature in on off; do
-    $G/morphray bench --tissues csf,gm,wm,pathology --frames 200 --repeat 20 --curvature $curvature \
-        --json "$OUT/bench-curv-$curvature.json" 2>&1 | tee -a "$OUT/run-log.txt"
+$G/morphray peaks --json > "$W/peaks.json"
+common="--tissues csf,gm,wm,pathology --frames 200 --repeat 20"
+run() { echo "== morphray $*" | tee -a "$OUT/run-log.txt"; $G/morphray "$@" 2>&1 | tee -a "$OUT/run-log.txt"; }
+run bench $common --curvature on --shading on --json "$W/bench-full.json"
+run bench $common --curvature off --json "$W/bench-dvr-no-curvature.json"
+run bench $common --mode mip --json "$W/bench-mip.json"
+run --bricked bench $common --curvature on --shading on --json "$W/bench-full-bricked.json"
+run --profile gen12 bench $common --curvature on --shading on --json "$W/bench-full-gen12.json"
+for scene in "full:--curvature on --shading on" "dvr-no-curvature:--curvature off" "mip:--mode mip"; do
+    $G/morphray plan --size 1920x1080 --tissues csf,gm,wm,pathology ${scene#*:} --json > "$W/plan-${scene%%:*}.json"
 done
-$G/morphray accuracy --size 256x256 --views 3 --frames 9 --json "$OUT/accuracy.json" \
-    --plot "$OUT/accuracy.svg" 2>/dev/null | tee -a "$OUT/run-log.txt"
+$G/morphray --bricked plan --size 1920x1080 --tissues csf,gm,wm,pathology --curvature on --shading on --json > "$W/plan-full-bricked.json"
+run --memory-budget 64M render --size 512x512 --curvature on -o "$W/budget-64M.png"
+run render --size 512x512 --curvature on -o "$W/whole.png"
+run accuracy --size 256x256 --views 3 --frames 9 --json "$W/accuracy.json" --plot "$W/accuracy.svg"
 nvidia-smi --query-gpu=clocks.sm,clocks.mem --format=csv | tee -a "$OUT/nvidia-smi.txt"
+tar czf "$OUT/results.tgz" -C "$W" .
