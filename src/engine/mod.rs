@@ -110,6 +110,18 @@ impl crate::scene::plan::ImageSizes for DeviceImageSizes<'_> {
         };
         self.0.image_memory_bytes(&desc)
     }
+
+    fn buffer_bytes(&self, bytes: u64, memory: crate::scene::plan::Memory) -> u64 {
+        use crate::scene::plan::Memory;
+        let desc = match memory {
+            Memory::DeviceLocal => BufferDesc::gpu_storage("plan", bytes),
+            Memory::HostVisible | Memory::Unified => BufferDesc::host_storage("plan", bytes),
+            Memory::Uniform => BufferDesc::uniform("plan", bytes),
+            Memory::Readback => BufferDesc::readback("plan", bytes),
+            Memory::Staging => BufferDesc::staging("plan", bytes),
+        };
+        self.0.buffer_memory_bytes(&desc)
+    }
 }
 
 /// The GPU engine.

@@ -93,6 +93,26 @@ unsafe impl Send for Buffer {}
 // SAFETY: as above.
 unsafe impl Sync for Buffer {}
 
+impl Device {
+    /// Bytes of device memory a buffer of `desc` would take, asked before it exists
+    /// (vkGetDeviceBufferMemoryRequirements, core in Vulkan 1.3): alignment included.
+    pub fn buffer_memory_bytes(&self, desc: &BufferDesc) -> u64 {
+        let info = vk::BufferCreateInfo::default()
+            .size(desc.size.max(1))
+            .usage(desc.usage)
+            .sharing_mode(vk::SharingMode::EXCLUSIVE);
+        let query = vk::DeviceBufferMemoryRequirements::default().create_info(&info);
+        let mut requirements = vk::MemoryRequirements2::default();
+        // SAFETY: a query with a valid create info on a live Vulkan 1.3 device.
+        unsafe {
+            self.shared
+                .raw
+                .get_device_buffer_memory_requirements(&query, &mut requirements)
+        };
+        requirements.memory_requirements.size
+    }
+}
+
 impl Buffer {
     /// Creates a buffer and binds memory to it.
     pub fn new(device: &Device, desc: BufferDesc) -> GpuResult<Arc<Buffer>> {

@@ -94,7 +94,22 @@ impl VolumeGeometry {
 /// parallel to the slab (NUMERICS.md: no 0 * inf).
 pub const MIN_DIRECTION: f64 = 1e-20;
 
-/// Robust ray/box intersection in index space against the closed box `[-0.5, dim - 0.5]`:
+/// How far outside a face a ray parallel to it may lie and still count as on the face, in voxels:
+/// 1e-4 plus 3e-6 of the larger of the origin's and the box's magnitude. f32 rounding and fused
+/// multiply-adds (which NVIDIA's compiler forms and lavapipe's does not) move an origin that lies
+/// exactly on a face by a few ulps; within the tolerance clamp-to-edge sampling sees the border
+/// voxels, as a ray on the face does. Rays crossing the faces keep exact slab parameters. The
+/// GLSL twin is `face_tolerance` in `geometry.glsl`.
+pub fn face_tolerance(origin: DVec3, dims: [u32; 3]) -> f64 {
+    let o = origin.abs();
+    let scale = o
+        .max_element()
+        .max(dims.iter().copied().max().unwrap_or(0) as f64);
+    1e-4 + 3e-6 * scale
+}
+
+/// Robust ray/box intersection in index space against the closed box `[-0.5, dim - 0.5]`
+/// (parallel rays within [`face_tolerance`] of a face count as on it):
 /// `(t_near, t_far)` with `t_near <= t_far` (t_near clamped at 0) on a hit, or None on a miss.
 /// A direction component smaller than 1e-20 in magnitude (including +-0, whose sign GPUs need
 /// not keep) makes that axis a containment test instead of a division: inside the slab
@@ -104,11 +119,12 @@ pub const MIN_DIRECTION: f64 = 1e-20;
 pub fn intersect_box(origin: DVec3, direction: DVec3, dims: [u32; 3]) -> Option<(f64, f64)> {
     let mut t_near = f64::NEG_INFINITY;
     let mut t_far = f64::INFINITY;
+    let tolerance = face_tolerance(origin, dims);
     for axis in 0..3 {
         let d = direction[axis];
         let (lo_face, hi_face) = (-0.5, dims[axis] as f64 - 0.5);
         if d.abs() < MIN_DIRECTION {
-            if origin[axis] < lo_face || origin[axis] > hi_face {
+            if origin[axis] < lo_face - tolerance || origin[axis] > hi_face + tolerance {
                 return None;
             }
             continue;
@@ -147,16 +163,23 @@ mod tests {
     #[test]
     fn axis_aligned_rays_on_faces_edges_and_corners_hit() {
         let dims = [4, 4, 4];
-        // On the face x = -0.5, travelling along +y.
-        let hit = intersect_box(DVec3::new(-0.5, -5.0, 1.0), DVec3::Y, dims).unwrap();
+        // On the face x = -0.5, travelling along +y: crossing faces keep exact parameters.
+        let origin = DVec3::new(-0.5, -5.0, 1.0);
+        let hit = intersect_box(origin, DVec3::Y, dims).unwrap();
         assert_eq!(hit, (4.5, 8.5));
+        assert!((face_tolerance(origin, dims) - (1e-4 + 3e-6 * 5.0)).abs() < 1e-15);
         // Along the edge x = -0.5, z = -0.5.
         assert!(intersect_box(DVec3::new(-0.5, -5.0, -0.5), DVec3::Y, dims).is_some());
         // Through the corner diagonal.
         let d = DVec3::ONE.normalize();
         assert!(intersect_box(DVec3::splat(-1.5), d, dims).is_some());
-        // Just outside a face: a miss, not NaN.
-        assert!(intersect_box(DVec3::new(-0.5001, -5.0, 1.0), DVec3::Y, dims).is_none());
+        // Within the tolerance outside a face (f32 rounding of an origin on it): on the face.
+        // Beyond it: a miss, not NaN.
+        assert_eq!(
+            intersect_box(DVec3::new(-0.50005, -5.0, 1.0), DVec3::Y, dims),
+            Some((4.5, 8.5))
+        );
+        assert!(intersect_box(DVec3::new(-0.501, -5.0, 1.0), DVec3::Y, dims).is_none());
         // Both faces behave alike, whatever the sign of the zero component.
         for zero in [0.0, -0.0] {
             for x in [-0.5, 3.5] {

@@ -177,22 +177,59 @@ fn format_name(bytes: u64) -> &'static str {
     if bytes == 1 { "R8_UNORM" } else { "R16_UNORM" }
 }
 
-/// What an image really takes in device memory: drivers pad rows and tiles (lavapipe aligns a
-/// 40-texel R16F row to 128 bytes), so the engine asks the device; plans made without one use
-/// [`TexelSizes`].
+/// Where an allocation lives, which also says how a buffer is used (its usage flags, hence its
+/// alignment on the device).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Memory {
+    /// GPU-only memory (storage images and buffers the host never touches).
+    DeviceLocal,
+    /// Memory the host writes and the GPU reads in place (small tables, bits).
+    HostVisible,
+    /// A uniform buffer the host writes each frame.
+    Uniform,
+    /// Device memory that is system memory (integrated GPUs, CPU devices, profiles).
+    Unified,
+    /// Host memory the GPU writes for the host to read.
+    Readback,
+    /// Host memory the host fills for a copy to the GPU.
+    Staging,
+}
+
+impl Memory {
+    /// The label plans print.
+    pub fn label(self) -> &'static str {
+        match self {
+            Memory::DeviceLocal => "device-local",
+            Memory::HostVisible | Memory::Uniform => "host-visible",
+            Memory::Unified => "host-visible (unified)",
+            Memory::Readback => "host (readback)",
+            Memory::Staging => "host (staging)",
+        }
+    }
+}
+
+/// What allocations really take in device memory: drivers pad image rows and tiles (lavapipe
+/// aligns a 40-texel R16F row to 128 bytes) and round buffers up to their alignment (NVIDIA), so
+/// the engine asks the device; plans made without one use [`TexelSizes`].
 pub trait ImageSizes {
     /// Bytes of an image of `extent` texels of `format` (a 3D volume, or a 2D render target
     /// when `extent[2]` is 1 and `volume` is false).
     fn image_bytes(&self, extent: [u32; 3], format: vk::Format, volume: bool) -> u64;
+    /// Bytes of a buffer of `bytes` used as `memory` says.
+    fn buffer_bytes(&self, bytes: u64, memory: Memory) -> u64;
 }
 
-/// Texels x bytes per texel, with no driver padding.
+/// Texels x bytes per texel and buffers as requested, with no driver padding.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct TexelSizes;
 
 impl ImageSizes for TexelSizes {
     fn image_bytes(&self, extent: [u32; 3], format: vk::Format, _volume: bool) -> u64 {
         extent.iter().map(|&e| e as u64).product::<u64>() * texel_bytes(format)
+    }
+
+    fn buffer_bytes(&self, bytes: u64, _memory: Memory) -> u64 {
+        bytes
     }
 }
 
@@ -288,40 +325,47 @@ fn build(
     let sample_bytes = n * input.sample_kind.size_bytes() as u64;
     let padded_samples = sample_bytes.div_ceil(16).max(1) * 16;
     let mut allocations = Vec::new();
-    let mut alloc = |name: &str, bytes: u64, format: &str, memory_type: &str, transient: bool| {
+    // Buffers are sized as the device will allocate them (alignment); images are sized by the
+    // caller through `sizes.image_bytes`.
+    let mut alloc = |name: &str, bytes: u64, format: &str, memory: Memory, transient: bool| {
+        let bytes = if format == "buffer" {
+            sizes.buffer_bytes(bytes, memory)
+        } else {
+            bytes
+        };
         allocations.push(PlannedAllocation {
             name: name.to_string(),
             bytes,
             format: format.to_string(),
-            memory_type: memory_type.to_string(),
+            memory_type: memory.label().to_string(),
             transient,
         });
     };
     let device_local = if input.unified_memory {
-        "host-visible (unified)"
+        Memory::Unified
     } else {
-        "device-local"
+        Memory::DeviceLocal
     };
     // The engine's own 1-texel stand-ins, bound where a variant declares an input it never reads.
     alloc(
         "placeholder (gradient)",
         sizes.image_bytes([1; 3], vk::Format::R16G16_SFLOAT, true),
         "R16G16_SFLOAT",
-        "device-local",
+        Memory::DeviceLocal,
         false,
     );
     alloc(
         "placeholder (normals)",
         sizes.image_bytes([1; 3], vk::Format::R8G8B8A8_SNORM, true),
         "R8G8B8A8_SNORM",
-        "device-local",
+        Memory::DeviceLocal,
         false,
     );
     alloc(
         "placeholder (occupancy)",
         16,
         "buffer",
-        "host-visible",
+        Memory::HostVisible,
         false,
     );
     let mut passes = Vec::new();
@@ -342,11 +386,7 @@ fn build(
             "volume samples",
             padded_samples,
             "buffer",
-            if input.unified_memory {
-                "host-visible (unified)"
-            } else {
-                "device-local"
-            },
+            device_local,
             true,
         );
         if !input.unified_memory {
@@ -354,24 +394,18 @@ fn build(
                 "volume samples (staging)",
                 padded_samples,
                 "buffer",
-                "host (staging)",
+                Memory::Staging,
                 true,
             );
         }
-        alloc("min/max result", 8, "buffer", "device-local", true);
-        alloc(
-            "min/max result (host)",
-            8,
-            "buffer",
-            "host (readback)",
-            true,
-        );
-        alloc("histogram bins", 1024, "buffer", "device-local", true);
+        alloc("min/max result", 8, "buffer", Memory::DeviceLocal, true);
+        alloc("min/max result (host)", 8, "buffer", Memory::Readback, true);
+        alloc("histogram bins", 1024, "buffer", Memory::DeviceLocal, true);
         alloc(
             "histogram bins (host)",
             1024,
             "buffer",
-            "host (readback)",
+            Memory::Readback,
             true,
         );
         passes.push(PlannedPass {
@@ -419,7 +453,7 @@ fn build(
             "brick table",
             4 * grid.iter().map(|&g| g as u64).product::<u64>(),
             "buffer",
-            "host-visible",
+            Memory::HostVisible,
             false,
         );
         let slot = STORAGE_BRICK + 2 * STORAGE_HALO;
@@ -427,7 +461,7 @@ fn build(
             "atlas slot bounds",
             8 * extent.iter().map(|&e| (e / slot) as u64).product::<u64>(),
             "buffer",
-            "host-visible",
+            Memory::HostVisible,
             false,
         );
     }
@@ -453,12 +487,18 @@ fn build(
                 false,
             );
         }
-        alloc("gradient maximum", 1024, "buffer", "device-local", true);
+        alloc(
+            "gradient maximum",
+            1024,
+            "buffer",
+            Memory::DeviceLocal,
+            true,
+        );
         alloc(
             "gradient maximum (host)",
             1024,
             "buffer",
-            "host (readback)",
+            Memory::Readback,
             true,
         );
         let variant = derivative_variant(&outputs);
@@ -485,12 +525,18 @@ fn build(
         let g = brick_grid(input.dims);
         let bricks = g.iter().map(|&x| x as u64).product::<u64>();
         if !bricked {
-            alloc("brick ranges", 8 * bricks, "buffer", "device-local", true);
+            alloc(
+                "brick ranges",
+                8 * bricks,
+                "buffer",
+                Memory::DeviceLocal,
+                true,
+            );
             alloc(
                 "brick ranges (host)",
                 8 * bricks,
                 "buffer",
-                "host (readback)",
+                Memory::Readback,
                 true,
             );
         }
@@ -500,7 +546,7 @@ fn build(
                 "occupancy bits",
                 4 * bricks.div_ceil(32),
                 "buffer",
-                "host-visible",
+                Memory::HostVisible,
                 false,
             );
         }
@@ -526,14 +572,14 @@ fn build(
         "render target",
         sizes.image_bytes([w, h, 1], vk::Format::R8G8B8A8_UNORM, false),
         "R8G8B8A8_UNORM",
-        "device-local",
+        Memory::DeviceLocal,
         false,
     );
     alloc(
         "render target (host)",
         pixels * 4,
         "buffer",
-        "host (readback)",
+        Memory::Readback,
         false,
     );
     for frame in 0..2 {
@@ -541,7 +587,7 @@ fn build(
             &format!("raymarch uniforms (frame {frame})"),
             std::mem::size_of::<super::uniforms::RaymarchUniforms>() as u64,
             "buffer",
-            "host-visible",
+            Memory::Uniform,
             false,
         );
     }
@@ -549,14 +595,14 @@ fn build(
         "raymarch sample counters",
         4 * crate::passes::raymarch::COUNTER_WORDS as u64,
         "buffer",
-        "device-local",
+        Memory::DeviceLocal,
         false,
     );
     alloc(
         "raymarch sample counters (host)",
         4 * crate::passes::raymarch::COUNTER_WORDS as u64,
         "buffer",
-        "host (readback)",
+        Memory::Readback,
         false,
     );
     let diagonal = input
@@ -597,9 +643,9 @@ fn build(
         *staging_slots = room.clamp(1, 64.min(resident as u64).max(1)) as u32;
         allocations.push(PlannedAllocation {
             name: "brick upload (staging)".into(),
-            bytes: *staging_slots as u64 * slot_bytes,
+            bytes: sizes.buffer_bytes(*staging_slots as u64 * slot_bytes, Memory::Staging),
             format: "buffer".into(),
-            memory_type: "host (staging)".into(),
+            memory_type: Memory::Staging.label().into(),
             transient: true,
         });
     }
