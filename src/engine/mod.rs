@@ -87,6 +87,13 @@ impl Engine {
     /// Creates the device and the shared objects; pipelines are created on first use.
     pub fn new(config: EngineConfig) -> GpuResult<Engine> {
         let device = Device::new(&config.device)?;
+        Engine::with_device(device, config)
+    }
+
+    /// An engine on an existing device (`config.device` is then ignored): the viewer runs one
+    /// engine on its interface thread and one on its loader thread, sharing the device, so
+    /// volumes prepared by one are rendered by the other.
+    pub fn with_device(device: Device, config: EngineConfig) -> GpuResult<Engine> {
         let nearest = Sampler::new(&device, Filter::Nearest)?;
         let linear = Sampler::new(&device, Filter::Linear)?;
         let placeholders = Placeholders {
