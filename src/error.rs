@@ -36,6 +36,9 @@ pub enum Error {
         /// The cause.
         source: std::io::Error,
     },
+    /// The interactive viewer (window system, script, interface).
+    #[error(transparent)]
+    App(#[from] crate::app::AppError),
     /// Arguments that parse but do not make sense together.
     #[error("{0}")]
     Usage(String),

@@ -15,6 +15,7 @@ pub mod png;
 pub mod render;
 pub mod session;
 pub mod source;
+mod view;
 
 use crate::error::Error;
 use args::{Cli, Command};
@@ -57,6 +58,7 @@ pub fn run(cli: &Cli) -> Result<(), Error> {
         Command::Info(args) => info::run(args),
         Command::Peaks(args) => peaks::run(args, device, cli.validation),
         Command::Render(args) => render::run(args, device, cli.validation),
+        Command::View(args) => view::run(args, device, cli.validation),
         Command::Bench(args) => bench::run(args, device, cli.validation),
         Command::Accuracy(args) => accuracy::run(args, device, cli.validation),
         Command::Devices => devices::run(),
