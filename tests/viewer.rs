@@ -160,7 +160,7 @@ fn scripted_window_session_shows_histogram_volume_and_reacts_to_a_toggle() {
     std::fs::write(
         &script,
         format!(
-            "wait 1\nscreenshot {}\ntoggle wm\nwait 1\nscreenshot {}\ntoggle wm\norbit 30 0\nset window gm 0.3 0.6\nresize 600 440\nwait 2\n",
+            "wait 1\nscreenshot {}\ntoggle wm\nwait 1\nscreenshot {}\ntoggle wm\norbit 30 0\nset window gm 0.3 0.6\nidle 3\nresize 600 440\nwait 2\n",
             a.display(),
             b.display()
         ),
@@ -233,6 +233,12 @@ fn scripted_window_session_shows_histogram_volume_and_reacts_to_a_toggle() {
     assert!(
         log.contains("other compute passes after the first frame: none"),
         "{log}"
+    );
+    // `idle`: as in an interactive window, an unchanged scene reuses the last image.
+    assert!(
+        log.lines()
+            .any(|l| l.starts_with("frame") && l.contains("compute: none")),
+        "idle frames without a raymarch:\n{log}"
     );
     for action in ["toggle wm", "orbit 30 0", "set window gm 0.3 0.6"] {
         assert!(

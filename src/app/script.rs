@@ -77,6 +77,9 @@ pub enum Action {
     Screenshot(PathBuf),
     /// Let this many frames pass.
     Wait(u32),
+    /// Let this many frames pass as an interactive window would: the raymarch runs only if
+    /// the scene changed (scripted runs otherwise raymarch every frame, to measure).
+    Idle(u32),
     /// Resize the window (or the offscreen image) to width x height pixels.
     Resize(u32, u32),
     /// Close the window (as the close button does).
@@ -293,6 +296,13 @@ fn parse_line(line: &str) -> Result<Action, String> {
             }
             Action::Wait(n as u32)
         }
+        "idle" => {
+            let n = number(next(), "a number of frames")?;
+            if n < 0.0 || n.fract() != 0.0 {
+                return Err(format!("idle {n}: expected a whole number of frames"));
+            }
+            Action::Idle(n as u32)
+        }
         "resize" => {
             let w = number(next(), "a width in pixels")?;
             let h = number(next(), "a height in pixels")?;
@@ -347,7 +357,7 @@ impl Runner {
         }
         let step = self.steps.get(self.next)?.clone();
         self.next += 1;
-        if let Action::Wait(n) = step.action {
+        if let Action::Wait(n) | Action::Idle(n) = step.action {
             self.waiting = n;
         }
         Some(step)
@@ -366,7 +376,7 @@ mod tests {
     #[test]
     fn the_brief_s_examples_parse() {
         let steps = parse(
-            "toggle gm\norbit 30 0\nset window wm 0.7 0.9  # drag the band\n\nview superior\nmode mip\ncurvature on\nwait 10\n",
+            "toggle gm\norbit 30 0\nset window wm 0.7 0.9  # drag the band\n\nview superior\nmode mip\ncurvature on\nwait 10\nidle 2\n",
             "s.txt",
         )
         .unwrap();
@@ -381,6 +391,7 @@ mod tests {
                 Action::Mode(RenderMode::Mip),
                 Action::Curvature(true),
                 Action::Wait(10),
+                Action::Idle(2),
             ]
         );
         assert_eq!(steps[2].line, 3);

@@ -168,6 +168,8 @@ pub struct Viewer {
     size: [u32; 2],
     exit: bool,
     inject_device_lost: bool,
+    /// Frames left of a scripted `idle` (raymarch only on change, as interactively).
+    idle_frames: u32,
     /// A scripted drag waiting for its first motion (its latency starts there).
     watch_drag: Option<String>,
     /// egui texture changes not yet applied (a skipped frame keeps them for the next).
@@ -245,6 +247,7 @@ impl Viewer {
             inject_device_lost: false,
             unapplied: Default::default(),
             watch_drag: None,
+            idle_frames: 0,
             mirror: Default::default(),
             render_blocked: None,
             config,
@@ -263,6 +266,15 @@ impl Viewer {
             || !self.config.vsync
             || !self.config.script.is_empty()
             || self.busy()
+    }
+
+    /// True when every frame runs the raymarch even if nothing changed: scripted runs and
+    /// --no-vsync measure frames; otherwise an unchanged scene reuses the last image (a load
+    /// in progress keeps the window redrawing its spinner without re-raymarching, which on a
+    /// CPU device would take cores from the loader).
+    fn always_raymarch(&self) -> bool {
+        (self.config.frames.is_some() || !self.config.vsync || !self.config.script.is_empty())
+            && self.idle_frames == 0
     }
 
     fn busy(&self) -> bool {
@@ -561,6 +573,11 @@ impl Viewer {
                 watch = false;
             }
             Action::Wait(_) => watch = false,
+            Action::Idle(n) => {
+                // This frame and the n after it.
+                self.idle_frames = n + 1;
+                watch = false;
+            }
             Action::Resize(w, h) => {
                 resize = Some([*w, *h]);
                 watch = false;
@@ -780,6 +797,7 @@ impl Viewer {
             self.log.say(&format!("error shown: {error}"));
         }
         self.flush_completed();
+        self.idle_frames = self.idle_frames.saturating_sub(1);
         self.status.rate.frame(Instant::now());
         result.platform = Some(full.platform_output);
         if last {
@@ -806,7 +824,7 @@ impl Viewer {
         frame_start: Instant,
     ) -> Result<(), FrameError> {
         let scene = self.rendered_scene();
-        let continuous = self.continuous();
+        let continuous = self.always_raymarch();
         let Some(gpu) = &mut self.gpu else {
             return Ok(());
         };
