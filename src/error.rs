@@ -45,6 +45,9 @@ pub enum Error {
     /// No plan of the scene fits the memory budget, even fully degraded.
     #[error(transparent)]
     DoesNotFit(#[from] crate::scene::plan::DoesNotFit),
+    /// The interactive viewer (window system, script, interface).
+    #[error(transparent)]
+    App(#[from] crate::app::AppError),
     /// Arguments that parse but do not make sense together.
     #[error("{0}")]
     Usage(String),

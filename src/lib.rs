@@ -4,6 +4,7 @@
 //!
 //! ```text
 //! cli                 commands, argument parsing, output formatting; no Vulkan calls
+//! app                 the interactive viewer: window, egui interface, input, scripted runs
 //! engine              one volume on one device: runs the passes in order, owns their outputs
 //! passes              one file per GPU pass; each owns its pipeline and bindings
 //! gpu                 the object layer on ash: instance, device, memory, resources, commands
@@ -21,6 +22,7 @@
 )]
 
 pub mod analysis;
+pub mod app;
 pub mod cli;
 pub mod engine;
 pub mod error;

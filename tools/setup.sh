@@ -3,11 +3,14 @@
 #   - a Vulkan loader and a Vulkan driver (lavapipe, Mesa's CPU device, when there is no GPU);
 #   - the Khronos validation layers (tests run with them as an oracle);
 #   - glslangValidator (build.rs compiles the GLSL shaders with it) and spirv-val (tests);
-#   - xvfb and xauth (the viewer's scripted test runs under a virtual X server).
+#   - xvfb and xauth (the viewer's scripted test runs under a virtual X server), and the X11
+#     client libraries winit opens at run time (libX11-xcb, libXcursor, libXrandr, libXi,
+#     libxkbcommon-x11); runtime packages only, no -dev packages are needed to build.
 # Rust itself is expected to be installed (rustup); this script does not touch it.
 set -euo pipefail
 
-packages=(mesa-vulkan-drivers libvulkan1 vulkan-validationlayers vulkan-tools glslang-tools spirv-tools xvfb xauth)
+packages=(mesa-vulkan-drivers libvulkan1 vulkan-validationlayers vulkan-tools glslang-tools spirv-tools xvfb xauth
+          libx11-xcb1 libxcursor1 libxrandr2 libxi6 libxkbcommon-x11-0)
 missing=()
 for p in "${packages[@]}"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -65,6 +65,9 @@ pub enum Command {
     Peaks(PeaksArgs),
     /// Render a volume to a PNG (with provenance), or a turntable of PNGs.
     Render(RenderArgs),
+    /// Open the interactive viewer: tissue windows on the histogram, toggles, camera, status;
+    /// scriptable (--frames, --script, --screenshot) for tests and demos.
+    View(ViewArgs),
     /// What accuracy costs in time: every quality knob against the f64 reference, with the
     /// Pareto frontier, an SVG plot and recommended defaults.
     Accuracy(AccuracyArgs),
@@ -252,6 +255,35 @@ pub struct RenderArgs {
     #[arg(long, default_value_t = 0)]
     pub frame: usize,
     /// Scene.
+    #[command(flatten)]
+    pub scene: SceneArgs,
+}
+
+/// Options of `view`.
+#[derive(Debug, Args)]
+pub struct ViewArgs {
+    /// NIfTI-1/2 file; without one, the built-in digital phantom. More can be opened from the
+    /// window (Open..., or drop a file on it).
+    pub file: Option<PathBuf>,
+    /// Render at least this many frames showing the volume, and on until the script (if any)
+    /// has finished, then exit; logs each frame's GPU passes and each action's latency.
+    #[arg(long, value_name = "N")]
+    pub frames: Option<u32>,
+    /// Save the last frame (the whole window) as PNG with provenance before exiting.
+    #[arg(long, value_name = "PNG")]
+    pub screenshot: Option<PathBuf>,
+    /// Replay interface actions from this file, one per line (`toggle wm`, `orbit 30 0`,
+    /// `set window wm 0.7 0.9`, `view superior`, `mode mip`, `curvature on`, `wait 10`, ...).
+    #[arg(long, value_name = "FILE")]
+    pub script: Option<PathBuf>,
+    /// Present without waiting for vertical sync (for measuring frame rates).
+    #[arg(long)]
+    pub no_vsync: bool,
+    /// Render into an offscreen image instead of a window (no display needed; needs --frames
+    /// or --script).
+    #[arg(long)]
+    pub offscreen: bool,
+    /// Initial scene (--size is the window size, default 1280x800).
     #[command(flatten)]
     pub scene: SceneArgs,
 }

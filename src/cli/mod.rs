@@ -16,6 +16,7 @@ pub mod png;
 pub mod render;
 pub mod session;
 pub mod source;
+mod view;
 
 use crate::error::Error;
 use args::{Cli, Command};
@@ -108,6 +109,7 @@ pub fn run(cli: &Cli) -> Result<(), Error> {
         Command::Info(args) => info::run(args),
         Command::Peaks(args) => peaks::run(args, global),
         Command::Render(args) => render::run(args, global),
+        Command::View(args) => view::run(args, global),
         Command::Bench(args) => bench::run(args, global),
         Command::Accuracy(args) => accuracy::run(args, global),
         Command::Devices => devices::run(),

@@ -146,8 +146,10 @@ impl Engine {
         Self::with_device(device, config)
     }
 
-    /// An engine on a device the caller made, for example one adopted from an integrator's
-    /// Vulkan handles ([`Device::adopt`]); `config.device` is not used.
+    /// An engine on a device the caller made (`config.device` is then not used): one adopted
+    /// from an integrator's Vulkan handles ([`Device::adopt`]), or a device shared by several
+    /// engines, as the viewer shares one between its interface thread and its loader thread
+    /// (volumes prepared by one are rendered by the other).
     pub fn with_device(device: Device, config: EngineConfig) -> GpuResult<Engine> {
         let nearest = Sampler::new(&device, Filter::Nearest)?;
         let linear = Sampler::new(&device, Filter::Linear)?;

@@ -74,6 +74,14 @@ pub struct Frame {
     pub samples: Option<SampleCounts>,
 }
 
+impl RenderTarget {
+    /// The output image (left in `Access::ComputeWriteImage` by a render that does not read
+    /// back), for a presenter that copies it into a window.
+    pub fn image(&self) -> &Arc<Image> {
+        &self.image
+    }
+}
+
 impl Engine {
     /// Creates a `width` x `height` render target in `format` (RGBA8_UNORM for pictures,
     /// R32G32B32A32_SFLOAT for accuracy studies).

@@ -312,8 +312,111 @@ impl Recording {
         self.keep(dst.clone());
     }
 
+    /// The command buffer being recorded, for a third-party recorder (the viewer's egui
+    /// renderer). Whatever such a recorder uses must outlive this work: keep it with
+    /// [`Recording::keep`] or wait for the submission before destroying it.
+    pub fn command_buffer(&self) -> vk::CommandBuffer {
+        self.cmd
+    }
+
+    /// Records barriers on images this crate does not own (swapchain images), in one call; the
+    /// owner keeps them alive until the submission completes.
+    pub fn external_image_barriers(&mut self, images: &[(vk::Image, Access, Access)]) {
+        let image_barriers: Vec<_> = images
+            .iter()
+            .map(|(i, before, after)| image_barrier(*i, *before, *after))
+            .collect();
+        if image_barriers.is_empty() {
+            return;
+        }
+        let dependency = vk::DependencyInfo::default().image_memory_barriers(&image_barriers);
+        // SAFETY: the caller guarantees the images are alive; barriers from the access table.
+        unsafe { self.device.raw.cmd_pipeline_barrier2(self.cmd, &dependency) };
+    }
+
+    /// Clears a whole colour image (in TRANSFER_DST_OPTIMAL) to `rgba`.
+    pub fn clear_colour(&mut self, image: &Arc<Image>, rgba: [f32; 4]) {
+        let colour = vk::ClearColorValue { float32: rgba };
+        // SAFETY: image alive and kept alive, in the layout the caller's barrier established.
+        unsafe {
+            self.device.raw.cmd_clear_color_image(
+                self.cmd,
+                image.raw,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                &colour,
+                &[super::image::full_range()],
+            )
+        };
+        self.keep(image.clone());
+    }
+
+    /// Copies the rectangle `src_rect` (x, y, width, height) of the 2D image `src` (in
+    /// TRANSFER_SRC_OPTIMAL) onto `dst_rect` of `dst` (in TRANSFER_DST_OPTIMAL), converting
+    /// formats and scaling with `filter` when the sizes differ. `dst` may be an image this crate
+    /// does not own (a swapchain image): its owner keeps it alive.
+    pub fn blit(
+        &mut self,
+        src: &Arc<Image>,
+        src_rect: [u32; 4],
+        dst: vk::Image,
+        dst_rect: [u32; 4],
+        filter: vk::Filter,
+    ) {
+        let corners = |r: [u32; 4]| {
+            [
+                vk::Offset3D {
+                    x: r[0] as i32,
+                    y: r[1] as i32,
+                    z: 0,
+                },
+                vk::Offset3D {
+                    x: (r[0] + r[2]) as i32,
+                    y: (r[1] + r[3]) as i32,
+                    z: 1,
+                },
+            ]
+        };
+        let layers = vk::ImageSubresourceLayers {
+            aspect_mask: vk::ImageAspectFlags::COLOR,
+            mip_level: 0,
+            base_array_layer: 0,
+            layer_count: 1,
+        };
+        let region = [vk::ImageBlit {
+            src_subresource: layers,
+            src_offsets: corners(src_rect),
+            dst_subresource: layers,
+            dst_offsets: corners(dst_rect),
+        }];
+        // SAFETY: both images alive (src kept by this recording, dst by its owner), in the
+        // layouts the caller's barriers established.
+        unsafe {
+            self.device.raw.cmd_blit_image(
+                self.cmd,
+                src.raw,
+                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                dst,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                &region,
+                filter,
+            )
+        };
+        self.keep(src.clone());
+    }
+
     /// Ends recording and submits to the compute queue.
-    pub fn submit(mut self) -> GpuResult<Submission> {
+    pub fn submit(self) -> GpuResult<Submission> {
+        self.submit_with_semaphores(&[], &[])
+    }
+
+    /// Ends recording and submits, waiting for each `(semaphore, stage)` before that stage of
+    /// this work runs and signalling `signal` when all of it is done (swapchain acquire and
+    /// present). The semaphores' owner keeps them alive until the submission completes.
+    pub fn submit_with_semaphores(
+        mut self,
+        wait: &[(vk::Semaphore, vk::PipelineStageFlags2)],
+        signal: &[vk::Semaphore],
+    ) -> GpuResult<Submission> {
         self.end_pass();
         let device = self.device.clone();
         // SAFETY: the command buffer is in the recording state.
@@ -326,7 +429,26 @@ impl Recording {
         }
         .map_err(vk_err("vkCreateFence"))?;
         let cmd_info = [vk::CommandBufferSubmitInfo::default().command_buffer(self.cmd)];
-        let submit = [vk::SubmitInfo2::default().command_buffer_infos(&cmd_info)];
+        let wait_infos: Vec<_> = wait
+            .iter()
+            .map(|(semaphore, stage)| {
+                vk::SemaphoreSubmitInfo::default()
+                    .semaphore(*semaphore)
+                    .stage_mask(*stage)
+            })
+            .collect();
+        let signal_infos: Vec<_> = signal
+            .iter()
+            .map(|semaphore| {
+                vk::SemaphoreSubmitInfo::default()
+                    .semaphore(*semaphore)
+                    .stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)
+            })
+            .collect();
+        let submit = [vk::SubmitInfo2::default()
+            .wait_semaphore_infos(&wait_infos)
+            .command_buffer_infos(&cmd_info)
+            .signal_semaphore_infos(&signal_infos)];
         let result = match device.queue.lock() {
             // SAFETY: the queue is externally synchronized by the mutex; cmd is executable.
             Ok(queue) => unsafe { device.raw.queue_submit2(*queue, &submit, fence) },

@@ -17,6 +17,7 @@ use super::memory::MemoryLedger;
 use super::profile::{DeviceProfile, KernelTuning};
 use ash::vk;
 use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
+use std::ffi::CStr;
 use std::mem::ManuallyDrop;
 use std::sync::{Arc, Mutex};
 
@@ -45,6 +46,17 @@ pub(crate) struct DeviceParts {
     pub(crate) owned: bool,
 }
 
+/// What a device needs beyond compute to draw an interface and show it in a window (the
+/// viewer): graphics on the queue, dynamic rendering, and for a window the surface and
+/// swapchain extensions. Commands that only compute never ask for these.
+#[derive(Clone, Debug, Default)]
+pub struct Presentation {
+    /// Instance extensions of the window system's surface (from ash-window); empty offscreen.
+    pub surface_extensions: Vec<&'static CStr>,
+    /// Enable VK_KHR_swapchain (a window); false for an offscreen interface.
+    pub swapchain: bool,
+}
+
 /// State shared by the device and every resource created on it.
 pub struct DeviceShared {
     pub(crate) raw: ash::Device,
@@ -71,7 +83,24 @@ pub struct Device {
 impl Device {
     /// Creates instance and device per `config`.
     pub fn new(config: &DeviceConfig) -> GpuResult<Self> {
-        let instance = Instance::new(config.validation)?;
+        Self::create(config, None)
+    }
+
+    /// Creates a device that can also draw an interface (graphics queue, dynamic rendering) and,
+    /// with `presentation.swapchain`, present to a window surface. Fails with a typed error when
+    /// the chosen device's queue cannot draw or the swapchain extension is missing.
+    pub fn with_presentation(
+        config: &DeviceConfig,
+        presentation: &Presentation,
+    ) -> GpuResult<Self> {
+        Self::create(config, Some(presentation))
+    }
+
+    fn create(config: &DeviceConfig, presentation: Option<&Presentation>) -> GpuResult<Self> {
+        let surface_extensions = presentation
+            .map(|p| p.surface_extensions.as_slice())
+            .unwrap_or(&[]);
+        let instance = Instance::with_extensions(config.validation, surface_extensions)?;
         let selector = match &config.selector {
             DeviceSelector::Auto => DeviceSelector::from_env(),
             other => other.clone(),
@@ -98,10 +127,18 @@ impl Device {
         let mut features13 = vk::PhysicalDeviceVulkan13Features::default()
             .synchronization2(true)
             .subgroup_size_control(adapter.has_subgroup_size_control)
-            .compute_full_subgroups(adapter.has_subgroup_size_control);
+            .compute_full_subgroups(adapter.has_subgroup_size_control)
+            // Dynamic rendering (core and required in 1.3) only for the viewer's interface.
+            .dynamic_rendering(presentation.is_some());
         let mut extensions = Vec::new();
         if adapter.has_memory_budget {
             extensions.push(ash::ext::memory_budget::NAME.as_ptr());
+        }
+        if let Some(p) = presentation {
+            check_presentation(&instance, physical, &adapter, p)?;
+            if p.swapchain {
+                extensions.push(ash::khr::swapchain::NAME.as_ptr());
+            }
         }
         let create_info = vk::DeviceCreateInfo::default()
             .queue_create_infos(&queue_info)
@@ -274,6 +311,61 @@ impl Device {
     pub fn raw(&self) -> &ash::Device {
         &self.shared.raw
     }
+
+    /// The instance this device was created from (surface creation needs it).
+    pub fn instance(&self) -> &Instance {
+        &self.shared.instance
+    }
+
+    /// Runs `f` with the device's one queue, holding its lock (Vulkan requires external
+    /// synchronization of queue calls such as vkQueuePresentKHR and third-party uploads).
+    pub fn with_queue<R>(&self, f: impl FnOnce(vk::Queue) -> R) -> GpuResult<R> {
+        match self.shared.queue.lock() {
+            Ok(queue) => Ok(f(*queue)),
+            Err(_) => Err(GpuError::InvalidRequest(
+                "the queue lock was poisoned by a panic on another thread".into(),
+            )),
+        }
+    }
+}
+
+/// The viewer's needs that `adapter::select` does not check (compute commands never need them).
+fn check_presentation(
+    instance: &Instance,
+    physical: vk::PhysicalDevice,
+    adapter: &AdapterInfo,
+    presentation: &Presentation,
+) -> GpuResult<()> {
+    // SAFETY: queries on a physical device of this instance.
+    let families = unsafe {
+        instance
+            .raw
+            .get_physical_device_queue_family_properties(physical)
+    };
+    let graphics = families
+        .get(adapter.queue_family as usize)
+        .is_some_and(|f| f.queue_flags.contains(vk::QueueFlags::GRAPHICS));
+    if !graphics {
+        return Err(GpuError::Unsupported(format!(
+            "{}: the compute queue cannot draw graphics, which the viewer's interface needs",
+            adapter.name
+        )));
+    }
+    if presentation.swapchain {
+        // SAFETY: as above.
+        let extensions = unsafe { instance.raw.enumerate_device_extension_properties(physical) }
+            .map_err(vk_err("vkEnumerateDeviceExtensionProperties"))?;
+        if !extensions
+            .iter()
+            .any(|e| e.extension_name_as_c_str() == Ok(ash::khr::swapchain::NAME))
+        {
+            return Err(GpuError::Unsupported(format!(
+                "{} has no VK_KHR_swapchain, so it cannot show a window (try --offscreen)",
+                adapter.name
+            )));
+        }
+    }
+    Ok(())
 }
 
 impl Drop for DeviceShared {

@@ -47,7 +47,7 @@ impl Validation {
 /// A Vulkan instance with its loader and (optionally) a validation messenger.
 pub struct Instance {
     // Holds the loaded libvulkan; dropping it would unload the loader under the instance.
-    _entry: ash::Entry,
+    entry: ash::Entry,
     pub(crate) raw: ash::Instance,
     messenger: Option<(ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
     log: Arc<ValidationLog>,
@@ -59,6 +59,12 @@ pub struct Instance {
 impl Instance {
     /// Opens the loader and creates an instance.
     pub fn new(validation: Validation) -> GpuResult<Self> {
+        Self::with_extensions(validation, &[])
+    }
+
+    /// Like [`Instance::new`], with extra instance extensions enabled (the window system's
+    /// surface extensions, for the viewer); one the loader lacks is a typed error naming it.
+    pub fn with_extensions(validation: Validation, extra: &[&CStr]) -> GpuResult<Self> {
         // SAFETY: loading the system Vulkan loader; ash checks the symbols it needs.
         let entry =
             unsafe { ash::Entry::load() }.map_err(|e| GpuError::LoaderMissing(e.to_string()))?;
@@ -93,6 +99,23 @@ impl Instance {
             .api_version(vk::API_VERSION_1_3);
         let mut layer_names: Vec<*const c_char> = Vec::new();
         let mut extension_names: Vec<*const c_char> = Vec::new();
+        if !extra.is_empty() {
+            // SAFETY: plain enumeration call on a loaded entry.
+            let available = unsafe { entry.enumerate_instance_extension_properties(None) }
+                .map_err(vk_err("vkEnumerateInstanceExtensionProperties"))?;
+            for wanted in extra {
+                if !available
+                    .iter()
+                    .any(|e| e.extension_name_as_c_str() == Ok(*wanted))
+                {
+                    return Err(GpuError::Unsupported(format!(
+                        "the Vulkan loader lacks the instance extension {}, needed to show a window",
+                        wanted.to_string_lossy()
+                    )));
+                }
+                extension_names.push(wanted.as_ptr());
+            }
+        }
         if use_validation {
             layer_names.push(VALIDATION_LAYER.as_ptr());
             extension_names.push(ext::debug_utils::NAME.as_ptr());
@@ -134,7 +157,7 @@ impl Instance {
             None
         };
         Ok(Instance {
-            _entry: entry,
+            entry,
             raw,
             messenger,
             log,
@@ -148,7 +171,7 @@ impl Instance {
     /// messenger; morphray's log stays empty.
     pub fn adopt(entry: ash::Entry, raw: ash::Instance) -> Instance {
         Instance {
-            _entry: entry,
+            entry,
             raw,
             messenger: None,
             log: new_log(),
@@ -170,6 +193,11 @@ impl Instance {
     /// The raw ash instance, for integrators who need it.
     pub fn raw(&self) -> &ash::Instance {
         &self.raw
+    }
+
+    /// The loaded Vulkan entry points (surface creation needs them).
+    pub fn entry(&self) -> &ash::Entry {
+        &self.entry
     }
 }
 

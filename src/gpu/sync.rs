@@ -28,6 +28,16 @@ pub enum Access {
     ComputeSampled,
     /// Written by a compute shader as a storage image (image in GENERAL).
     ComputeWriteImage,
+    /// Drawn into (and blended over) as a colour attachment by graphics work (the viewer's
+    /// interface), image in COLOR_ATTACHMENT_OPTIMAL.
+    ColorAttachment,
+    /// A swapchain image just acquired, whose acquire semaphore the submission waits for at the
+    /// transfer stage (the viewer's first use of it is a copy): a barrier from here chains with
+    /// that wait; the previous contents are discarded.
+    SwapchainAcquired,
+    /// Handed to the presentation engine (image in PRESENT_SRC_KHR); the submission's signal
+    /// semaphore, which the present waits for, makes the frame's writes visible to it.
+    Present,
 }
 
 /// The Vulkan flags of one access.
@@ -68,6 +78,17 @@ pub fn access_info(access: Access) -> AccessInfo {
             L::SHADER_READ_ONLY_OPTIMAL,
         ),
         Access::ComputeWriteImage => (S::COMPUTE_SHADER, A::SHADER_STORAGE_WRITE, L::GENERAL),
+        Access::ColorAttachment => (
+            S::COLOR_ATTACHMENT_OUTPUT,
+            A::COLOR_ATTACHMENT_READ | A::COLOR_ATTACHMENT_WRITE,
+            L::COLOR_ATTACHMENT_OPTIMAL,
+        ),
+        // Same stage as the semaphore wait, no access: the semaphore already made the
+        // presentation engine's reads available; UNDEFINED discards what was shown before.
+        Access::SwapchainAcquired => (S::ALL_TRANSFER, A::NONE, L::UNDEFINED),
+        // Nothing on this queue reads it afterwards; the semaphore signal (all commands) orders
+        // the transition before the present.
+        Access::Present => (S::BOTTOM_OF_PIPE, A::NONE, L::PRESENT_SRC_KHR),
     };
     AccessInfo {
         stages,
@@ -83,6 +104,7 @@ fn is_write(access: Access) -> bool {
             | Access::TransferWrite
             | Access::ComputeWriteBuffer
             | Access::ComputeWriteImage
+            | Access::ColorAttachment
     )
 }
 
@@ -236,6 +258,9 @@ mod tests {
             Access::ComputeWriteBuffer,
             Access::ComputeSampled,
             Access::ComputeWriteImage,
+            Access::ColorAttachment,
+            Access::SwapchainAcquired,
+            Access::Present,
         ];
         for a in all {
             let info = access_info(a);
@@ -245,11 +270,84 @@ mod tests {
                 a == Access::Nothing,
                 "{a:?}"
             );
+            // No memory access: "nothing", and the two hand-overs with the presentation
+            // engine, whose memory dependency is the semaphore's.
             assert_eq!(
                 info.access == vk::AccessFlags2::NONE,
-                a == Access::Nothing,
+                matches!(
+                    a,
+                    Access::Nothing | Access::SwapchainAcquired | Access::Present
+                ),
                 "{a:?}"
             );
         }
+    }
+
+    #[test]
+    fn a_frame_moves_the_swapchain_image_from_acquire_to_present() {
+        // Acquired -> copy destination: chained to the semaphore wait at the transfer stage,
+        // discarding old contents, no source access to make available.
+        let i = image_barrier(
+            vk::Image::null(),
+            Access::SwapchainAcquired,
+            Access::TransferWrite,
+        );
+        assert_eq!(i.src_stage_mask, vk::PipelineStageFlags2::ALL_TRANSFER);
+        assert_eq!(i.src_access_mask, vk::AccessFlags2::NONE);
+        assert_eq!(
+            (i.old_layout, i.new_layout),
+            (
+                vk::ImageLayout::UNDEFINED,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL
+            )
+        );
+        // Copy destination -> present: the copy's writes are made available, layout for the
+        // presentation engine.
+        let i = image_barrier(vk::Image::null(), Access::TransferWrite, Access::Present);
+        assert!(i.src_access_mask.contains(vk::AccessFlags2::TRANSFER_WRITE));
+        assert_eq!(i.new_layout, vk::ImageLayout::PRESENT_SRC_KHR);
+        assert_eq!(i.dst_access_mask, vk::AccessFlags2::NONE);
+    }
+
+    #[test]
+    fn the_interface_draws_over_the_copied_frame() {
+        // Copy of the raymarched image -> egui's colour attachment: a write-after-write that
+        // must make the copy visible to blending (which reads the attachment).
+        let i = image_barrier(
+            vk::Image::null(),
+            Access::TransferWrite,
+            Access::ColorAttachment,
+        );
+        assert!(i.src_access_mask.contains(vk::AccessFlags2::TRANSFER_WRITE));
+        assert_eq!(
+            i.dst_stage_mask,
+            vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT
+        );
+        assert!(
+            i.dst_access_mask
+                .contains(vk::AccessFlags2::COLOR_ATTACHMENT_READ)
+        );
+        assert_eq!(i.new_layout, vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL);
+        // Interface drawn -> copy source (to the swapchain or a screenshot).
+        let i = image_barrier(
+            vk::Image::null(),
+            Access::ColorAttachment,
+            Access::TransferRead,
+        );
+        assert!(
+            i.src_access_mask
+                .contains(vk::AccessFlags2::COLOR_ATTACHMENT_WRITE)
+        );
+        assert_eq!(i.new_layout, vk::ImageLayout::TRANSFER_SRC_OPTIMAL);
+        // The raymarch target goes back to GENERAL after the copy read it: an execution
+        // dependency (write after read) without source access.
+        let i = image_barrier(
+            vk::Image::null(),
+            Access::TransferRead,
+            Access::ComputeWriteImage,
+        );
+        assert_eq!(i.src_access_mask, vk::AccessFlags2::NONE);
+        assert_eq!(i.src_stage_mask, vk::PipelineStageFlags2::ALL_TRANSFER);
+        assert_eq!(i.new_layout, vk::ImageLayout::GENERAL);
     }
 }

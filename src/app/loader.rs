@@ -1,0 +1,413 @@
+//! The loader thread: reads and decodes files, uploads and analyses them, and computes derived
+//! volumes, so the interface thread only ever records the raymarch and draws.
+//!
+//! Decisions:
+//! - One worker thread with its own [`Engine`] on the interface's device (the queue is shared
+//!   behind the device's lock): preparing a 256^3 volume or its Hessian takes seconds on a CPU
+//!   device, and the window must keep drawing (spinner, camera on the previous volume) meanwhile.
+//! - Jobs run in order; results and progress come back on a channel that the interface polls
+//!   once per frame (never blocks on).
+//! - The first load starts before the device exists (decoding overlaps Vulkan start-up, as in
+//!   `cli::session`); the device is handed over when the window has made it.
+//! - A cancel flag is checked between phases, so closing the window during a load ends the
+//!   worker at the next phase boundary (a phase is at most one inflate or one GPU submission).
+//! - Brick ranges for empty-space skipping are computed here right after preparing, so the
+//!   first frame already runs the raymarch alone.
+
+use crate::analysis::{TissueReport, analyze};
+use crate::cli::source;
+use crate::engine::{Derived, Engine, EngineConfig, PreparedVolume};
+use crate::gpu::{Device, GpuError, PassTiming};
+use crate::passes::derivatives::DerivativeOutputs;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{Receiver, Sender, channel};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::Instant;
+
+/// A volume ready to render.
+pub struct LoadedVolume {
+    /// Which request this answers.
+    pub id: u64,
+    /// File name or `phantom`.
+    pub label: String,
+    /// The file, None for the phantom.
+    pub path: Option<PathBuf>,
+    /// SHA-256 of the input (provenance of screenshots).
+    pub sha256: String,
+    /// Voxel spacing along the three index axes, millimetres.
+    pub spacing_mm: [f64; 3],
+    /// The volume on the GPU.
+    pub prepared: Arc<PreparedVolume>,
+    /// Histogram peaks and windows.
+    pub report: TissueReport,
+    /// GPU passes that preparing ran (min/max, normalize, histogram), plus the brick ranges'
+    /// host wall time.
+    pub passes: Vec<PassTiming>,
+    /// When the request was made (start of time to first pixel).
+    pub requested_at: Instant,
+    /// Derived volumes the scene needed when the load was requested (part of the load, so the
+    /// first frame already shows the requested effects).
+    pub derived: Option<Derived>,
+}
+
+/// Work for the thread.
+enum Job {
+    Load {
+        id: u64,
+        path: Option<PathBuf>,
+        requested_at: Instant,
+        outputs: Option<DerivativeOutputs>,
+    },
+    Derive {
+        id: u64,
+        prepared: Arc<PreparedVolume>,
+        outputs: DerivativeOutputs,
+    },
+}
+
+/// What the thread reports.
+pub enum Reply {
+    /// A load moved to a new phase.
+    Progress {
+        /// Request.
+        id: u64,
+        /// What is happening, for the status line.
+        stage: &'static str,
+    },
+    /// A load finished.
+    Loaded(Box<LoadedVolume>),
+    /// A load failed; the message is one line.
+    LoadFailed {
+        /// Request.
+        id: u64,
+        /// Why.
+        message: String,
+    },
+    /// Derived volumes are ready.
+    Derived {
+        /// Request.
+        id: u64,
+        /// What was computed.
+        outputs: DerivativeOutputs,
+        /// The volumes (used with the volume they were derived from).
+        derived: Box<Derived>,
+    },
+    /// Derived volumes could not be computed.
+    DeriveFailed {
+        /// Request.
+        id: u64,
+        /// What was asked for.
+        outputs: DerivativeOutputs,
+        /// Why (one line).
+        message: String,
+        /// The device was lost (the viewer restarts the GPU).
+        device_lost: bool,
+    },
+}
+
+/// Handle of the loader thread.
+pub struct Loader {
+    jobs: Option<Sender<Job>>,
+    replies: Receiver<Reply>,
+    device: Arc<Mutex<Option<Sender<Device>>>>,
+    cancel: Arc<AtomicBool>,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl Loader {
+    /// Starts the thread; it decodes files at once but waits for [`Loader::provide_device`]
+    /// before its first GPU work.
+    pub fn spawn(config: EngineConfig) -> Loader {
+        let (jobs_tx, jobs_rx) = channel();
+        let (replies_tx, replies_rx) = channel();
+        let (device_tx, device_rx) = channel();
+        let cancel = Arc::new(AtomicBool::new(false));
+        let flag = cancel.clone();
+        let thread = std::thread::Builder::new()
+            .name("morphray-loader".into())
+            .spawn(move || {
+                let mut worker = Worker {
+                    engine: None,
+                    config,
+                    device: device_rx,
+                    replies: replies_tx,
+                    cancel: flag,
+                };
+                worker.run(jobs_rx);
+            })
+            .ok();
+        Loader {
+            jobs: Some(jobs_tx),
+            replies: replies_rx,
+            device: Arc::new(Mutex::new(Some(device_tx))),
+            cancel,
+            thread,
+        }
+    }
+
+    /// True when the thread could be started.
+    pub fn is_running(&self) -> bool {
+        self.thread.is_some()
+    }
+
+    /// Hands the device to the thread (its engine is created on it). A second call replaces
+    /// the device after a device loss.
+    pub fn provide_device(&self, device: Device) {
+        if let Ok(guard) = self.device.lock()
+            && let Some(tx) = guard.as_ref()
+        {
+            let _ = tx.send(device);
+        }
+    }
+
+    /// Queues loading `path` (None: the phantom) and computing its derived `outputs`.
+    pub fn load(
+        &self,
+        id: u64,
+        path: Option<PathBuf>,
+        requested_at: Instant,
+        outputs: Option<DerivativeOutputs>,
+    ) {
+        if let Some(jobs) = &self.jobs {
+            let _ = jobs.send(Job::Load {
+                id,
+                path,
+                requested_at,
+                outputs,
+            });
+        }
+    }
+
+    /// Queues computing `outputs` of `prepared`.
+    pub fn derive(&self, id: u64, prepared: Arc<PreparedVolume>, outputs: DerivativeOutputs) {
+        if let Some(jobs) = &self.jobs {
+            let _ = jobs.send(Job::Derive {
+                id,
+                prepared,
+                outputs,
+            });
+        }
+    }
+
+    /// Everything reported since the last call (never blocks).
+    pub fn poll(&self) -> Vec<Reply> {
+        self.replies.try_iter().collect()
+    }
+
+    /// Stops the thread: cancels its current job at the next phase boundary, lets it finish
+    /// the GPU submission it may be waiting for, and joins it (so its engine, which shares the
+    /// device, is gone before the device is).
+    pub fn shutdown(&mut self) {
+        self.cancel.store(true, Ordering::SeqCst);
+        self.jobs = None;
+        if let Ok(mut guard) = self.device.lock() {
+            *guard = None;
+        }
+        if let Some(thread) = self.thread.take() {
+            let _ = thread.join();
+        }
+    }
+}
+
+impl Drop for Loader {
+    fn drop(&mut self) {
+        self.shutdown();
+    }
+}
+
+struct Worker {
+    engine: Option<Engine>,
+    config: EngineConfig,
+    device: Receiver<Device>,
+    replies: Sender<Reply>,
+    cancel: Arc<AtomicBool>,
+}
+
+impl Worker {
+    fn run(&mut self, jobs: Receiver<Job>) {
+        while let Ok(job) = jobs.recv() {
+            if self.cancelled() {
+                return;
+            }
+            match job {
+                Job::Load {
+                    id,
+                    path,
+                    requested_at,
+                    outputs,
+                } => match self.load(id, path, requested_at, outputs) {
+                    Ok(Some(loaded)) => self.send(Reply::Loaded(Box::new(loaded))),
+                    Ok(None) => return,
+                    Err(message) => self.send(Reply::LoadFailed { id, message }),
+                },
+                Job::Derive {
+                    id,
+                    prepared,
+                    outputs,
+                } => self.derive(id, &prepared, outputs),
+            }
+        }
+    }
+
+    fn cancelled(&self) -> bool {
+        self.cancel.load(Ordering::SeqCst)
+    }
+
+    fn send(&self, reply: Reply) {
+        let _ = self.replies.send(reply);
+    }
+
+    /// Makes sure there is an engine, waiting for the device if none was handed over yet;
+    /// false when shutting down.
+    fn ensure_engine(&mut self) -> Result<bool, String> {
+        // A newer device (after a loss) replaces the engine.
+        let newest = self.device.try_iter().last();
+        let device = match (newest, self.engine.is_some()) {
+            (Some(d), _) => Some(d),
+            (None, true) => None,
+            (None, false) => match self.device.recv() {
+                Ok(d) => Some(d),
+                Err(_) => return Ok(false),
+            },
+        };
+        if let Some(device) = device {
+            self.engine = None;
+            let engine = Engine::with_device(device, self.config.clone())
+                .map_err(|e| one_line(&e.to_string()))?;
+            self.engine = Some(engine);
+        }
+        Ok(self.engine.is_some())
+    }
+
+    fn load(
+        &mut self,
+        id: u64,
+        path: Option<PathBuf>,
+        requested_at: Instant,
+        outputs: Option<DerivativeOutputs>,
+    ) -> Result<Option<LoadedVolume>, String> {
+        self.send(Reply::Progress {
+            id,
+            stage: if path.is_some() {
+                "reading and decoding the file"
+            } else {
+                "generating the phantom"
+            },
+        });
+        let source =
+            source::load(path.as_deref(), 0, true).map_err(|e| one_line(&e.to_string()))?;
+        if self.cancelled() {
+            return Ok(None);
+        }
+        self.send(Reply::Progress {
+            id,
+            stage: "waiting for the GPU device",
+        });
+        if !self.ensure_engine()? {
+            return Ok(None);
+        }
+        let Some(engine) = self.engine.as_mut() else {
+            return Ok(None);
+        };
+        if self.cancel.load(Ordering::SeqCst) {
+            return Ok(None);
+        }
+        let _ = self.replies.send(Reply::Progress {
+            id,
+            stage: "uploading; min/max, normalization and histogram on the GPU",
+        });
+        let prepared = engine
+            .prepare(&source.volume)
+            .map_err(|e| one_line(&e.to_string()))?;
+        if self.cancel.load(Ordering::SeqCst) {
+            return Ok(None);
+        }
+        let before = Instant::now();
+        engine
+            .brick_ranges(&prepared)
+            .map_err(|e| one_line(&e.to_string()))?;
+        let occupancy_ms = before.elapsed().as_secs_f64() * 1e3;
+        let (imin, imax) = match (prepared.normalization.imin, prepared.normalization.imax) {
+            (Some(lo), Some(hi)) => (lo, hi),
+            _ => (0.0, 0.0),
+        };
+        let report = analyze(
+            &prepared.histogram,
+            imin,
+            imax,
+            prepared.voxel_count as usize,
+            prepared.nonfinite_voxels() as usize,
+        );
+        let linear = prepared.linear_part;
+        let spacing_mm =
+            [0, 1, 2].map(|c| (0..3).map(|r| linear[r][c].powi(2)).sum::<f64>().sqrt());
+        let mut passes = prepared.gpu_timings.clone();
+        passes.push(PassTiming {
+            name: "occupancy (brick ranges; host wall time)".into(),
+            gpu_ms: occupancy_ms,
+        });
+        let derived = match outputs {
+            Some(outputs) => {
+                let _ = self.replies.send(Reply::Progress {
+                    id,
+                    stage: "computing derived volumes on the GPU",
+                });
+                let derived = engine
+                    .derive(&prepared, outputs)
+                    .map_err(|e| one_line(&e.to_string()))?;
+                passes.extend(derived.gpu_timings.iter().cloned());
+                Some(derived)
+            }
+            None => None,
+        };
+        Ok(Some(LoadedVolume {
+            id,
+            label: source.label,
+            path,
+            sha256: source.sha256.unwrap_or_default(),
+            spacing_mm,
+            prepared: Arc::new(prepared),
+            report,
+            passes,
+            requested_at,
+            derived,
+        }))
+    }
+
+    fn derive(&mut self, id: u64, prepared: &PreparedVolume, outputs: DerivativeOutputs) {
+        let ready = self.ensure_engine();
+        let result = match (ready, self.engine.as_mut()) {
+            (Ok(true), Some(engine)) => engine.derive(prepared, outputs),
+            (Ok(_), _) => return,
+            (Err(message), _) => {
+                self.send(Reply::DeriveFailed {
+                    id,
+                    outputs,
+                    message,
+                    device_lost: false,
+                });
+                return;
+            }
+        };
+        match result {
+            Ok(derived) => self.send(Reply::Derived {
+                id,
+                outputs,
+                derived: Box::new(derived),
+            }),
+            Err(e) => self.send(Reply::DeriveFailed {
+                id,
+                outputs,
+                device_lost: matches!(e, GpuError::DeviceLost(_)),
+                message: one_line(&e.to_string()),
+            }),
+        }
+    }
+}
+
+/// An error message as one line.
+pub fn one_line(text: &str) -> String {
+    text.split_whitespace().collect::<Vec<_>>().join(" ")
+}

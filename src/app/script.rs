@@ -1,0 +1,439 @@
+//! Scripted sessions: a small language of interface actions, replayed one per frame boundary.
+//!
+//! Decisions:
+//! - One action per line, `#` starts a comment; every action is something a person can do in
+//!   the window (plus `wait`, `screenshot`, `close` and a fault injection for tests), and it
+//!   goes through the same [`super::ui::Controls`] methods as the widgets, or, for `drag`, through
+//!   egui's pointer events and the same camera controller as a real mouse.
+//! - Errors name the file, line and what was expected, and are found before the window opens.
+//! - The runner never starts an action while a load or a derived-volume computation is pending,
+//!   so a script is deterministic whatever the machine's speed: "curvature on" followed by
+//!   "screenshot" shows the curvature.
+
+use super::camera_control::{Button, StandardView};
+use crate::scene::{RenderMode, TissueClass};
+use std::path::{Path, PathBuf};
+
+/// Presets of the tissue windows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Preset {
+    /// Around this volume's histogram peaks.
+    Adaptive,
+    /// The paper's fixed constants.
+    Paper,
+    /// Adaptive windows with default colours, opacities and switches.
+    Reset,
+}
+
+/// One scripted action.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Action {
+    /// Switch a tissue on or off.
+    Toggle(TissueClass),
+    /// Set a tissue's visibility.
+    Show(TissueClass, bool),
+    /// Set a tissue's window to `[lo, hi]` in I_norm (as dragging the band's edges does).
+    SetWindow(TissueClass, f64, f64),
+    /// Set a tissue's opacity.
+    Opacity(TissueClass, f32),
+    /// Set a tissue's colour (RGB 0..1).
+    Colour(TissueClass, [f32; 3]),
+    /// Apply a window preset.
+    Preset(Preset),
+    /// Orbit by degrees of azimuth and elevation.
+    Orbit(f64, f64),
+    /// Pan by millimetres (right, up).
+    Pan(f64, f64),
+    /// Multiply the zoom.
+    Zoom(f64),
+    /// One of the six standard views.
+    View(StandardView),
+    /// Back to the default camera.
+    ResetView,
+    /// A mouse drag over the 3D view, from and to fractions of its width and height.
+    Drag {
+        /// Which button is held.
+        button: Button,
+        /// Start (x, y) as fractions of the view.
+        from: [f32; 2],
+        /// End (x, y) as fractions of the view.
+        to: [f32; 2],
+    },
+    /// Rendering mode.
+    Mode(RenderMode),
+    /// Ray step in voxels.
+    Step(f64),
+    /// Curvature weighting on or off.
+    Curvature(bool),
+    /// Curvature strength.
+    CurvatureStrength(f32),
+    /// Phong shading on or off.
+    Shading(bool),
+    /// Background colour.
+    Background([f32; 3]),
+    /// Open a file (None: the built-in phantom).
+    Open(Option<PathBuf>),
+    /// Save the whole window as PNG.
+    Screenshot(PathBuf),
+    /// Let this many frames pass.
+    Wait(u32),
+    /// Let this many frames pass as an interactive window would: the raymarch runs only if
+    /// the scene changed (scripted runs otherwise raymarch every frame, to measure).
+    Idle(u32),
+    /// Resize the window (or the offscreen image) to width x height pixels.
+    Resize(u32, u32),
+    /// Close the window (as the close button does).
+    Close,
+    /// Test hook: the next GPU frame fails as if the device had been lost.
+    SimulateDeviceLost,
+}
+
+/// An action with where it came from.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Step {
+    /// 1-based line number.
+    pub line: usize,
+    /// The line as written (for the log).
+    pub text: String,
+    /// The parsed action.
+    pub action: Action,
+}
+
+/// A parse error: file, line, what was wrong.
+#[derive(Debug, thiserror::Error, PartialEq)]
+#[error("{file}:{line}: {message}")]
+pub struct ScriptError {
+    /// Script file.
+    pub file: String,
+    /// 1-based line.
+    pub line: usize,
+    /// What is wrong and what was expected.
+    pub message: String,
+}
+
+/// Reads and parses a script file.
+pub fn load(path: &Path) -> Result<Vec<Step>, ScriptError> {
+    let text = std::fs::read_to_string(path).map_err(|e| ScriptError {
+        file: path.display().to_string(),
+        line: 0,
+        message: format!("cannot read: {e}"),
+    })?;
+    parse(&text, &path.display().to_string())
+}
+
+/// Parses script text; `file` names it in errors.
+pub fn parse(text: &str, file: &str) -> Result<Vec<Step>, ScriptError> {
+    let mut steps = Vec::new();
+    for (index, raw) in text.lines().enumerate() {
+        let line = raw.split('#').next().unwrap_or("").trim();
+        if line.is_empty() {
+            continue;
+        }
+        let action = parse_line(line).map_err(|message| ScriptError {
+            file: file.to_string(),
+            line: index + 1,
+            message,
+        })?;
+        steps.push(Step {
+            line: index + 1,
+            text: line.to_string(),
+            action,
+        });
+    }
+    Ok(steps)
+}
+
+fn tissue(word: Option<&str>) -> Result<TissueClass, String> {
+    let word = word.ok_or("expected a tissue: csf, gm, wm or pathology")?;
+    TissueClass::parse(word)
+        .ok_or_else(|| format!("unknown tissue `{word}`; use csf, gm, wm or pathology"))
+}
+
+fn number(word: Option<&str>, what: &str) -> Result<f64, String> {
+    let word = word.ok_or_else(|| format!("expected {what}"))?;
+    word.parse::<f64>()
+        .ok()
+        .filter(|v| v.is_finite())
+        .ok_or_else(|| format!("`{word}` is not a number ({what})"))
+}
+
+fn switch(word: Option<&str>) -> Result<bool, String> {
+    match word {
+        Some("on") => Ok(true),
+        Some("off") => Ok(false),
+        other => Err(format!("expected on or off, got {other:?}")),
+    }
+}
+
+fn colour(word: Option<&str>) -> Result<[f32; 3], String> {
+    let word = word.ok_or("expected a colour #RRGGBB")?;
+    let hex = word
+        .strip_prefix('#')
+        .filter(|h| h.len() == 6)
+        .and_then(|h| u32::from_str_radix(h, 16).ok())
+        .ok_or_else(|| format!("`{word}` is not a #RRGGBB colour"))?;
+    Ok([
+        (hex >> 16) as f32 / 255.0,
+        ((hex >> 8) & 0xff) as f32 / 255.0,
+        (hex & 0xff) as f32 / 255.0,
+    ])
+}
+
+fn fraction(word: Option<&str>) -> Result<f32, String> {
+    let v = number(word, "a fraction of the view from 0 to 1")?;
+    if (0.0..=1.0).contains(&v) {
+        Ok(v as f32)
+    } else {
+        Err(format!("{v} is outside 0..1 (fractions of the view)"))
+    }
+}
+
+fn parse_line(line: &str) -> Result<Action, String> {
+    let mut words = line.split_whitespace();
+    let verb = words.next().unwrap_or("").to_lowercase();
+    let mut next = || words.next();
+    let action = match verb.as_str() {
+        "toggle" => Action::Toggle(tissue(next())?),
+        "show" => Action::Show(tissue(next())?, true),
+        "hide" => Action::Show(tissue(next())?, false),
+        "set" => match next() {
+            Some("window") => {
+                let t = tissue(next())?;
+                let lo = number(next(), "the window's lower bound")?;
+                let hi = number(next(), "the window's upper bound")?;
+                if lo >= hi {
+                    return Err(format!("window {lo}..{hi} must have lo < hi"));
+                }
+                Action::SetWindow(t, lo, hi)
+            }
+            Some("opacity") => {
+                let t = tissue(next())?;
+                Action::Opacity(t, number(next(), "an opacity 0..1")?.clamp(0.0, 1.0) as f32)
+            }
+            Some("colour") | Some("color") => {
+                let t = tissue(next())?;
+                Action::Colour(t, colour(next())?)
+            }
+            other => {
+                return Err(format!(
+                    "expected `set window|opacity|colour TISSUE ...`, got {other:?}"
+                ));
+            }
+        },
+        "preset" => match next() {
+            Some("adaptive") => Action::Preset(Preset::Adaptive),
+            Some("paper") => Action::Preset(Preset::Paper),
+            Some("reset") => Action::Preset(Preset::Reset),
+            other => return Err(format!("expected adaptive, paper or reset, got {other:?}")),
+        },
+        "orbit" => Action::Orbit(
+            number(next(), "degrees of azimuth")?,
+            number(next(), "degrees of elevation")?,
+        ),
+        "pan" => Action::Pan(
+            number(next(), "millimetres right")?,
+            number(next(), "millimetres up")?,
+        ),
+        "zoom" => {
+            let f = number(next(), "a zoom factor")?;
+            if f <= 0.0 {
+                return Err("the zoom factor must be positive".into());
+            }
+            Action::Zoom(f)
+        }
+        "view" => {
+            let word = next().ok_or("expected a view name")?;
+            match word {
+                "reset" => Action::ResetView,
+                _ => Action::View(StandardView::parse(word).ok_or_else(|| {
+                    format!(
+                        "unknown view `{word}`; use anterior, posterior, left, right, superior, inferior or reset"
+                    )
+                })?),
+            }
+        }
+        "drag" => {
+            let button = match next() {
+                Some("left") => Button::Primary,
+                Some("right") => Button::Secondary,
+                Some("middle") => Button::Middle,
+                other => return Err(format!("expected left, right or middle, got {other:?}")),
+            };
+            let from = [fraction(next())?, fraction(next())?];
+            let to = [fraction(next())?, fraction(next())?];
+            Action::Drag { button, from, to }
+        }
+        "mode" => match next() {
+            Some("dvr") => Action::Mode(RenderMode::Dvr),
+            Some("mip") => Action::Mode(RenderMode::Mip),
+            Some("minip") => Action::Mode(RenderMode::MinIp),
+            other => return Err(format!("expected dvr, mip or minip, got {other:?}")),
+        },
+        "step" => {
+            let s = number(next(), "a step in voxels")?;
+            if !(s > 0.0 && s <= 16.0) {
+                return Err(format!("step {s} must be in (0, 16] voxels"));
+            }
+            Action::Step(s)
+        }
+        "curvature" => match next() {
+            Some("strength") => {
+                Action::CurvatureStrength(number(next(), "a strength")?.clamp(0.0, 20.0) as f32)
+            }
+            w => Action::Curvature(switch(w)?),
+        },
+        "shading" => Action::Shading(switch(next())?),
+        "background" => Action::Background(colour(next())?),
+        "open" => match next() {
+            None | Some("phantom") => Action::Open(None),
+            Some(path) => Action::Open(Some(PathBuf::from(path))),
+        },
+        "screenshot" => Action::Screenshot(PathBuf::from(next().ok_or("expected a PNG path")?)),
+        "wait" => {
+            let n = number(next(), "a number of frames")?;
+            if n < 0.0 || n.fract() != 0.0 {
+                return Err(format!("wait {n}: expected a whole number of frames"));
+            }
+            Action::Wait(n as u32)
+        }
+        "idle" => {
+            let n = number(next(), "a number of frames")?;
+            if n < 0.0 || n.fract() != 0.0 {
+                return Err(format!("idle {n}: expected a whole number of frames"));
+            }
+            Action::Idle(n as u32)
+        }
+        "resize" => {
+            let w = number(next(), "a width in pixels")?;
+            let h = number(next(), "a height in pixels")?;
+            if !(1.0..=16384.0).contains(&w) || !(1.0..=16384.0).contains(&h) {
+                return Err(format!("resize {w} {h}: sides must be 1..16384 pixels"));
+            }
+            Action::Resize(w as u32, h as u32)
+        }
+        "close" => Action::Close,
+        "simulate-device-lost" => Action::SimulateDeviceLost,
+        other => return Err(format!("unknown action `{other}`")),
+    };
+    if let Some(extra) = next() {
+        return Err(format!("unexpected `{extra}` after the action"));
+    }
+    Ok(action)
+}
+
+/// Replays steps: hands out the next one when the viewer is ready for it.
+#[derive(Debug, Default)]
+pub struct Runner {
+    steps: Vec<Step>,
+    next: usize,
+    waiting: u32,
+}
+
+impl Runner {
+    /// A runner over parsed steps.
+    pub fn new(steps: Vec<Step>) -> Self {
+        Runner {
+            steps,
+            next: 0,
+            waiting: 0,
+        }
+    }
+
+    /// The next step to apply before this frame, if any: none while a `wait` counts down or
+    /// while the viewer is `busy` (loading, computing a derived volume, or in a drag), except
+    /// `close`.
+    pub fn next_step(&mut self, busy: bool) -> Option<Step> {
+        if self.waiting > 0 {
+            self.waiting -= 1;
+            return None;
+        }
+        // `close` is what a person may do at any time, also while a load runs.
+        let closing = matches!(
+            self.steps.get(self.next).map(|s| &s.action),
+            Some(Action::Close)
+        );
+        if busy && !closing {
+            return None;
+        }
+        let step = self.steps.get(self.next)?.clone();
+        self.next += 1;
+        if let Action::Wait(n) | Action::Idle(n) = step.action {
+            self.waiting = n;
+        }
+        Some(step)
+    }
+
+    /// True when every step has been handed out and the last wait has elapsed.
+    pub fn finished(&self) -> bool {
+        self.next >= self.steps.len() && self.waiting == 0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_brief_s_examples_parse() {
+        let steps = parse(
+            "toggle gm\norbit 30 0\nset window wm 0.7 0.9  # drag the band\n\nview superior\nmode mip\ncurvature on\nwait 10\nidle 2\n",
+            "s.txt",
+        )
+        .unwrap();
+        let actions: Vec<_> = steps.iter().map(|s| s.action.clone()).collect();
+        assert_eq!(
+            actions,
+            vec![
+                Action::Toggle(TissueClass::Gm),
+                Action::Orbit(30.0, 0.0),
+                Action::SetWindow(TissueClass::Wm, 0.7, 0.9),
+                Action::View(StandardView::Superior),
+                Action::Mode(RenderMode::Mip),
+                Action::Curvature(true),
+                Action::Wait(10),
+                Action::Idle(2),
+            ]
+        );
+        assert_eq!(steps[2].line, 3);
+        assert_eq!(steps[2].text, "set window wm 0.7 0.9");
+    }
+
+    #[test]
+    fn errors_name_the_line_and_what_was_expected() {
+        let e = parse("toggle gm\ntoggle bone\n", "a.txt").unwrap_err();
+        assert_eq!(e.line, 2);
+        assert!(
+            e.to_string().starts_with("a.txt:2: unknown tissue `bone`"),
+            "{e}"
+        );
+        let e = parse("set window wm 0.9 0.7", "a.txt").unwrap_err();
+        assert!(e.message.contains("lo < hi"), "{e}");
+        let e = parse("orbit 30", "a.txt").unwrap_err();
+        assert!(e.message.contains("elevation"), "{e}");
+        let e = parse("wait 3 frames", "a.txt").unwrap_err();
+        assert!(e.message.contains("unexpected `frames`"), "{e}");
+        assert!(parse("drag left 0.5 0.5 1.5 0.5", "a").is_err());
+        assert!(parse("explode", "a").is_err());
+    }
+
+    #[test]
+    fn the_runner_waits_for_frames_and_for_a_busy_viewer() {
+        let steps = parse("toggle wm\nwait 2\ntoggle wm\n", "s").unwrap();
+        let mut runner = Runner::new(steps);
+        assert!(runner.next_step(true).is_none(), "busy: nothing starts");
+        assert_eq!(runner.next_step(false).unwrap().line, 1);
+        assert_eq!(runner.next_step(false).unwrap().line, 2);
+        assert!(runner.next_step(false).is_none());
+        assert!(runner.next_step(false).is_none());
+        assert!(!runner.finished());
+        assert_eq!(runner.next_step(false).unwrap().line, 3);
+        assert!(runner.finished());
+        let mut runner = Runner::new(parse("open phantom\nclose\n", "s").unwrap());
+        assert_eq!(runner.next_step(false).unwrap().action, Action::Open(None));
+        assert_eq!(
+            runner.next_step(true).unwrap().action,
+            Action::Close,
+            "close does not wait for the load"
+        );
+    }
+}

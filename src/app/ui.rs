@@ -1,0 +1,796 @@
+//! The interface: tissue panel (histogram with draggable windows, switches, colours,
+//! opacities, presets), rendering panel, camera buttons, status bar, and the 3D view's input and
+//! overlays (orientation letters, load progress, errors).
+//!
+//! Decisions:
+//! - Laid out for a clinician: tissues first (what is shown), then how it is rendered, then the
+//!   camera; technical numbers (GPU ms per pass) only in the status bar at the bottom.
+//! - All state a widget changes lives in [`Controls`]; its methods are what the widgets and the
+//!   script runner both call, so a scripted run exercises the interface's own code paths.
+//! - The 3D view is the central panel without a frame: the presenter copies the raymarched image
+//!   under it, egui draws only the overlays; its rectangle (in pixels) sizes the render target.
+//! - Camera input is read from egui's response on the view (so egui decides who owns a drag:
+//!   a slider drag never orbits the volume), keys only when no text field has focus.
+
+use super::camera_control::{
+    Button, CameraController, DragKind, StandardView, drag_kind, edge_labels, view_for_key,
+};
+use super::histogram;
+use super::script::Preset;
+use super::status::Status;
+use crate::analysis::TissueReport;
+use crate::scene::{Classification, RenderMode, Scene, TissueClass, Window};
+use egui::{Color32, Pos2, Rect, RichText, Ui, vec2};
+use std::path::PathBuf;
+
+/// Width of the tool panel, points.
+pub const PANEL_WIDTH: f32 = 320.0;
+
+/// What the interface asks the viewer to do beyond changing [`Controls`].
+#[derive(Clone, Debug, PartialEq)]
+pub enum Request {
+    /// Open a file (None: the phantom).
+    Open(Option<PathBuf>),
+    /// Save the window as PNG.
+    Screenshot(PathBuf),
+}
+
+/// Which window presets the tissue windows follow.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum WindowSource {
+    /// Around the peaks of the current volume.
+    Adaptive,
+    /// The paper's constants.
+    Paper,
+    /// Edited by hand.
+    Custom,
+}
+
+/// Everything the interface lets a person change.
+pub struct Controls {
+    /// The scene as requested (effects may wait for derived volumes before they show).
+    pub scene: Scene,
+    /// Where the windows came from.
+    pub windows: WindowSource,
+    /// Mouse sensitivities.
+    pub camera: CameraController,
+    /// The current volume's analysis (for presets and peaks).
+    pub report: Option<TissueReport>,
+    /// The current volume's histogram.
+    pub histogram: Option<[u32; 256]>,
+    /// Largest side of the volume's bounding box, mm (for panning).
+    pub extent_mm: f64,
+    dialog: egui_file_dialog::FileDialog,
+    dialog_purpose: DialogPurpose,
+    /// A drag on the view in progress (for the script runner: a drag is one action).
+    pub dragging: bool,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum DialogPurpose {
+    Open,
+    Save,
+}
+
+impl Controls {
+    /// Controls around a scene.
+    pub fn new(scene: Scene) -> Self {
+        Controls {
+            scene,
+            windows: WindowSource::Adaptive,
+            camera: CameraController::default(),
+            report: None,
+            histogram: None,
+            extent_mm: 200.0,
+            dialog: egui_file_dialog::FileDialog::new()
+                .title("Open a NIfTI volume")
+                .add_file_filter_extensions("NIfTI", vec!["nii", "gz", "hdr"]),
+            dialog_purpose: DialogPurpose::Open,
+            dragging: false,
+        }
+    }
+
+    /// Takes a new volume's analysis: windows from the current preset (custom windows fall back
+    /// to adaptive, since they were made for another volume), other styles kept.
+    pub fn adopt_volume(&mut self, report: TissueReport, histogram: [u32; 256], extent_mm: f64) {
+        self.report = Some(report);
+        self.histogram = Some(histogram);
+        self.extent_mm = extent_mm;
+        if self.windows == WindowSource::Custom {
+            self.windows = WindowSource::Adaptive;
+        }
+        self.apply_window_source();
+        if let Some(r) = &self.report {
+            self.scene.minip_floor = r.background_threshold as f32;
+        }
+    }
+
+    fn apply_window_source(&mut self) {
+        let Some(report) = &self.report else { return };
+        let windows = match self.windows {
+            WindowSource::Paper => &report.paper_windows,
+            _ => &report.adaptive_windows,
+        };
+        let fresh = Classification::from_tissue_windows(windows);
+        for t in TissueClass::ALL {
+            self.scene.classification.style_mut(t).window = fresh.style(t).window;
+        }
+    }
+
+    /// Switches a tissue on or off.
+    pub fn toggle(&mut self, tissue: TissueClass) {
+        let style = self.scene.classification.style_mut(tissue);
+        style.visible = !style.visible;
+    }
+
+    /// Sets a tissue's visibility.
+    pub fn set_visible(&mut self, tissue: TissueClass, visible: bool) {
+        self.scene.classification.style_mut(tissue).visible = visible;
+    }
+
+    /// Sets a tissue's window bounds (keeping its edge softness).
+    pub fn set_window(&mut self, tissue: TissueClass, lo: f64, hi: f64) {
+        let style = self.scene.classification.style_mut(tissue);
+        let edge = style.window.map(|w| w.edge).unwrap_or(0.01);
+        style.window = Some(Window { lo, hi, edge });
+        self.windows = WindowSource::Custom;
+    }
+
+    /// Sets a tissue's opacity.
+    pub fn set_opacity(&mut self, tissue: TissueClass, opacity: f32) {
+        self.scene.classification.style_mut(tissue).opacity = opacity.clamp(0.0, 1.0);
+    }
+
+    /// Sets a tissue's colour.
+    pub fn set_colour(&mut self, tissue: TissueClass, colour: [f32; 3]) {
+        self.scene.classification.style_mut(tissue).colour = colour;
+    }
+
+    /// Applies a window preset.
+    pub fn preset(&mut self, preset: Preset) {
+        match preset {
+            Preset::Adaptive => self.windows = WindowSource::Adaptive,
+            Preset::Paper => self.windows = WindowSource::Paper,
+            Preset::Reset => {
+                self.windows = WindowSource::Adaptive;
+                if let Some(report) = &self.report {
+                    self.scene.classification =
+                        Classification::from_tissue_windows(&report.adaptive_windows);
+                }
+            }
+        }
+        self.apply_window_source();
+    }
+
+    /// Selects a standard view.
+    pub fn view(&mut self, view: StandardView) {
+        self.camera.set_view(&mut self.scene.camera, view);
+    }
+
+    /// Orbits by degrees.
+    pub fn orbit_degrees(&mut self, azimuth: f64, elevation: f64) {
+        let c = CameraController {
+            degrees_per_pixel: 1.0,
+            ..self.camera
+        };
+        c.orbit(&mut self.scene.camera, [azimuth, elevation]);
+    }
+
+    /// Sets the rendering mode.
+    pub fn set_mode(&mut self, mode: RenderMode) {
+        self.scene.effects.mode = mode;
+    }
+
+    /// Opens the file dialog for opening a volume.
+    pub fn open_dialog(&mut self) {
+        self.dialog_purpose = DialogPurpose::Open;
+        self.dialog.pick_file();
+    }
+}
+
+/// What one frame of the interface produced.
+#[derive(Debug)]
+pub struct Outcome {
+    /// The 3D view's rectangle in points.
+    pub view: Rect,
+    /// The histogram widget's rectangle in points (None when not shown).
+    pub histogram: Option<Rect>,
+    /// Requests for the viewer.
+    pub requests: Vec<Request>,
+}
+
+/// Frame-specific facts the interface shows.
+pub struct Shown<'a> {
+    /// Status line content.
+    pub status: &'a Status,
+    /// True once a volume is on screen.
+    pub has_volume: bool,
+}
+
+/// Draws the whole interface for one frame.
+pub fn draw(ui: &mut Ui, controls: &mut Controls, shown: &Shown) -> Outcome {
+    let mut requests = Vec::new();
+    let mut histogram_rect = None;
+    let ctx = ui.ctx().clone();
+
+    egui::Panel::bottom("status")
+        .resizable(false)
+        .show(ui, |ui| status_bar(ui, shown.status));
+
+    egui::Panel::left("tools")
+        .resizable(false)
+        .exact_size(PANEL_WIDTH)
+        .show(ui, |ui| {
+            egui::ScrollArea::vertical().show(ui, |ui| {
+                histogram_rect = tissue_panel(ui, controls);
+                ui.separator();
+                rendering_panel(ui, controls);
+                ui.separator();
+                camera_panel(ui, controls);
+                ui.separator();
+                file_panel(ui, controls, &mut requests);
+            });
+        });
+
+    let view = egui::CentralPanel::no_frame()
+        .show(ui, |ui| {
+            let rect = ui.max_rect();
+            view_input(ui, rect, controls);
+            view_overlays(ui, rect, controls, shown);
+            rect
+        })
+        .inner;
+
+    // The file dialog floats over everything.
+    controls.dialog.update(&ctx);
+    if let Some(path) = controls.dialog.take_picked() {
+        match controls.dialog_purpose {
+            DialogPurpose::Open => requests.push(Request::Open(Some(path))),
+            DialogPurpose::Save => requests.push(Request::Screenshot(path)),
+        }
+    }
+    // Files dropped onto the window.
+    let dropped = ctx.input(|i| i.raw.dropped_files.first().map(|f| f.path().to_path_buf()));
+    if let Some(path) = dropped {
+        requests.push(Request::Open(Some(path)));
+    }
+    Outcome {
+        view,
+        histogram: histogram_rect,
+        requests,
+    }
+}
+
+fn tissue_panel(ui: &mut Ui, controls: &mut Controls) -> Option<Rect> {
+    ui.heading("Tissues");
+    let mut rect = None;
+    if let Some(hist) = controls.histogram {
+        let top = ui.cursor().min;
+        if histogram::show(
+            ui,
+            &hist,
+            controls.report.as_ref(),
+            &mut controls.scene.classification,
+        ) {
+            controls.windows = WindowSource::Custom;
+        }
+        rect = Some(Rect::from_min_size(
+            top,
+            vec2(ui.available_width(), histogram::Layout::height()),
+        ));
+        ui.label(
+            RichText::new("I_norm 0 -> 1, counts on a log scale; drag a band or its edges")
+                .small()
+                .weak(),
+        );
+    } else {
+        ui.label(RichText::new("Histogram appears when a volume is loaded").weak());
+    }
+    let names = [
+        (TissueClass::Csf, "CSF"),
+        (TissueClass::Gm, "Grey matter"),
+        (TissueClass::Wm, "White matter"),
+        (TissueClass::Pathology, "Pathology / contrast"),
+    ];
+    ui.spacing_mut().slider_width = 64.0;
+    egui::Grid::new("tissues").num_columns(4).show(ui, |ui| {
+        for (tissue, name) in names {
+            let style = controls.scene.classification.style_mut(tissue);
+            ui.checkbox(&mut style.visible, name)
+                .on_hover_text("Show or hide this tissue (only uniforms change)");
+            ui.color_edit_button_rgb(&mut style.colour);
+            ui.add(egui::Slider::new(&mut style.opacity, 0.0..=1.0).show_value(false))
+                .on_hover_text("Opacity per millimetre of ray");
+            match style.window {
+                Some(w) => {
+                    ui.label(RichText::new(format!("{:.2}-{:.2}", w.lo, w.hi.min(1.0))).small())
+                }
+                None => ui.label(RichText::new("not found").small().weak()),
+            };
+            ui.end_row();
+        }
+    });
+    ui.horizontal(|ui| {
+        ui.label("Windows:");
+        let source = controls.windows;
+        if ui
+            .selectable_label(source == WindowSource::Adaptive, "Adaptive")
+            .on_hover_text("Placed around the CSF/GM/WM peaks of this volume")
+            .clicked()
+        {
+            controls.preset(Preset::Adaptive);
+        }
+        if ui
+            .selectable_label(source == WindowSource::Paper, "Paper")
+            .on_hover_text("The paper's fixed constants (CSF 0.05-0.12, GM 0.12-0.18, WM > 0.18)")
+            .clicked()
+        {
+            controls.preset(Preset::Paper);
+        }
+        if ui
+            .button("Reset")
+            .on_hover_text("Adaptive windows with default colours and opacities")
+            .clicked()
+        {
+            controls.preset(Preset::Reset);
+        }
+    });
+    rect
+}
+
+fn rendering_panel(ui: &mut Ui, controls: &mut Controls) {
+    ui.heading("Rendering");
+    let scene = &mut controls.scene;
+    ui.horizontal(|ui| {
+        ui.selectable_value(&mut scene.effects.mode, RenderMode::Dvr, "DVR")
+            .on_hover_text("Tissue rendering (the paper's composite)");
+        ui.selectable_value(&mut scene.effects.mode, RenderMode::Mip, "MIP")
+            .on_hover_text("Maximum intensity projection");
+        ui.selectable_value(&mut scene.effects.mode, RenderMode::MinIp, "MinIP")
+            .on_hover_text("Minimum intensity projection");
+    });
+    ui.add(
+        egui::Slider::new(&mut scene.step_voxels, 0.25..=2.0)
+            .logarithmic(true)
+            .text("ray step (voxels)"),
+    )
+    .on_hover_text("Smaller is finer and slower");
+    ui.horizontal(|ui| {
+        ui.checkbox(&mut scene.effects.curvature, "Curvature")
+            .on_hover_text("Emphasize folded structures (computes the Hessian once)");
+        ui.add_enabled(
+            scene.effects.curvature,
+            egui::Slider::new(&mut scene.curvature_strength, 0.0..=4.0).text("strength"),
+        );
+    });
+    ui.checkbox(&mut scene.effects.shading, "Shading")
+        .on_hover_text("Headlight Phong shading (computes normals once)");
+    ui.horizontal(|ui| {
+        ui.label("Background");
+        ui.color_edit_button_rgb(&mut scene.background);
+    });
+}
+
+fn camera_panel(ui: &mut Ui, controls: &mut Controls) {
+    ui.heading("View");
+    ui.horizontal(|ui| {
+        for view in StandardView::ALL {
+            if ui
+                .button(view.letter().to_string())
+                .on_hover_text(format!("View from {} (key {})", view.name(), view.letter()))
+                .clicked()
+            {
+                controls.view(view);
+            }
+        }
+        if ui
+            .button("Reset")
+            .on_hover_text("Double-click the view")
+            .clicked()
+        {
+            controls.camera.reset(&mut controls.scene.camera);
+        }
+    });
+    ui.label(
+        RichText::new("Left-drag orbit, right/shift-drag pan, wheel zoom")
+            .small()
+            .weak(),
+    );
+}
+
+fn file_panel(ui: &mut Ui, controls: &mut Controls, requests: &mut Vec<Request>) {
+    ui.horizontal(|ui| {
+        if ui
+            .button("Open...")
+            .on_hover_text("Or drop a file on the window")
+            .clicked()
+        {
+            controls.open_dialog();
+        }
+        if ui.button("Phantom").clicked() {
+            requests.push(Request::Open(None));
+        }
+        if ui
+            .button("Save PNG...")
+            .on_hover_text("The window, with provenance")
+            .clicked()
+        {
+            controls.dialog_purpose = DialogPurpose::Save;
+            controls.dialog.save_file();
+        }
+    });
+}
+
+/// Colours of the per-pass bar segments, in order.
+const PASS_COLOURS: [Color32; 5] = [
+    Color32::from_rgb(230, 150, 60),
+    Color32::from_rgb(90, 160, 230),
+    Color32::from_rgb(120, 200, 120),
+    Color32::from_rgb(200, 110, 200),
+    Color32::from_rgb(200, 200, 90),
+];
+
+fn status_bar(ui: &mut Ui, status: &Status) {
+    ui.horizontal(|ui| {
+        ui.label(RichText::new(status.volume_text()).small());
+    });
+    ui.horizontal(|ui| {
+        ui.label(RichText::new(status.timing_text()).small());
+        let shares = status.pass_shares();
+        if !shares.is_empty() {
+            let (rect, _) = ui.allocate_exact_size(vec2(120.0, 10.0), egui::Sense::hover());
+            let mut x = rect.left();
+            for (i, (_, _, share)) in shares.iter().enumerate() {
+                let w = rect.width() * *share as f32;
+                ui.painter().rect_filled(
+                    Rect::from_min_size(Pos2::new(x, rect.top()), vec2(w, rect.height())),
+                    0.0,
+                    PASS_COLOURS[i % PASS_COLOURS.len()],
+                );
+                x += w;
+            }
+            for (i, (name, ms, _)) in shares.iter().enumerate() {
+                ui.label(
+                    RichText::new(format!("{name} {ms:.2}"))
+                        .small()
+                        .color(PASS_COLOURS[i % PASS_COLOURS.len()]),
+                );
+            }
+        }
+    });
+    if let Some(loading) = &status.loading {
+        ui.horizontal(|ui| {
+            ui.spinner();
+            ui.label(
+                RichText::new(format!(
+                    "Loading {}: {} ({:.1} s)",
+                    loading.label,
+                    loading.stage,
+                    loading.since.elapsed().as_secs_f64()
+                ))
+                .small(),
+            );
+        });
+    }
+    if let Some(deriving) = &status.deriving {
+        ui.horizontal(|ui| {
+            ui.spinner();
+            ui.label(RichText::new(deriving.as_str()).small());
+        });
+    }
+    if let Some(note) = &status.note {
+        ui.label(
+            RichText::new(note.as_str())
+                .small()
+                .color(Color32::LIGHT_GREEN),
+        );
+    }
+    if let Some(error) = &status.error {
+        ui.label(
+            RichText::new(error.as_str())
+                .small()
+                .color(Color32::from_rgb(255, 110, 100)),
+        );
+    }
+}
+
+fn view_input(ui: &mut Ui, rect: Rect, controls: &mut Controls) {
+    let response = ui.interact(rect, ui.id().with("3d view"), egui::Sense::click_and_drag());
+    let shift = ui.input(|i| i.modifiers.shift);
+    let pixels = ui.ctx().pixels_per_point();
+    let view_px = [
+        (rect.width() * pixels).round().max(1.0) as u32,
+        (rect.height() * pixels).round().max(1.0) as u32,
+    ];
+    let buttons = [
+        (egui::PointerButton::Primary, Button::Primary),
+        (egui::PointerButton::Secondary, Button::Secondary),
+        (egui::PointerButton::Middle, Button::Middle),
+    ];
+    controls.dragging = false;
+    for (egui_button, button) in buttons {
+        if response.dragged_by(egui_button) {
+            controls.dragging = true;
+            let d = response.drag_delta() * pixels;
+            let delta = [d.x as f64, d.y as f64];
+            match drag_kind(button, shift) {
+                DragKind::Orbit => controls.camera.orbit(&mut controls.scene.camera, delta),
+                DragKind::Pan => controls.camera.pan(
+                    &mut controls.scene.camera,
+                    delta,
+                    view_px,
+                    controls.extent_mm,
+                ),
+            }
+        }
+    }
+    if response.double_clicked() {
+        controls.camera.reset(&mut controls.scene.camera);
+    }
+    if response.hovered() {
+        let scroll = ui.input(|i| i.smooth_scroll_delta.y);
+        if scroll != 0.0 {
+            // egui-winit turns one wheel notch into 50 points of scroll.
+            controls
+                .camera
+                .zoom(&mut controls.scene.camera, scroll as f64 / 50.0);
+        }
+    }
+    if !ui.ctx().egui_wants_keyboard_input() {
+        let keys: Vec<egui::Key> = ui.input(|i| {
+            i.events
+                .iter()
+                .filter_map(|e| match e {
+                    egui::Event::Key {
+                        key,
+                        pressed: true,
+                        repeat: false,
+                        modifiers,
+                        ..
+                    } if modifiers.is_none() || modifiers.shift_only() => Some(*key),
+                    _ => None,
+                })
+                .collect()
+        });
+        for key in keys {
+            let name = key.name();
+            if name.len() == 1
+                && let Some(view) = name.chars().next().and_then(view_for_key)
+            {
+                controls.view(view);
+            }
+            if key == egui::Key::Home {
+                controls.camera.reset(&mut controls.scene.camera);
+            }
+        }
+    }
+}
+
+/// Where each orientation letter is drawn, in points (for tests and the scripted log).
+pub fn letter_positions(rect: Rect) -> [(Pos2, egui::Align2); 4] {
+    let m = 6.0;
+    [
+        (
+            Pos2::new(rect.left() + m, rect.center().y),
+            egui::Align2::LEFT_CENTER,
+        ),
+        (
+            Pos2::new(rect.right() - m, rect.center().y),
+            egui::Align2::RIGHT_CENTER,
+        ),
+        (
+            Pos2::new(rect.center().x, rect.top() + m),
+            egui::Align2::CENTER_TOP,
+        ),
+        (
+            Pos2::new(rect.center().x, rect.bottom() - m),
+            egui::Align2::CENTER_BOTTOM,
+        ),
+    ]
+}
+
+fn view_overlays(ui: &mut Ui, rect: Rect, controls: &Controls, shown: &Shown) {
+    let painter = ui.painter_at(rect);
+    if shown.has_volume {
+        let labels = edge_labels(&controls.scene.camera);
+        let texts = [labels.left, labels.right, labels.top, labels.bottom];
+        for ((pos, align), text) in letter_positions(rect).into_iter().zip(texts) {
+            painter.text(
+                pos,
+                align,
+                text,
+                egui::FontId::proportional(18.0),
+                Color32::from_rgb(255, 220, 0),
+            );
+        }
+    } else if shown.status.loading.is_none() {
+        painter.text(
+            rect.center(),
+            egui::Align2::CENTER_CENTER,
+            "Open a NIfTI file (Open..., or drop it here)",
+            egui::FontId::proportional(16.0),
+            Color32::GRAY,
+        );
+    }
+    if let Some(loading) = &shown.status.loading {
+        let spinner = Rect::from_center_size(rect.center(), vec2(32.0, 32.0));
+        ui.put(spinner, egui::Spinner::new().size(32.0));
+        painter.text(
+            rect.center() + vec2(0.0, 30.0),
+            egui::Align2::CENTER_TOP,
+            format!("Loading {}: {}", loading.label, loading.stage),
+            egui::FontId::proportional(14.0),
+            Color32::WHITE,
+        );
+    }
+    if let Some(error) = &shown.status.error {
+        painter.text(
+            rect.left_top() + vec2(8.0, 28.0),
+            egui::Align2::LEFT_TOP,
+            error,
+            egui::FontId::proportional(13.0),
+            Color32::from_rgb(255, 110, 100),
+        );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::Camera;
+
+    fn controls() -> Controls {
+        let w = |lo, hi| Some(Window { lo, hi, edge: 0.01 });
+        Controls::new(Scene::new(Classification::with_windows([
+            w(0.1, 0.2),
+            w(0.3, 0.5),
+            w(0.6, 0.8),
+            w(0.85, 1.01),
+        ])))
+    }
+
+    fn run(ctx: &egui::Context, controls: &mut Controls, events: Vec<egui::Event>) -> Outcome {
+        let status = Status::default();
+        let shown = Shown {
+            status: &status,
+            has_volume: true,
+        };
+        let input = egui::RawInput {
+            screen_rect: Some(Rect::from_min_size(Pos2::ZERO, vec2(900.0, 600.0))),
+            events,
+            ..Default::default()
+        };
+        let mut outcome = None;
+        ctx.run_ui(input, |ui| outcome = Some(draw(ui, controls, &shown)))
+            .drop_without_applying_deltas();
+        outcome.unwrap()
+    }
+
+    #[test]
+    fn dragging_on_the_view_orbits_and_keys_select_views() {
+        let ctx = egui::Context::default();
+        let mut c = controls();
+        let view = run(&ctx, &mut c, vec![]).view;
+        assert!(
+            view.left() >= PANEL_WIDTH,
+            "the view is right of the panel: {view:?}"
+        );
+        let start = view.center();
+        let press = |pos, pressed| egui::Event::PointerButton {
+            pos,
+            button: egui::PointerButton::Primary,
+            pressed,
+            modifiers: Default::default(),
+        };
+        run(&ctx, &mut c, vec![egui::Event::PointerMoved(start)]);
+        run(&ctx, &mut c, vec![press(start, true)]);
+        run(
+            &ctx,
+            &mut c,
+            vec![egui::Event::PointerMoved(start + vec2(20.0, 0.0))],
+        );
+        run(
+            &ctx,
+            &mut c,
+            vec![egui::Event::PointerMoved(start + vec2(50.0, 0.0))],
+        );
+        run(&ctx, &mut c, vec![press(start + vec2(50.0, 0.0), false)]);
+        // Only the motion after the drag threshold counts; it is at least the last 30 px.
+        assert!(
+            c.scene.camera.azimuth_deg >= 30.0 * 0.4 - 1e-9
+                && c.scene.camera.azimuth_deg <= 50.0 * 0.4 + 1e-9,
+            "azimuth {}",
+            c.scene.camera.azimuth_deg
+        );
+        assert_eq!(c.scene.camera.elevation_deg, 0.0);
+        let key = |key| egui::Event::Key {
+            key,
+            physical_key: None,
+            pressed: true,
+            repeat: false,
+            modifiers: Default::default(),
+        };
+        run(&ctx, &mut c, vec![key(egui::Key::S)]);
+        assert_eq!(c.scene.camera.elevation_deg, 90.0);
+        run(&ctx, &mut c, vec![key(egui::Key::L)]);
+        assert_eq!(
+            (c.scene.camera.azimuth_deg, c.scene.camera.elevation_deg),
+            (-90.0, 0.0)
+        );
+        // Double-click resets.
+        let p = view.center();
+        run(
+            &ctx,
+            &mut c,
+            vec![
+                press(p, true),
+                press(p, false),
+                press(p, true),
+                press(p, false),
+            ],
+        );
+        assert_eq!(c.scene.camera, Camera::default());
+    }
+
+    #[derive(Debug)]
+    struct Dropped(PathBuf);
+
+    impl egui::DroppedFile for Dropped {
+        fn path(&self) -> &std::path::Path {
+            &self.0
+        }
+        fn bytes(&self) -> Result<Vec<u8>, String> {
+            Ok(Vec::new())
+        }
+    }
+
+    #[test]
+    fn a_dropped_file_is_opened_and_the_dialog_opens() {
+        let ctx = egui::Context::default();
+        let mut c = controls();
+        let status = Status::default();
+        let shown = Shown {
+            status: &status,
+            has_volume: true,
+        };
+        let input = egui::RawInput {
+            screen_rect: Some(Rect::from_min_size(Pos2::ZERO, vec2(900.0, 600.0))),
+            dropped_files: vec![std::sync::Arc::new(Dropped(PathBuf::from(
+                "/data/t1.nii.gz",
+            )))],
+            ..Default::default()
+        };
+        let mut requests = Vec::new();
+        ctx.run_ui(input, |ui| {
+            requests.extend(draw(ui, &mut c, &shown).requests)
+        })
+        .drop_without_applying_deltas();
+        assert_eq!(
+            requests,
+            vec![Request::Open(Some(PathBuf::from("/data/t1.nii.gz")))]
+        );
+        c.open_dialog();
+        assert_eq!(*c.dialog.state(), egui_file_dialog::DialogState::Open);
+    }
+
+    #[test]
+    fn toggles_presets_and_window_edits_change_the_scene_only() {
+        let mut c = controls();
+        let before = c.scene;
+        c.toggle(TissueClass::Wm);
+        assert!(!c.scene.classification.style(TissueClass::Wm).visible);
+        c.toggle(TissueClass::Wm);
+        assert_eq!(c.scene, before);
+        c.set_window(TissueClass::Wm, 0.7, 0.9);
+        let wm = c
+            .scene
+            .classification
+            .style(TissueClass::Wm)
+            .window
+            .unwrap();
+        assert_eq!((wm.lo, wm.hi, wm.edge), (0.7, 0.9, 0.01));
+        assert_eq!(c.windows, WindowSource::Custom);
+        // The effects (what selects passes) never change with these edits.
+        assert_eq!(c.scene.effects, before.effects);
+    }
+}

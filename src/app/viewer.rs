@@ -1,0 +1,1254 @@
+//! The viewer's frame loop, independent of how frames reach the screen (a window's swapchain or
+//! an offscreen image): loader replies, script actions, the interface, the raymarch,
+//! composition, screenshots, status and the session log.
+//!
+//! Decisions:
+//! - Interaction cost: a slider, toggle or camera move changes [`Controls::scene`]; the frame
+//!   renders it with `Engine::render`, which writes the uniform buffer (and the host-written
+//!   occupancy bits) and records the raymarch only. An effect that needs a derived volume the
+//!   current one lacks (curvature, shading, the gradient after MIP) is requested from the loader
+//!   thread once, for the union of what was computed and what is needed, so switching it off
+//!   and on again costs nothing; until it arrives the previous effects stay on screen and the
+//!   status line says what is being computed.
+//! - Two raymarch targets alternate, so frame N+1's raymarch never writes the image frame N's
+//!   composition may still be copying; a target is reused only after every frame that read it
+//!   has finished. The 3D view is rendered at its own pixel size (the central rectangle), so
+//!   panels never hide part of the volume.
+//! - Without a script or --no-vsync, the raymarch runs only when the scene or the view size
+//!   changed (the last image is reused), so an idle window costs no GPU time.
+//! - A lost device or exhausted memory never ends the session: memory errors become a
+//!   one-line message in the window (the volume stays); a lost device drops every GPU object,
+//!   creates a new device (and surface, swapchain) and reloads the current file, with a message.
+
+use super::AppError;
+use super::frame_log::{FrameLog, FrameRecord, Pending, Until};
+use super::loader::{LoadedVolume, Loader, Reply, one_line};
+use super::painter::{COMPOSITE_FORMAT, FrameSpec, Painter};
+use super::script::{Action, Runner, Step};
+use super::status::{Loading, Status};
+use super::swapchain::{Surface, Swapchain};
+use super::ui::{self, Controls, Request};
+use crate::cli::args::SceneArgs;
+use crate::cli::png::{Provenance, write_rgba8};
+use crate::cli::render::scene_from_args;
+use crate::engine::{Derived, Engine, EngineConfig, RenderTarget};
+use crate::gpu::{Device, GpuError, PassTiming, Presentation};
+use crate::passes::derivatives::DerivativeOutputs;
+use crate::scene::{Effects, Scene};
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Instant;
+
+/// How the viewer was started.
+pub struct ViewerConfig {
+    /// File to open first (None: the phantom).
+    pub file: Option<PathBuf>,
+    /// Initial scene options (as for `render`).
+    pub scene: SceneArgs,
+    /// Window or offscreen image size, pixels.
+    pub size: [u32; 2],
+    /// Wait for vertical sync when presenting.
+    pub vsync: bool,
+    /// Exit after this many frames showing a volume (scripted mode).
+    pub frames: Option<u32>,
+    /// Save the last frame here before exiting.
+    pub screenshot: Option<PathBuf>,
+    /// Script steps.
+    pub script: Vec<Step>,
+    /// Device choice and validation.
+    pub engine: EngineConfig,
+    /// Print the per-frame log and summary.
+    pub log: bool,
+    /// The command line (PNG provenance).
+    pub command: String,
+    /// When the process started (time to first pixel of the first volume).
+    pub started: Instant,
+}
+
+/// One device's GPU objects; dropped and rebuilt after a device loss.
+struct Gpu {
+    painter: Painter,
+    targets: [Option<RenderTarget>; 2],
+    engine: Engine,
+    swapchain: Option<Swapchain>,
+    surface: Option<Arc<Surface>>,
+    device: Device,
+}
+
+impl Gpu {
+    fn new(
+        config: &EngineConfig,
+        window: Option<&winit::window::Window>,
+        size: [u32; 2],
+        vsync: bool,
+    ) -> Result<Gpu, AppError> {
+        let mut presentation = Presentation::default();
+        if let Some(window) = window {
+            use raw_window_handle::HasDisplayHandle;
+            let display = window
+                .display_handle()
+                .map_err(|e| AppError::Window(e.to_string()))?;
+            let names =
+                ash_window::enumerate_required_extensions(display.as_raw()).map_err(|e| {
+                    AppError::Window(format!("no Vulkan surface for this display: {e}"))
+                })?;
+            for &name in names {
+                // SAFETY: ash-window returns pointers to 'static NUL-terminated extension names.
+                presentation
+                    .surface_extensions
+                    .push(unsafe { std::ffi::CStr::from_ptr(name) });
+            }
+            presentation.swapchain = true;
+        }
+        let device = Device::with_presentation(&config.device, &presentation)?;
+        let engine = Engine::with_device(device.clone(), config.clone())?;
+        let (surface, swapchain) = match window {
+            Some(window) => {
+                let surface = Arc::new(Surface::new(&device, window)?);
+                let swapchain = Swapchain::new(&device, surface.clone(), size, vsync)?;
+                (Some(surface), swapchain)
+            }
+            None => (None, None),
+        };
+        let painter = Painter::new(&device)?;
+        Ok(Gpu {
+            painter,
+            targets: [None, None],
+            engine,
+            swapchain,
+            surface,
+            device,
+        })
+    }
+}
+
+/// The volume on screen.
+struct Current {
+    loaded: LoadedVolume,
+    derived: Option<Derived>,
+    /// First frame of this volume done (time to first pixel measured).
+    shown: bool,
+}
+
+/// What a frame asks of its host (the window loop).
+#[derive(Default)]
+pub struct FrameResult {
+    /// egui's platform output (cursor, clipboard...), for the window.
+    pub platform: Option<egui::PlatformOutput>,
+    /// Seconds until egui wants another frame (animations), if any.
+    pub repaint_after: Option<f64>,
+    /// The session is over (script done, `close`, or --frames reached).
+    pub exit: bool,
+    /// Ask the window to take this inner size.
+    pub resize: Option<[u32; 2]>,
+}
+
+/// The viewer.
+pub struct Viewer {
+    config: ViewerConfig,
+    gpu: Option<Gpu>,
+    loader: Loader,
+    ctx: egui::Context,
+    controls: Controls,
+    status: Status,
+    current: Option<Current>,
+    pending_load: Option<(u64, String, Option<PathBuf>)>,
+    pending_derive: Option<DerivativeOutputs>,
+    /// Loader GPU work delivered since the last frame, shown first by the next one.
+    arrived: Vec<(String, Vec<PassTiming>)>,
+    next_id: u64,
+    active_effects: Effects,
+    last: Option<Rendered>,
+    serial: u64,
+    volume_frames: u64,
+    log: FrameLog,
+    runner: Runner,
+    synthetic: std::collections::VecDeque<Vec<egui::Event>>,
+    screenshot_requests: Vec<PathBuf>,
+    size: [u32; 2],
+    exit: bool,
+    inject_device_lost: bool,
+    /// Frames left of a scripted `idle` (raymarch only on change, as interactively).
+    idle_frames: u32,
+    /// A scripted drag waiting for its first motion (its latency starts there).
+    watch_drag: Option<String>,
+    /// egui texture changes not yet applied (a skipped frame keeps them for the next).
+    unapplied: egui::TexturesDelta,
+    /// Host copies of egui's textures (re-sent to a new painter after a device loss).
+    mirror: super::painter::TextureMirror,
+    /// Why the last raymarch was refused (out of memory), so it is not retried every frame.
+    render_blocked: Option<(Scene, [u32; 4])>,
+}
+
+/// What the last raymarch rendered.
+#[derive(Clone, Copy, Debug)]
+struct Rendered {
+    scene: Scene,
+    rect: [u32; 4],
+    target: usize,
+    volume: u64,
+}
+
+impl Viewer {
+    /// Starts the loader on the first file; the GPU comes with [`Viewer::attach`]. Fails on
+    /// scene options that make no sense (same checks as `render`).
+    pub fn new(config: ViewerConfig) -> Result<Viewer, AppError> {
+        // The scene before any volume: options from the command line, no windows yet (they
+        // come from each volume's histogram).
+        let empty = crate::analysis::analyze(&[0; 256], 0.0, 0.0, 0, 0);
+        let scene = scene_from_args(&config.scene, &empty)
+            .map_err(|e| AppError::Failed(one_line(&e.to_string())))?;
+        let mut controls = Controls::new(scene);
+        controls.windows = match config.scene.windows {
+            crate::cli::args::WindowsArg::Adaptive => ui::WindowSource::Adaptive,
+            crate::cli::args::WindowsArg::Paper => ui::WindowSource::Paper,
+        };
+        let loader = Loader::spawn(config.engine.clone());
+        if !loader.is_running() {
+            return Err(AppError::Failed("cannot start the loader thread".into()));
+        }
+        let mut status = Status::default();
+        let label = label_of(config.file.as_ref());
+        status.loading = Some(Loading {
+            label: label.clone(),
+            stage: "starting".into(),
+            since: config.started,
+        });
+        loader.load(
+            1,
+            config.file.clone(),
+            config.started,
+            scene.effects.derivative_outputs(),
+        );
+        let log = FrameLog::new(config.log);
+        let runner = Runner::new(config.script.clone());
+        let size = config.size;
+        Ok(Viewer {
+            gpu: None,
+            loader,
+            ctx: egui::Context::default(),
+            active_effects: scene.effects,
+            controls,
+            status,
+            current: None,
+            pending_load: Some((1, label, config.file.clone())),
+            pending_derive: None,
+            arrived: Vec::new(),
+            next_id: 2,
+            last: None,
+            serial: 0,
+            volume_frames: 0,
+            log,
+            runner,
+            synthetic: Default::default(),
+            screenshot_requests: Vec::new(),
+            size,
+            exit: false,
+            inject_device_lost: false,
+            unapplied: Default::default(),
+            watch_drag: None,
+            idle_frames: 0,
+            mirror: Default::default(),
+            render_blocked: None,
+            config,
+        })
+    }
+
+    /// The egui context (the window integration feeds it).
+    pub fn egui(&self) -> &egui::Context {
+        &self.ctx
+    }
+
+    /// True when frames should follow each other without waiting for input (scripted runs,
+    /// --no-vsync measurements, loads or derived volumes in progress).
+    pub fn continuous(&self) -> bool {
+        self.config.frames.is_some()
+            || !self.config.vsync
+            || !self.config.script.is_empty()
+            || self.busy()
+    }
+
+    /// True when every frame runs the raymarch even if nothing changed: scripted runs and
+    /// --no-vsync measure frames; otherwise an unchanged scene reuses the last image (a load
+    /// in progress keeps the window redrawing its spinner without re-raymarching, which on a
+    /// CPU device would take cores from the loader).
+    fn always_raymarch(&self) -> bool {
+        (self.config.frames.is_some() || !self.config.vsync || !self.config.script.is_empty())
+            && self.idle_frames == 0
+    }
+
+    fn busy(&self) -> bool {
+        self.pending_load.is_some() || self.pending_derive.is_some()
+    }
+
+    /// Creates the GPU objects (for `window`, or offscreen) and hands the device to the loader.
+    pub fn attach(&mut self, window: Option<&winit::window::Window>) -> Result<(), AppError> {
+        let gpu = Gpu::new(&self.config.engine, window, self.size, self.config.vsync)?;
+        self.status.device = gpu.device.adapter().name.clone();
+        self.loader.provide_device(gpu.device.clone());
+        self.log.say(&format!(
+            "device: {}{}",
+            self.status.device,
+            match &gpu.swapchain {
+                Some(s) => format!(
+                    " (window {}x{}, {:?}, {:?})",
+                    s.extent.width, s.extent.height, s.format, s.present_mode
+                ),
+                None => format!(" (offscreen {}x{})", self.size[0], self.size[1]),
+            }
+        ));
+        self.gpu = Some(gpu);
+        Ok(())
+    }
+
+    /// Handles a window resize (the swapchain follows on the next frame).
+    pub fn resized(&mut self, size: [u32; 2]) {
+        self.size = size;
+    }
+
+    /// Ends the session (window closed): stops the loader first, which may be mid-load.
+    pub fn shutdown(&mut self) -> Result<(), AppError> {
+        if self.pending_load.take().is_some() {
+            self.log
+                .say("closed during a load: the loader stops at its next phase boundary");
+        }
+        self.loader.shutdown();
+        let waited = match &mut self.gpu {
+            Some(gpu) => gpu.painter.wait_all().map_err(AppError::from),
+            None => Ok(()),
+        };
+        // The last frames' composition times, for the log.
+        self.flush_completed();
+        waited
+    }
+
+    /// The session log's summary lines.
+    pub fn summary(&self) -> Vec<String> {
+        self.log.summary()
+    }
+
+    /// Validation errors reported on the current device.
+    pub fn validation_errors(&self) -> Vec<String> {
+        match &self.gpu {
+            Some(gpu) => gpu.device.validation_log().errors(),
+            None => Vec::new(),
+        }
+    }
+
+    /// True when the validation layer is active on the device.
+    pub fn validation_enabled(&self) -> bool {
+        self.gpu
+            .as_ref()
+            .is_some_and(|g| g.device.validation_enabled())
+    }
+
+    fn poll_loader(&mut self) {
+        for reply in self.loader.poll() {
+            match reply {
+                Reply::Progress { id, stage } => {
+                    if let (Some((pending, ..)), Some(loading)) =
+                        (&self.pending_load, &mut self.status.loading)
+                        && *pending == id
+                    {
+                        loading.stage = stage.to_string();
+                    }
+                }
+                Reply::Loaded(loaded) => {
+                    if self.pending_load.as_ref().map(|p| p.0) != Some(loaded.id) {
+                        continue;
+                    }
+                    self.adopt(*loaded);
+                }
+                Reply::LoadFailed { id, message } => {
+                    if self.pending_load.as_ref().map(|p| p.0) != Some(id) {
+                        continue;
+                    }
+                    self.pending_load = None;
+                    self.status.loading = None;
+                    let kept = if self.current.is_some() {
+                        "; the previous volume stays"
+                    } else {
+                        ""
+                    };
+                    self.status.error = Some(format!("Cannot open: {message}{kept}"));
+                    self.log.say(&format!("load failed: {message}"));
+                    self.log
+                        .pending
+                        .retain(|p| p.until != Until::VolumeShown(id));
+                }
+                Reply::Derived {
+                    id,
+                    outputs,
+                    derived,
+                } => {
+                    let Some(current) = &mut self.current else {
+                        continue;
+                    };
+                    if current.loaded.id != id {
+                        continue;
+                    }
+                    self.pending_derive = None;
+                    self.status.deriving = None;
+                    let ms: f64 = derived.gpu_timings.iter().map(|t| t.gpu_ms).sum();
+                    let what = describe(outputs);
+                    self.status.note = Some(format!(
+                        "Computed the {what} once ({ms:.1} ms GPU); toggling it again is free"
+                    ));
+                    self.arrived.push((
+                        format!("derived volume ({what}), computed once"),
+                        derived.gpu_timings.clone(),
+                    ));
+                    current.derived = Some(*derived);
+                }
+                Reply::DeriveFailed {
+                    id,
+                    outputs,
+                    message,
+                    device_lost,
+                } => {
+                    if self.current.as_ref().map(|c| c.loaded.id) != Some(id) {
+                        continue;
+                    }
+                    self.pending_derive = None;
+                    self.status.deriving = None;
+                    // Turn the effect back off so the scene stays renderable.
+                    self.controls.scene.effects = self.active_effects;
+                    self.status.error = Some(format!(
+                        "Cannot compute the {}: {message}",
+                        describe(outputs)
+                    ));
+                    if device_lost {
+                        self.device_lost(&format!("computing the {}", describe(outputs)), None);
+                    }
+                }
+            }
+        }
+    }
+
+    fn adopt(&mut self, loaded: LoadedVolume) {
+        self.pending_load = None;
+        self.status.loading = None;
+        self.status.error = None;
+        let prepared = &loaded.prepared;
+        let extent_mm = (0..3)
+            .map(|i| prepared.dims[i] as f64 * loaded.spacing_mm[i])
+            .fold(0.0, f64::max);
+        self.controls
+            .adopt_volume(loaded.report.clone(), prepared.histogram, extent_mm);
+        self.status.file = loaded.label.clone();
+        self.status.dims = prepared.dims;
+        self.status.spacing_mm = loaded.spacing_mm;
+        self.status.ttfp_ms = None;
+        self.arrived
+            .push((format!("load {}", loaded.label), loaded.passes.clone()));
+        self.log.say(&format!(
+            "loaded {} ({}x{}x{}); peaks CSF {} GM {} WM {}",
+            loaded.label,
+            prepared.dims[0],
+            prepared.dims[1],
+            prepared.dims[2],
+            peak_text(loaded.report.peaks.csf),
+            peak_text(loaded.report.peaks.gm),
+            peak_text(loaded.report.peaks.wm)
+        ));
+        let mut loaded = loaded;
+        let derived = loaded.derived.take();
+        self.current = Some(Current {
+            loaded,
+            derived,
+            shown: false,
+        });
+        self.request_derived();
+    }
+
+    /// Asks the loader for the derived volumes the requested effects need (once), and picks
+    /// the effects to render now.
+    fn request_derived(&mut self) {
+        let Some(current) = &self.current else { return };
+        let wanted = self.controls.scene.effects;
+        let have = current.derived.as_ref().map(|d| d.volumes.outputs);
+        let covered = |e: &Effects| match e.derivative_outputs() {
+            None => true,
+            Some(need) => have.is_some_and(|h| covers(h, need)),
+        };
+        if covered(&wanted) {
+            self.active_effects = wanted;
+            return;
+        }
+        if self.pending_derive.is_none()
+            && let Some(need) = wanted.derivative_outputs()
+        {
+            let outputs = match have {
+                Some(h) if h.precision == need.precision => DerivativeOutputs {
+                    magnitude: h.magnitude || need.magnitude,
+                    curvature: h.curvature || need.curvature,
+                    normal: h.normal || need.normal,
+                    precision: need.precision,
+                },
+                _ => need,
+            };
+            let what = describe(outputs);
+            self.status.deriving = Some(format!("Computing the {what} (once)..."));
+            self.log.say(&format!("requesting derived volumes: {what}"));
+            self.loader
+                .derive(current.loaded.id, current.loaded.prepared.clone(), outputs);
+            self.pending_derive = Some(outputs);
+        }
+        if !covered(&self.active_effects) {
+            // Nothing renderable yet with derived volumes: MIP needs none.
+            self.active_effects.mode = crate::scene::RenderMode::Mip;
+        }
+    }
+
+    fn open(&mut self, path: Option<PathBuf>, label_for_log: Option<String>) {
+        let id = self.next_id;
+        self.next_id += 1;
+        let label = label_of(path.as_ref());
+        let now = Instant::now();
+        self.status.loading = Some(Loading {
+            label: label.clone(),
+            stage: "queued".into(),
+            since: now,
+        });
+        self.loader.load(
+            id,
+            path.clone(),
+            now,
+            self.controls.scene.effects.derivative_outputs(),
+        );
+        self.pending_load = Some((id, label, path));
+        if let Some(text) = label_for_log {
+            self.log.pending.push(Pending {
+                label: text,
+                since: now,
+                until: Until::VolumeShown(id),
+            });
+        }
+    }
+
+    fn apply(&mut self, step: &Step) -> Option<[u32; 2]> {
+        self.log
+            .say(&format!("script line {}: {}", step.line, step.text));
+        let before = self.rendered_scene();
+        let c = &mut self.controls;
+        let mut resize = None;
+        let mut watch = true;
+        match &step.action {
+            Action::Toggle(t) => c.toggle(*t),
+            Action::Show(t, v) => c.set_visible(*t, *v),
+            Action::SetWindow(t, lo, hi) => c.set_window(*t, *lo, *hi),
+            Action::Opacity(t, o) => c.set_opacity(*t, *o),
+            Action::Colour(t, rgb) => c.set_colour(*t, *rgb),
+            Action::Preset(p) => c.preset(*p),
+            Action::Orbit(az, el) => c.orbit_degrees(*az, *el),
+            Action::Pan(x, y) => {
+                c.scene.camera.pan_mm[0] += x;
+                c.scene.camera.pan_mm[1] += y;
+            }
+            Action::Zoom(f) => c.scene.camera.zoom = (c.scene.camera.zoom * f).clamp(0.1, 50.0),
+            Action::View(v) => c.view(*v),
+            Action::ResetView => {
+                let camera = c.camera;
+                camera.reset(&mut c.scene.camera);
+            }
+            Action::Drag { button, from, to } => {
+                self.queue_drag(*button, *from, *to);
+                // Timed from the frame whose input first moves the held mouse (below), not
+                // from the synthetic press a few frames earlier.
+                self.watch_drag = Some(step.text.clone());
+                watch = false;
+            }
+            Action::Mode(m) => c.set_mode(*m),
+            Action::Step(s) => c.scene.step_voxels = *s,
+            Action::Curvature(on) => c.scene.effects.curvature = *on,
+            Action::CurvatureStrength(s) => c.scene.curvature_strength = *s,
+            Action::Shading(on) => c.scene.effects.shading = *on,
+            Action::Background(rgb) => c.scene.background = *rgb,
+            Action::Open(path) => {
+                self.open(path.clone(), Some(step.text.clone()));
+                watch = false;
+            }
+            Action::Screenshot(path) => {
+                self.screenshot_requests.push(path.clone());
+                watch = false;
+            }
+            Action::Wait(_) => watch = false,
+            Action::Idle(n) => {
+                // This frame and the n after it.
+                self.idle_frames = n + 1;
+                watch = false;
+            }
+            Action::Resize(w, h) => {
+                resize = Some([*w, *h]);
+                watch = false;
+            }
+            Action::Close => {
+                self.exit = true;
+                watch = false;
+            }
+            Action::SimulateDeviceLost => {
+                self.inject_device_lost = true;
+                watch = false;
+            }
+        }
+        if watch && let Some(before) = before {
+            self.log.pending.push(Pending {
+                label: step.text.clone(),
+                since: Instant::now(),
+                until: Until::SceneChanges(Box::new(before)),
+            });
+        }
+        resize
+    }
+
+    /// Synthetic pointer events of a drag over the 3D view, one batch per frame.
+    fn queue_drag(&mut self, button: super::camera_control::Button, from: [f32; 2], to: [f32; 2]) {
+        let rect = self.view_rect_points();
+        let at = |f: [f32; 2]| rect.min + egui::vec2(f[0] * rect.width(), f[1] * rect.height());
+        let button = match button {
+            super::camera_control::Button::Primary => egui::PointerButton::Primary,
+            super::camera_control::Button::Secondary => egui::PointerButton::Secondary,
+            super::camera_control::Button::Middle => egui::PointerButton::Middle,
+        };
+        let press = |pos, pressed| egui::Event::PointerButton {
+            pos,
+            button,
+            pressed,
+            modifiers: Default::default(),
+        };
+        let (a, b) = (at(from), at(to));
+        self.synthetic.push_back(vec![egui::Event::PointerMoved(a)]);
+        self.synthetic.push_back(vec![press(a, true)]);
+        for i in 1..=8 {
+            let t = i as f32 / 8.0;
+            self.synthetic
+                .push_back(vec![egui::Event::PointerMoved(a + (b - a) * t)]);
+        }
+        self.synthetic.push_back(vec![press(b, false)]);
+    }
+
+    fn view_rect_points(&self) -> egui::Rect {
+        self.ctx.memory(|m| {
+            m.data
+                .get_temp::<egui::Rect>(egui::Id::new("morphray view rect"))
+                .unwrap_or(egui::Rect::from_min_size(
+                    egui::pos2(ui::PANEL_WIDTH, 0.0),
+                    egui::vec2(300.0, 300.0),
+                ))
+        })
+    }
+
+    /// The scene the raymarch renders now: the requested one with the effects that can be
+    /// shown (derived volumes present); None without a volume.
+    fn rendered_scene(&self) -> Option<Scene> {
+        self.current.as_ref()?;
+        let mut scene = self.controls.scene;
+        scene.effects = self.active_effects;
+        Some(scene)
+    }
+
+    /// Runs one frame: `input` from the window (or synthetic offscreen input), `window` when
+    /// presenting to one.
+    pub fn frame(
+        &mut self,
+        mut input: egui::RawInput,
+        window: Option<&winit::window::Window>,
+    ) -> Result<FrameResult, AppError> {
+        let frame_start = Instant::now();
+        let mut result = FrameResult::default();
+        let error_before = self.status.error.clone();
+        self.poll_loader();
+
+        // Script: at most one step per frame, never while loading or deriving or dragging.
+        if self.synthetic.is_empty()
+            && !self.controls.dragging
+            && let Some(step) = self.runner.next_step(self.busy())
+        {
+            result.resize = self.apply(&step);
+            if let Some(size) = result.resize
+                && window.is_none()
+            {
+                self.size = size;
+            }
+        }
+        if let Some(events) = self.synthetic.pop_front() {
+            input.events.extend(events);
+        }
+        if window.is_none() {
+            input.screen_rect = Some(egui::Rect::from_min_size(
+                egui::Pos2::ZERO,
+                egui::vec2(self.size[0] as f32, self.size[1] as f32),
+            ));
+            input.time = Some(self.config.started.elapsed().as_secs_f64());
+        }
+
+        // The interface.
+        let before_ui = self.rendered_scene();
+        let shown = ui::Shown {
+            status: &self.status,
+            has_volume: self.current.is_some(),
+        };
+        let mut outcome: Option<ui::Outcome> = None;
+        let controls = &mut self.controls;
+        let full = self.ctx.run_ui(input, |ui| {
+            // egui may run the interface twice in a frame (a discarded sizing pass); requests
+            // (a click, a dropped file) come from whichever pass saw the input.
+            let mut next = ui::draw(ui, controls, &shown);
+            if let Some(previous) = outcome.take() {
+                let mut requests = previous.requests;
+                requests.append(&mut next.requests);
+                requests.dedup();
+                next.requests = requests;
+            }
+            outcome = Some(next);
+        });
+        let Some(outcome) = outcome else {
+            return Err(AppError::Failed("the interface produced no frame".into()));
+        };
+        self.ctx.memory_mut(|m| {
+            m.data
+                .insert_temp(egui::Id::new("morphray view rect"), outcome.view);
+            if let Some(h) = outcome.histogram {
+                m.data
+                    .insert_temp(egui::Id::new("morphray histogram rect"), h);
+            }
+        });
+        if self.controls.dragging
+            && let (Some(label), Some(before)) = (self.watch_drag.take(), before_ui)
+        {
+            self.log.pending.push(Pending {
+                label,
+                since: frame_start,
+                until: Until::SceneChanges(Box::new(before)),
+            });
+        }
+        for request in outcome.requests.clone() {
+            match request {
+                Request::Open(path) => self.open(path, None),
+                Request::Screenshot(path) => self.screenshot_requests.push(path),
+            }
+        }
+        self.request_derived();
+
+        let ppp = full.pixels_per_point;
+        if let Some(delay) = full
+            .viewport_output
+            .get(&egui::ViewportId::ROOT)
+            .map(|v| v.repaint_delay.as_secs_f64())
+        {
+            result.repaint_after = Some(delay);
+        }
+        let size = match window {
+            Some(w) => {
+                let s = w.inner_size();
+                [s.width, s.height]
+            }
+            None => self.size,
+        };
+        self.size = size;
+        let view_rect = px_rect(outcome.view, ppp, size);
+
+        // Exit decision before painting, so the last frame carries the screenshot copy.
+        let frames_done = self
+            .config
+            .frames
+            .is_some_and(|n| self.volume_frames + 1 >= n as u64);
+        let script_done = self.runner.finished() && self.synthetic.is_empty();
+        let last = self.exit
+            || (self.config.frames.is_some()
+                && frames_done
+                && script_done
+                && !self.busy()
+                && self.current.is_some());
+
+        let primitives = self.ctx.tessellate(full.shapes, ppp);
+        let mut textures = full.textures_delta;
+        self.mirror.record(&textures);
+        self.unapplied.append(std::mem::take(&mut textures));
+        textures.clear();
+        let frame = self.render_and_paint(
+            window,
+            size,
+            view_rect,
+            &primitives,
+            ppp,
+            last || !self.screenshot_requests.is_empty(),
+            frame_start,
+        );
+        match frame {
+            Ok(()) => {}
+            Err(FrameError::Gpu(GpuError::DeviceLost(during))) => {
+                self.device_lost(&during, window);
+            }
+            Err(FrameError::Gpu(e @ GpuError::OutOfDeviceMemory { .. })) => {
+                self.status.error = Some(format!(
+                    "{}; showing the last image (make the window smaller, or use a larger step)",
+                    one_line(&e.to_string())
+                ));
+            }
+            Err(FrameError::Gpu(e)) => {
+                self.status.error = Some(one_line(&e.to_string()));
+            }
+            Err(FrameError::App(e)) => return Err(e),
+        }
+        if self.status.error != error_before
+            && let Some(error) = &self.status.error
+        {
+            self.log.say(&format!("error shown: {error}"));
+        }
+        self.flush_completed();
+        self.idle_frames = self.idle_frames.saturating_sub(1);
+        self.status.rate.frame(Instant::now());
+        result.platform = Some(full.platform_output);
+        if last {
+            let path = self.config.screenshot.clone();
+            if let Some(path) = path {
+                self.screenshot_requests.push(path);
+            }
+            self.exit = true;
+        }
+        self.write_screenshots()?;
+        result.exit = self.exit;
+        Ok(result)
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn render_and_paint(
+        &mut self,
+        window: Option<&winit::window::Window>,
+        size: [u32; 2],
+        view_rect: [u32; 4],
+        primitives: &[egui::ClippedPrimitive],
+        ppp: f32,
+        screenshot: bool,
+        frame_start: Instant,
+    ) -> Result<(), FrameError> {
+        let scene = self.rendered_scene();
+        let continuous = self.always_raymarch();
+        let Some(gpu) = &mut self.gpu else {
+            return Ok(());
+        };
+        if size[0] == 0 || size[1] == 0 {
+            // Minimized: nothing to draw into; keep the textures for later.
+            return Ok(());
+        }
+        if self.inject_device_lost {
+            self.inject_device_lost = false;
+            return Err(FrameError::Gpu(GpuError::DeviceLost(
+                "a frame (simulated by the script)".into(),
+            )));
+        }
+        // The raymarch.
+        let mut raymarch: Vec<PassTiming> = Vec::new();
+        let mut fresh = false;
+        if let (Some(current), Some(scene)) = (&self.current, scene)
+            && view_rect[2] > 0
+            && view_rect[3] > 0
+        {
+            let unchanged = self.last.is_some_and(|l| {
+                l.scene == scene && l.rect == view_rect && l.volume == current.loaded.id
+            });
+            let blocked = self.render_blocked == Some((scene, view_rect));
+            if (!unchanged || continuous) && !blocked {
+                let index = self.last.map(|l| (l.target + 1) % 2).unwrap_or(0);
+                gpu.painter.release_target(index)?;
+                let fits = gpu.targets[index]
+                    .as_ref()
+                    .is_some_and(|t| t.width == view_rect[2] && t.height == view_rect[3]);
+                if !fits {
+                    gpu.targets[index] = None;
+                    let mut target =
+                        match gpu
+                            .engine
+                            .render_target(view_rect[2], view_rect[3], COMPOSITE_FORMAT)
+                        {
+                            Ok(t) => t,
+                            Err(e) => {
+                                self.render_blocked = Some((scene, view_rect));
+                                return Err(FrameError::Gpu(e));
+                            }
+                        };
+                    target.read_back = false;
+                    gpu.targets[index] = Some(target);
+                }
+                let Some(target) = gpu.targets[index].as_mut() else {
+                    return Ok(());
+                };
+                let derived = current.derived.as_ref();
+                match gpu
+                    .engine
+                    .render(target, &current.loaded.prepared, derived, &scene)
+                {
+                    Ok(frame) => raymarch = frame.gpu_timings,
+                    Err(e) => {
+                        if matches!(e, GpuError::OutOfDeviceMemory { .. }) {
+                            self.render_blocked = Some((scene, view_rect));
+                        }
+                        return Err(FrameError::Gpu(e));
+                    }
+                }
+                self.render_blocked = None;
+                fresh = true;
+                self.last = Some(Rendered {
+                    scene,
+                    rect: view_rect,
+                    target: index,
+                    volume: current.loaded.id,
+                });
+            }
+        }
+        let shown = self.last.filter(|l| {
+            self.current
+                .as_ref()
+                .is_some_and(|c| c.loaded.id == l.volume)
+        });
+        let target = shown.and_then(|l| {
+            gpu.targets[l.target]
+                .as_ref()
+                .filter(|t| t.width == l.rect[2] && t.height == l.rect[3])
+                .map(|t| (t.image().clone(), l.rect, l.target))
+        });
+
+        // Window image.
+        let slot = gpu.painter.next_slot();
+        gpu.painter.wait_slot(slot)?;
+        let mut acquired = None;
+        if window.is_some() {
+            let Some(swapchain) = gpu.swapchain.as_mut() else {
+                // No swapchain yet (the window had no area): try again.
+                if let Some(surface) = &gpu.surface {
+                    gpu.swapchain =
+                        Swapchain::new(&gpu.device, surface.clone(), size, self.config.vsync)?;
+                }
+                return Ok(());
+            };
+            if (swapchain.extent.width != size[0] || swapchain.extent.height != size[1])
+                && !swapchain.recreate(size)?
+            {
+                return Ok(());
+            }
+            match swapchain.acquire(slot)? {
+                Some(a) => acquired = Some(a),
+                None => {
+                    swapchain.recreate(size)?;
+                    return Ok(());
+                }
+            }
+        }
+        let background = self.controls.scene.background;
+        let serial = self.serial + 1;
+        let spec = FrameSpec {
+            serial,
+            size,
+            raymarch: target
+                .as_ref()
+                .map(|(image, rect, _)| (image, fresh, *rect)),
+            target_index: target.as_ref().map(|t| t.2),
+            clear: [background[0], background[1], background[2], 1.0],
+            primitives,
+            pixels_per_point: ppp,
+            textures: std::mem::take(&mut self.unapplied),
+            window: acquired,
+            screenshot,
+        };
+        gpu.painter.paint(spec)?;
+        self.serial = serial;
+        if let (Some(swapchain), Some(a)) = (gpu.swapchain.as_mut(), acquired)
+            && swapchain.present(&a)?
+        {
+            swapchain.recreate(size)?;
+        }
+
+        // Bookkeeping: log record, first pixel, action latencies.
+        if let (Some(current), Some(shown)) = (&mut self.current, shown) {
+            self.volume_frames += 1;
+            let mut compute = std::mem::take(&mut self.arrived);
+            if fresh {
+                compute.push(("raymarch".into(), raymarch.clone()));
+            }
+            self.log.submitted(
+                serial,
+                FrameRecord {
+                    number: self.volume_frames,
+                    compute,
+                    compose: Vec::new(),
+                    cpu_ms: frame_start.elapsed().as_secs_f64() * 1e3,
+                    complete: false,
+                },
+            );
+            let first = !current.shown;
+            let resolves = self.log.would_resolve(&shown.scene, Some(shown.volume));
+            if first || resolves {
+                // Stamp the moment the GPU finished this frame.
+                gpu.painter.wait_slot(slot)?;
+                let now = Instant::now();
+                if first {
+                    current.shown = true;
+                    let ms = now
+                        .duration_since(current.loaded.requested_at)
+                        .as_secs_f64()
+                        * 1e3;
+                    self.status.ttfp_ms = Some(ms);
+                    self.log.say(&format!(
+                        "time to first pixel of {}: {ms:.0} ms",
+                        current.loaded.label
+                    ));
+                }
+                self.log
+                    .resolve(self.volume_frames, &shown.scene, Some(shown.volume), now);
+            }
+        }
+        if !raymarch.is_empty() || fresh {
+            let mut passes: Vec<(String, f64)> = raymarch
+                .iter()
+                .map(|p| (p.name.clone(), p.gpu_ms))
+                .collect();
+            passes.retain(|(n, _)| !n.is_empty());
+            self.status.passes = passes;
+        }
+        Ok(())
+    }
+
+    /// Logs frames whose composition finished, and adds their times to the status bar.
+    fn flush_completed(&mut self) {
+        let Some(gpu) = &mut self.gpu else { return };
+        for done in gpu.painter.take_completed() {
+            let mut passes: Vec<(String, f64)> = self
+                .status
+                .passes
+                .iter()
+                .filter(|(n, _)| n == "raymarch")
+                .cloned()
+                .collect();
+            passes.extend(done.passes.iter().map(|p| (p.name.clone(), p.gpu_ms)));
+            self.status.passes = passes;
+            self.log.completed(done.serial, done.passes);
+        }
+    }
+
+    fn write_screenshots(&mut self) -> Result<(), AppError> {
+        if self.screenshot_requests.is_empty() {
+            return Ok(());
+        }
+        let Some(gpu) = &mut self.gpu else {
+            return Ok(());
+        };
+        let (w, h, pixels) = match gpu.painter.screenshot() {
+            Ok(p) => p,
+            Err(e) => {
+                self.status.error =
+                    Some(format!("Screenshot failed: {}", one_line(&e.to_string())));
+                self.screenshot_requests.clear();
+                return Ok(());
+            }
+        };
+        self.flush_completed();
+        for path in std::mem::take(&mut self.screenshot_requests) {
+            let provenance = self.provenance();
+            match write_rgba8(&path, w, h, &pixels, &provenance) {
+                Ok(()) => {
+                    self.log.say(&format!("wrote {} ({w}x{h})", path.display()));
+                    self.status.note = Some(format!("Saved {}", path.display()));
+                }
+                Err(e) => self.status.error = Some(one_line(&e.to_string())),
+            }
+        }
+        Ok(())
+    }
+
+    fn provenance(&self) -> Provenance {
+        let (input, sha) = match &self.current {
+            Some(c) => (c.loaded.label.clone(), c.loaded.sha256.clone()),
+            None => (String::new(), String::new()),
+        };
+        let parameters = serde_json::json!({
+            "engine": format!("morphray {}", env!("CARGO_PKG_VERSION")),
+            "input": input,
+            "viewer": true,
+            "window_size": self.size,
+            "scene": self.rendered_scene(),
+            "device": self.status.device,
+        });
+        Provenance {
+            input,
+            input_sha256: sha,
+            command: self.config.command.clone(),
+            parameters: parameters.to_string(),
+        }
+    }
+
+    /// After a device loss: drop every GPU object, make a new device, reload the volume.
+    fn device_lost(&mut self, during: &str, window: Option<&winit::window::Window>) {
+        let message = format!("The GPU device was lost during {during}");
+        self.log.say(&format!("{message}; restarting the GPU"));
+        // Stale frames and derived work belong to the old device.
+        self.gpu = None;
+        // The new painter has no textures: give it every texture egui sent so far.
+        self.unapplied.clear();
+        self.unapplied = self.mirror.full_upload();
+        self.log.abandon_in_flight();
+        self.last = None;
+        self.pending_derive = None;
+        self.status.deriving = None;
+        let reload = self.current.take().map(|c| c.loaded.path);
+        match Gpu::new(&self.config.engine, window, self.size, self.config.vsync) {
+            Ok(gpu) => {
+                self.loader.provide_device(gpu.device.clone());
+                self.gpu = Some(gpu);
+                if let Some(path) = reload {
+                    self.open(path, None);
+                }
+                self.status.error = Some(format!(
+                    "{message}; the GPU was restarted and the volume is being reloaded"
+                ));
+            }
+            Err(e) => {
+                self.status.error = Some(format!(
+                    "{message}, and it could not be restarted: {}",
+                    one_line(&e.to_string())
+                ));
+                self.log.say(self.status.error.as_deref().unwrap_or(""));
+                self.exit = true;
+            }
+        }
+    }
+
+    /// True once a frame showed a volume (tests).
+    pub fn frames_shown(&self) -> u64 {
+        self.volume_frames
+    }
+
+    /// The status line's error, if any.
+    pub fn error(&self) -> Option<&str> {
+        self.status.error.as_deref()
+    }
+
+    /// Layout facts for the scripted log: the view and histogram rectangles in pixels, and the
+    /// orientation letters with their positions.
+    pub fn layout_line(&self) -> String {
+        let ppp = self.ctx.pixels_per_point();
+        let view = px_rect(self.view_rect_points(), ppp, self.size);
+        let hist = self
+            .ctx
+            .memory(|m| {
+                m.data
+                    .get_temp::<egui::Rect>(egui::Id::new("morphray histogram rect"))
+            })
+            .map(|r| px_rect(r, ppp, self.size))
+            .unwrap_or([0; 4]);
+        let letters = super::camera_control::edge_labels(&self.controls.scene.camera);
+        format!(
+            "layout: view {},{},{},{} histogram {},{},{},{} letters left {} right {} top {} bottom {}",
+            view[0],
+            view[1],
+            view[2],
+            view[3],
+            hist[0],
+            hist[1],
+            hist[2],
+            hist[3],
+            letters.left,
+            letters.right,
+            letters.top,
+            letters.bottom
+        )
+    }
+}
+
+/// Why a frame failed.
+enum FrameError {
+    Gpu(GpuError),
+    App(AppError),
+}
+
+impl From<GpuError> for FrameError {
+    fn from(e: GpuError) -> Self {
+        FrameError::Gpu(e)
+    }
+}
+
+impl From<AppError> for FrameError {
+    fn from(e: AppError) -> Self {
+        FrameError::App(e)
+    }
+}
+
+/// True when derived volumes `have` include everything `need` asks for.
+fn covers(have: DerivativeOutputs, need: DerivativeOutputs) -> bool {
+    have.precision == need.precision
+        && (have.magnitude || !need.magnitude)
+        && (have.curvature || !need.curvature)
+        && (have.normal || !need.normal)
+}
+
+/// What a set of derived volumes is, for the status line.
+fn describe(outputs: DerivativeOutputs) -> String {
+    let mut parts = Vec::new();
+    if outputs.magnitude {
+        parts.push("gradient magnitude");
+    }
+    if outputs.curvature {
+        parts.push("curvature");
+    }
+    if outputs.normal {
+        parts.push("normals");
+    }
+    if parts.is_empty() {
+        parts.push("gradient maximum");
+    }
+    format!("{} volume", parts.join(" + "))
+}
+
+fn peak_text(peak: Option<crate::analysis::Peak>) -> String {
+    peak.map(|p| format!("{:.3}", p.norm))
+        .unwrap_or_else(|| "-".into())
+}
+
+fn label_of(path: Option<&PathBuf>) -> String {
+    match path {
+        Some(p) => p
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_else(|| p.display().to_string()),
+        None => "phantom".into(),
+    }
+}
+
+/// A rectangle in points as whole pixels (x, y, w, h) inside a frame of `size` pixels.
+pub fn px_rect(rect: egui::Rect, ppp: f32, size: [u32; 2]) -> [u32; 4] {
+    let x0 = (rect.left() * ppp).round().clamp(0.0, size[0] as f32) as u32;
+    let y0 = (rect.top() * ppp).round().clamp(0.0, size[1] as f32) as u32;
+    let x1 = (rect.right() * ppp).round().clamp(0.0, size[0] as f32) as u32;
+    let y1 = (rect.bottom() * ppp).round().clamp(0.0, size[1] as f32) as u32;
+    [x0, y0, x1.saturating_sub(x0), y1.saturating_sub(y0)]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn derived_volumes_cover_what_effects_need() {
+        let o = |magnitude, curvature, normal| DerivativeOutputs {
+            magnitude,
+            curvature,
+            normal,
+            precision: Default::default(),
+        };
+        assert!(covers(o(true, true, false), o(true, false, false)));
+        assert!(!covers(o(true, false, false), o(true, true, false)));
+        assert!(covers(o(true, true, true), o(true, true, true)));
+        assert_eq!(
+            describe(o(true, true, false)),
+            "gradient magnitude + curvature volume"
+        );
+    }
+
+    #[test]
+    fn view_rectangles_become_pixels_inside_the_frame() {
+        let r = egui::Rect::from_min_max(egui::pos2(300.0, 0.0), egui::pos2(640.0, 420.5));
+        assert_eq!(px_rect(r, 1.0, [640, 480]), [300, 0, 340, 421]);
+        assert_eq!(px_rect(r, 2.0, [1280, 960]), [600, 0, 680, 841]);
+        assert_eq!(px_rect(r, 1.0, [500, 400]), [300, 0, 200, 400]);
+    }
+}

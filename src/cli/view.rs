@@ -1,0 +1,43 @@
+//! `morphray view`: the interactive viewer (src/app), and its scripted mode for tests.
+
+use super::args::ViewArgs;
+use crate::app::{ViewerConfig, script};
+use crate::error::Error;
+use crate::gpu::Validation;
+use std::time::Instant;
+
+/// Runs the command.
+pub fn run(args: &ViewArgs, global: &super::GlobalOptions) -> Result<(), Error> {
+    let started = Instant::now();
+    let steps = match &args.script {
+        Some(path) => script::load(path).map_err(crate::app::AppError::from)?,
+        None => Vec::new(),
+    };
+    if args.offscreen && args.frames.is_none() && steps.is_empty() {
+        return Err(Error::Usage(
+            "--offscreen has no window to close: give --frames N or --script FILE".into(),
+        ));
+    }
+    if args.frames == Some(0) {
+        return Err(Error::Usage("--frames needs at least 1 frame".into()));
+    }
+    let engine = global.engine_config();
+    let fail_on_validation = engine.device.validation == Validation::Required;
+    let (width, height) = args.scene.size.unwrap_or((1280, 800));
+    let scripted = args.frames.is_some() || !steps.is_empty();
+    let config = ViewerConfig {
+        file: args.file.clone(),
+        scene: args.scene.clone(),
+        size: [width, height],
+        vsync: !args.no_vsync,
+        frames: args.frames,
+        screenshot: args.screenshot.clone(),
+        script: steps,
+        engine,
+        log: scripted,
+        command: std::env::args().collect::<Vec<_>>().join(" "),
+        started,
+    };
+    crate::app::run(config, args.offscreen, fail_on_validation)?;
+    Ok(())
+}

@@ -1,0 +1,381 @@
+//! The viewer as a person (or CI) runs it: `morphray view` in a real window under Xvfb on the
+//! machine's Vulkan device (lavapipe here), scripted, with the validation layer required.
+//! Screenshots are checked where the interface draws things: the histogram panel has its bar
+//! colour, the 3D view has the volume, toggling WM changes the view, and the lesion (left
+//! hemisphere) appears on the side the orientation letter `L` marks.
+//!
+//! These tests fail (never skip) when xvfb-run or a Vulkan device is missing.
+
+use morphray::app::histogram::BAR_COLOUR;
+use morphray::volume::nifti::write_nifti1;
+use morphray::volume::phantom::{PhantomSpec, generate};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("morphray-viewer-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// A small phantom (48x48x40, 1 mm) with CSF, GM, WM and the left-hemisphere lesion.
+fn small_phantom(dir: &Path) -> PathBuf {
+    let spec = PhantomSpec {
+        dims: [48, 48, 40],
+        ..PhantomSpec::cohort_a()
+    };
+    let phantom = generate(&spec).unwrap();
+    let path = dir.join("small.nii.gz");
+    write_nifti1(&phantom.volume, &path, true).unwrap();
+    path
+}
+
+fn xvfb_run() -> &'static str {
+    let found = Command::new("sh")
+        .args(["-c", "command -v xvfb-run"])
+        .output()
+        .is_ok_and(|o| o.status.success());
+    assert!(
+        found,
+        "this test needs xvfb-run (Debian: apt-get install xvfb xauth; tools/setup.sh installs it)"
+    );
+    "xvfb-run"
+}
+
+/// Runs `morphray view ARGS` under Xvfb (or offscreen without DISPLAY) with validation required.
+fn view(args: &[&str], window: bool) -> Output {
+    let bin = env!("CARGO_BIN_EXE_morphray");
+    let mut command = if window {
+        let mut c = Command::new(xvfb_run());
+        c.args(["-a", "-s", "-screen 0 1280x1024x24", bin, "view"]);
+        c
+    } else {
+        let mut c = Command::new(bin);
+        c.env_remove("DISPLAY").env_remove("WAYLAND_DISPLAY");
+        c.arg("view");
+        c
+    };
+    let output = command
+        .args(args)
+        .env("MORPHRAY_VALIDATION", "required")
+        .output()
+        .expect("morphray runs");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(
+        !stderr.contains("no Vulkan") && !stderr.contains("found no device"),
+        "this test needs a Vulkan device (Debian: apt-get install mesa-vulkan-drivers libvulkan1 vulkan-validationlayers): {stderr}"
+    );
+    output
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+fn assert_ok(o: &Output) {
+    assert!(
+        o.status.success(),
+        "exit {:?}\nstdout:\n{}\nstderr:\n{}",
+        o.status.code(),
+        stdout(o),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(
+        stdout(o).contains("validation layer: 0 error(s)"),
+        "validation must be on and clean:\n{}",
+        stdout(o)
+    );
+}
+
+struct Png {
+    width: u32,
+    height: u32,
+    rgba: Vec<u8>,
+}
+
+impl Png {
+    fn read(path: &Path) -> Png {
+        let decoder = png::Decoder::new(std::io::BufReader::new(
+            std::fs::File::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display())),
+        ));
+        let mut reader = decoder.read_info().unwrap();
+        let mut rgba = vec![0; reader.output_buffer_size().unwrap()];
+        let info = reader.next_frame(&mut rgba).unwrap();
+        assert_eq!(info.color_type, png::ColorType::Rgba);
+        Png {
+            width: info.width,
+            height: info.height,
+            rgba,
+        }
+    }
+
+    fn pixel(&self, x: u32, y: u32) -> [u8; 3] {
+        let i = ((y * self.width + x) * 4) as usize;
+        [self.rgba[i], self.rgba[i + 1], self.rgba[i + 2]]
+    }
+
+    fn pixels_in(&self, r: [u32; 4]) -> impl Iterator<Item = (u32, u32, [u8; 3])> + '_ {
+        (r[1]..r[1] + r[3])
+            .flat_map(move |y| (r[0]..r[0] + r[2]).map(move |x| (x, y, self.pixel(x, y))))
+    }
+}
+
+/// `name x,y,w,h` from the layout line of the log.
+fn layout_rect(log: &str, name: &str) -> [u32; 4] {
+    let line = log
+        .lines()
+        .find(|l| l.starts_with("layout:"))
+        .unwrap_or_else(|| panic!("no layout line in:\n{log}"));
+    let words: Vec<&str> = line.split_whitespace().collect();
+    let i = words.iter().position(|w| *w == name).unwrap();
+    let v: Vec<u32> = words[i + 1]
+        .split(',')
+        .map(|n| n.parse().unwrap())
+        .collect();
+    [v[0], v[1], v[2], v[3]]
+}
+
+fn layout_word(log: &str, name: &str) -> String {
+    let line = log.lines().find(|l| l.starts_with("layout:")).unwrap();
+    let words: Vec<&str> = line.split_whitespace().collect();
+    let i = words.iter().position(|w| *w == name).unwrap();
+    words[i + 1].to_string()
+}
+
+/// Pixels of the 3D view that differ from the background (black).
+fn lit(png: &Png, view: [u32; 4]) -> usize {
+    // Skip the letters' margins (yellow text at the edges).
+    let inner = [view[0] + 24, view[1] + 24, view[2] - 48, view[3] - 48];
+    png.pixels_in(inner)
+        .filter(|(_, _, p)| p.iter().any(|&c| c > 24))
+        .count()
+}
+
+#[test]
+fn scripted_window_session_shows_histogram_volume_and_reacts_to_a_toggle() {
+    let dir = temp_dir("window");
+    let volume = small_phantom(&dir);
+    let script = dir.join("actions.txt");
+    let (a, b, last) = (dir.join("a.png"), dir.join("b.png"), dir.join("last.png"));
+    std::fs::write(
+        &script,
+        format!(
+            "wait 1\nscreenshot {}\ntoggle wm\nwait 1\nscreenshot {}\ntoggle wm\norbit 30 0\nset window gm 0.3 0.6\nidle 3\nresize 600 440\nwait 2\n",
+            a.display(),
+            b.display()
+        ),
+    )
+    .unwrap();
+    let o = view(
+        &[
+            volume.to_str().unwrap(),
+            "--size",
+            "640x480",
+            "--frames",
+            "6",
+            "--script",
+            script.to_str().unwrap(),
+            "--screenshot",
+            last.to_str().unwrap(),
+        ],
+        true,
+    );
+    assert_ok(&o);
+    let log = stdout(&o);
+    assert!(
+        log.contains("(window 640x480"),
+        "a real window and swapchain:\n{log}"
+    );
+
+    let view_rect = layout_rect(&log, "view");
+    let hist = layout_rect(&log, "histogram");
+    let a = Png::read(&a);
+    assert_eq!((a.width, a.height), (640, 480));
+    // The histogram panel: its bars' colour is there.
+    let bars = a
+        .pixels_in(hist)
+        .filter(|(_, _, p)| *p == [BAR_COLOUR.r(), BAR_COLOUR.g(), BAR_COLOUR.b()])
+        .count();
+    assert!(bars > 100, "histogram bars in {hist:?}: {bars} pixels");
+    // The volume: not blank.
+    let lit_a = lit(&a, view_rect);
+    assert!(
+        lit_a > 2000,
+        "the 3D view shows the volume: {lit_a} lit pixels"
+    );
+    // After `toggle wm` the rendered region changed.
+    let b = Png::read(&b);
+    let changed = a
+        .pixels_in(view_rect)
+        .zip(b.pixels_in(view_rect))
+        .filter(|((_, _, p), (_, _, q))| p != q)
+        .count();
+    assert!(
+        changed > 1000,
+        "toggling WM changed {changed} pixels of the view"
+    );
+    assert!(
+        Png::read(&last).rgba != a.rgba,
+        "orbit and window edit changed the frame"
+    );
+
+    // Provenance as `morphray render` writes it.
+    let chunks = morphray::cli::png::read_text_chunks(&last).unwrap();
+    let input = chunks.iter().find(|(k, _)| k == "morphray:input").unwrap();
+    assert_eq!(input.1, "small.nii.gz");
+    assert!(
+        chunks
+            .iter()
+            .any(|(k, v)| k == "morphray:parameters" && v.contains("\"scene\""))
+    );
+
+    // Only the raymarch ran after the first frame; every action was seen and timed.
+    assert!(
+        log.contains("other compute passes after the first frame: none"),
+        "{log}"
+    );
+    // `idle`: as in an interactive window, an unchanged scene reuses the last image.
+    assert!(
+        log.lines()
+            .any(|l| l.starts_with("frame") && l.contains("compute: none")),
+        "idle frames without a raymarch:\n{log}"
+    );
+    for action in ["toggle wm", "orbit 30 0", "set window gm 0.3 0.6"] {
+        assert!(
+            log.lines()
+                .any(|l| l.starts_with(&format!("action \"{action}\" -> first shown by frame"))),
+            "latency of `{action}` missing:\n{log}"
+        );
+    }
+}
+
+#[test]
+fn orientation_letters_match_the_picture_for_the_lesion() {
+    // The phantom's lesion is in the left hemisphere (world x < 0). In the anterior view the
+    // letter on the image's right must be L, and the lesion must be on that side; from behind,
+    // R on the right and the lesion on the left.
+    let dir = temp_dir("letters");
+    let volume = small_phantom(&dir);
+    for (view_name, right_letter, lesion_right) in
+        [("anterior", "L", true), ("posterior", "R", false)]
+    {
+        let shot = dir.join(format!("{view_name}.png"));
+        let script = dir.join(format!("{view_name}.txt"));
+        std::fs::write(
+            &script,
+            format!("hide csf\nhide gm\nhide wm\nshow pathology\nview {view_name}\n"),
+        )
+        .unwrap();
+        let o = view(
+            &[
+                volume.to_str().unwrap(),
+                "--size",
+                "640x480",
+                "--frames",
+                "2",
+                "--script",
+                script.to_str().unwrap(),
+                "--screenshot",
+                shot.to_str().unwrap(),
+                "--offscreen",
+            ],
+            false,
+        );
+        assert_ok(&o);
+        let log = stdout(&o);
+        assert_eq!(layout_word(&log, "right"), right_letter, "{log}");
+        let view_rect = layout_rect(&log, "view");
+        let png = Png::read(&shot);
+        let red: Vec<u32> = png
+            .pixels_in(view_rect)
+            .filter(|(_, _, p)| p[0] > 120 && p[1] < 80 && p[2] < 80)
+            .map(|(x, _, _)| x)
+            .collect();
+        assert!(
+            red.len() > 20,
+            "{view_name}: the lesion is visible ({} red pixels)",
+            red.len()
+        );
+        let mean = red.iter().map(|&x| x as f64).sum::<f64>() / red.len() as f64;
+        let centre = view_rect[0] as f64 + view_rect[2] as f64 / 2.0;
+        assert_eq!(
+            mean > centre,
+            lesion_right,
+            "{view_name}: lesion at x {mean:.0}, view centre {centre:.0}"
+        );
+    }
+}
+
+#[test]
+fn a_bad_file_keeps_the_volume_and_a_lost_device_recovers() {
+    let dir = temp_dir("robust");
+    let volume = small_phantom(&dir);
+    let bad = dir.join("broken.nii");
+    std::fs::write(&bad, b"not a nifti file").unwrap();
+    let script = dir.join("robust.txt");
+    std::fs::write(
+        &script,
+        format!(
+            "open {}\nwait 1\nsimulate-device-lost\nwait 2\n",
+            bad.display()
+        ),
+    )
+    .unwrap();
+    let shot = dir.join("after.png");
+    let o = view(
+        &[
+            volume.to_str().unwrap(),
+            "--size",
+            "480x360",
+            "--frames",
+            "3",
+            "--script",
+            script.to_str().unwrap(),
+            "--screenshot",
+            shot.to_str().unwrap(),
+            "--offscreen",
+        ],
+        false,
+    );
+    assert_ok(&o);
+    let log = stdout(&o);
+    assert!(log.contains("load failed: broken.nii"), "{log}");
+    assert!(log.contains("The GPU device was lost"), "{log}");
+    assert_eq!(
+        log.matches("loaded small.nii.gz").count(),
+        2,
+        "the volume is reloaded on the new device:\n{log}"
+    );
+    let png = Png::read(&shot);
+    assert!(
+        lit(&png, layout_rect(&log, "view")) > 2000,
+        "the volume is back"
+    );
+}
+
+#[test]
+fn closing_the_window_during_a_load_exits_cleanly() {
+    let dir = temp_dir("close");
+    let volume = small_phantom(&dir);
+    let script = dir.join("close.txt");
+    // The built-in phantom is 256x256x192: its load is still running at `close`.
+    std::fs::write(&script, "open phantom\nclose\n").unwrap();
+    let started = std::time::Instant::now();
+    let o = view(
+        &[
+            volume.to_str().unwrap(),
+            "--size",
+            "480x360",
+            "--script",
+            script.to_str().unwrap(),
+        ],
+        true,
+    );
+    assert_ok(&o);
+    let log = stdout(&o);
+    assert!(log.contains("closed during a load"), "{log}");
+    assert!(
+        started.elapsed().as_secs() < 120,
+        "closing does not wait for the whole load"
+    );
+}
