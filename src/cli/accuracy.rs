@@ -279,15 +279,17 @@ pub fn run(args: &AccuracyArgs, global: &super::GlobalOptions) -> Result<(), Err
             VIEWS.len()
         )));
     }
+    let (width, height) = args.scene.size.unwrap_or((256, 256));
+    let mut scene_args = args.scene.clone();
+    scene_args.size = Some((width, height));
     let mut opened = session::open(
         args.file.as_deref(),
         args.frame,
         false,
         global.engine_config(),
-        Some(&args.scene),
+        Some(&scene_args),
     )?;
     let base = opened.scene;
-    let (width, height) = args.scene.size.unwrap_or((256, 256));
     let views = &VIEWS[..args.views];
     let volume = opened.source.volume.clone();
     let dims = opened.twin.prepared.dims;

@@ -154,15 +154,18 @@ pub fn run(args: &BenchArgs, global: &super::GlobalOptions) -> Result<(), Error>
             "--frames and --repeat must be at least 1".into(),
         ));
     }
+    // The plan is made for the image the bench renders (1920x1080 unless --size says otherwise).
+    let (width, height) = args.scene.size.unwrap_or((1920, 1080));
+    let mut scene_args = args.scene.clone();
+    scene_args.size = Some((width, height));
     let mut opened = session::open(
         args.file.as_deref(),
         args.frame,
         false,
         global.engine_config(),
-        Some(&args.scene),
+        Some(&scene_args),
     )?;
     let scene = opened.scene;
-    let (width, height) = args.scene.size.unwrap_or((1920, 1080));
     let adapter = opened.engine.device().adapter().clone();
     let documented = adapter.name.contains("H100").then_some(H100);
     let volume = &opened.source.volume;
