@@ -21,9 +21,10 @@ pub struct Cli {
     pub validation: bool,
 
     /// Most GPU memory morphray may hold, in bytes (suffixes K, M, G allowed: 512M). Over it,
-    /// the plan degrades (8-bit derived volumes, R8 intensities, gradients on the fly, then
-    /// bricking) or the command stops with a message naming what did not fit. Default: what
-    /// the device reports available.
+    /// the plan degrades, cheapest accuracy first (8-bit derived volumes, R8 intensities,
+    /// bricking, then gradients on the fly; `morphray plan` shows which and what each costs) or
+    /// the command stops with a message naming what did not fit. Default: what the device
+    /// reports available (VK_EXT_memory_budget, or the heap size).
     #[arg(long, global = true, value_name = "BYTES", value_parser = parse_bytes)]
     pub memory_budget: Option<u64>,
 

@@ -448,8 +448,8 @@ fn print_text(r: &BenchReport<'_>) {
     ));
     for d in &r.plan.degradations {
         print_line(&format!(
-            "degradation: {} (error: ACCURACY.md, setting \"{}\")",
-            d.what, d.accuracy_setting
+            "degradation: {} (accuracy setting \"{}\": {}; ACCURACY.md)",
+            d.what, d.accuracy_setting, d.accuracy_cost
         ));
     }
     if !r.full_study {

@@ -199,10 +199,11 @@ fn print_text(r: &PlanReport<'_>) {
         );
         for d in &p.degradations {
             print_line(&format!(
-                "  - {} (saves {:.1} MiB; accuracy setting \"{}\")",
+                "  - {} (saves {:.1} MiB; accuracy setting \"{}\": {})",
                 d.what,
                 mib(d.saved_bytes),
-                d.accuracy_setting
+                d.accuracy_setting,
+                d.accuracy_cost
             ));
         }
     }

@@ -122,11 +122,11 @@ pub fn open(
     let prepare_ms = prepare_start.elapsed().as_secs_f64() * 1e3;
     for degradation in &plan.degradations {
         eprintln!(
-            "morphray: note: to fit {} MiB of GPU memory: {} (saves {:.1} MiB; accuracy setting \"{}\")",
+            "morphray: note: to fit {} MiB of GPU memory: {} (saves {:.1} MiB; accuracy cost: {})",
             plan.budget / (1 << 20),
             degradation.what,
             degradation.saved_bytes as f64 / (1u64 << 20) as f64,
-            degradation.accuracy_setting
+            degradation.accuracy_cost
         );
     }
     let timings = OpenTimings {
