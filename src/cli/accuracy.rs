@@ -184,6 +184,8 @@ struct AccuracyReport<'a> {
     input: &'a str,
     dims: [u32; 3],
     image: [u32; 2],
+    /// Size of the timing renders (RGBA8).
+    time_image: [u32; 2],
     views: Vec<(f64, f64)>,
     frames: u32,
     reference: &'static str,
@@ -280,6 +282,7 @@ pub fn run(args: &AccuracyArgs, global: &super::GlobalOptions) -> Result<(), Err
         )));
     }
     let (width, height) = args.scene.size.unwrap_or((256, 256));
+    let time_size = args.time_size.unwrap_or((width, height));
     let mut scene_args = args.scene.clone();
     scene_args.size = Some((width, height));
     let mut opened = session::open(
@@ -407,6 +410,12 @@ pub fn run(args: &AccuracyArgs, global: &super::GlobalOptions) -> Result<(), Err
             opened
                 .engine
                 .render_target(width, height, vk::Format::R32G32B32A32_SFLOAT)?;
+        let mut timing =
+            opened
+                .engine
+                .render_target(time_size.0, time_size.1, vk::Format::R8G8B8A8_UNORM)?;
+        timing.read_back = false;
+        timing.count_samples = true;
         let (mut sq_sum, mut max_abs, mut ssim, mut samples) = (0.0, 0.0f64, 0.0, Vec::new());
         for (v, &(azimuth, elevation)) in views.iter().enumerate() {
             let mut view = scene;
@@ -432,11 +441,10 @@ pub fn run(args: &AccuracyArgs, global: &super::GlobalOptions) -> Result<(), Err
             sq_sum += e.rmse * e.rmse;
             max_abs = max_abs.max(e.max_abs);
             ssim += e.ssim;
-            target.read_back = false;
-            target.count_samples = true;
+            // Time and count samples where the timing happens: an RGBA8 target at --time-size.
             let counted = opened
                 .engine
-                .render(&mut target, prepared, derived.as_ref(), &view)?;
+                .render(&mut timing, prepared, derived.as_ref(), &view)?;
             if let Some(c) = counted.samples {
                 let variant = RaymarchVariant::of(&view.effects, false);
                 let (per_marched, per_classified) = variant.fetches();
@@ -445,14 +453,14 @@ pub fn run(args: &AccuracyArgs, global: &super::GlobalOptions) -> Result<(), Err
                     per_marched * c.marched as f64 + per_classified * c.classified as f64,
                 ));
             }
-            target.count_samples = false;
         }
+        timing.count_samples = false;
         for f in 0..WARM_UP_FRAMES {
             let mut warm = scene;
             warm.frame = f;
             opened
                 .engine
-                .render(&mut target, prepared, derived.as_ref(), &warm)?;
+                .render(&mut timing, prepared, derived.as_ref(), &warm)?;
         }
         let nviews = views.len() as f64;
         let rmse = (sq_sum / nviews).sqrt();
@@ -475,14 +483,31 @@ pub fn run(args: &AccuracyArgs, global: &super::GlobalOptions) -> Result<(), Err
             scene,
             format,
             derived,
-            target,
+            target: timing,
             times: Vec::new(),
         }));
     }
 
     // Phase 2: timing rounds, every setting once per round, so load spikes from other
-    // processes (this machine is shared) fall on all settings alike.
-    eprintln!("accuracy: timing {} rounds", args.frames);
+    // processes (this machine is shared) fall on all settings alike. GPUs idle at low clocks
+    // (the H100 showed 345 MHz before a run), so the first setting renders for half a second
+    // before anything is timed.
+    if let Some(first) = live.iter_mut().flatten().next() {
+        let prepared = &prepared_by_format[first.format].1;
+        let warm_up = std::time::Instant::now();
+        while warm_up.elapsed().as_secs_f64() < 0.5 {
+            opened.engine.render(
+                &mut first.target,
+                prepared,
+                first.derived.as_ref(),
+                &first.scene,
+            )?;
+        }
+    }
+    eprintln!(
+        "accuracy: timing {} rounds at {}x{}",
+        args.frames, time_size.0, time_size.1
+    );
     for round in 0..args.frames {
         for slot in live.iter_mut().flatten() {
             for &(azimuth, elevation) in views {
@@ -582,6 +607,7 @@ pub fn run(args: &AccuracyArgs, global: &super::GlobalOptions) -> Result<(), Err
         input: &opened.source.label,
         dims,
         image: [width, height],
+        time_image: [time_size.0, time_size.1],
         views: views.to_vec(),
         frames: args.frames,
         reference: "f64 pipeline: normalization and derivative twins, reference raymarcher at step 0.125, trilinear, exact opacity correction, no early termination",
@@ -623,7 +649,7 @@ pub fn run(args: &AccuracyArgs, global: &super::GlobalOptions) -> Result<(), Err
 
 fn print_table(r: &AccuracyReport<'_>) {
     print_line(&format!(
-        "{} on {}: {} {}x{}x{}, {}x{} px, {} views, {} frames",
+        "{} on {}: {} {}x{}x{}, error at {}x{} px, time at {}x{} px, {} views, {} frames",
         r.engine,
         r.device,
         r.input,
@@ -632,6 +658,8 @@ fn print_table(r: &AccuracyReport<'_>) {
         r.dims[2],
         r.image[0],
         r.image[1],
+        r.time_image[0],
+        r.time_image[1],
         r.views.len(),
         r.frames
     ));

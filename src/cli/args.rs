@@ -332,6 +332,10 @@ pub struct AccuracyArgs {
     /// Write an SVG plot of error vs time with the Pareto frontier.
     #[arg(long, value_name = "SVG")]
     pub plot: Option<PathBuf>,
+    /// Image size of the timing renders, WIDTHxHEIGHT (RGBA8, as `render` draws); errors are
+    /// measured at --size, where the f64 reference is affordable. Default: --size.
+    #[arg(long, value_parser = parse_size)]
+    pub time_size: Option<(u32, u32)>,
     /// Frame of a 4-D file (0-based).
     #[arg(long, default_value_t = 0)]
     pub frame: usize,
