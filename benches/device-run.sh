@@ -3,7 +3,7 @@
 # layers (../shared/GPU.md), then runs every test binary with validation, `peaks`, 1920x1080
 # benchmarks of the phantom (all tissues visible, step 0.5 voxel): the full plan (curvature and
 # shading), DVR without curvature, MIP, the full plan bricked, the full plan under the gen12
-# profile; the plans of those scenes; a render under a 64 MiB budget (bricking); and the accuracy
+# profile; the plans of those scenes; a render under a 16 MiB budget (bricking); and the accuracy
 # study (errors at 256x256, times at 1920x1080; the phantom, and MNI152 when .data/ carries it).
 # The device returns at most 8 files: run-log.txt and tests.txt beside
 # results.tgz, which holds every JSON, SVG and PNG.
