@@ -24,6 +24,8 @@ for line in sys.stdin:
 while read -r name kind path; do
     case "$name/$kind" in
         morphray/lib) cp "$path" .gpu/lib_tests ;;
+        # CPU-only tests and the viewer's (it needs a display server) stay here.
+        fuzz_regressions/test|nifti_*/test|phantom/test|reference*/test|peaks/test|viewer/test) ;;
         */test) cp "$path" ".gpu/$name" ;;
     esac
 done <<< "$executables"
