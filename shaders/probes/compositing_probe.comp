@@ -8,8 +8,8 @@
 // One invocation per item; `job` selects what an item means:
 // - JOB_OPACITY: item = (a, r) -> (opacity_correct(a, r), 1 - pow(1 - a, r) in f32);
 // - JOB_ACCUMULATE: item = (a, n) -> alpha after n `composite` steps of opacity a in f32, and
-//   the same recurrence with every intermediate rounded to f16 (an f16 accumulator, emulated
-//   with packHalf2x16 so no float16 device feature is needed).
+//   the same recurrence with every intermediate rounded to f16 precision (an f16 accumulator,
+//   emulated in integer arithmetic so no float16 device feature is needed).
 // The f64 twin of the probe is the twin of what it includes; it adds no arithmetic of its own
 // beyond the naive and f16 comparisons.
 #extension GL_GOOGLE_include_directive : require
@@ -31,9 +31,13 @@ const uint JOB_ACCUMULATE = 1u;
 // Upper bound on composite steps per item, so a bad input cannot hang the device.
 const uint MAX_STEPS = 100000u;
 
-// x rounded to the nearest f16 (as an f16 register or f16 storage would hold it).
+// x rounded to f16 precision, to nearest even (as an f16 register would hold it), for values in
+// f16's normal range (all of them here). Done on the bits: packHalf2x16's rounding is left to the
+// device, and the H100's compiler folded unpackHalf2x16(packHalf2x16(x)) to x altogether.
 float to_f16(float x) {
-    return unpackHalf2x16(packHalf2x16(vec2(x, 0.0))).x;
+    uint bits = floatBitsToUint(x);
+    uint odd = (bits >> 13u) & 1u;
+    return uintBitsToFloat((bits + 0xFFFu + odd) & ~0x1FFFu);
 }
 
 void main() {
