@@ -7,7 +7,10 @@
 # study (errors at 256x256, times at 1920x1080; the phantom, and MNI152 when .data/ carries it).
 # The device returns at most 8 files: run-log.txt and tests.txt beside
 # results.tgz, which holds every JSON, SVG and PNG.
+# Stages: `bash benches/device-run.sh [tests] [bench] [accuracy]` (default: all three).
 set -uo pipefail
+stages=" ${*:-tests bench accuracy} "
+want() { [[ "$stages" == *" $1 "* ]]; }
 for f in .gl/lib{vulkan1,egl1,glvnd0,opengl0,gl1,glx0,gles2}_*.deb; do dpkg -x "$f" /; done
 ldconfig
 mkdir -p /opt/vk
@@ -28,13 +31,14 @@ W=/tmp/morphray-work
 rm -rf "$W" && mkdir -p "$W"
 # CPU-only test binaries (loader, phantom, reference twins, fuzz seeds) ran on the CI machine;
 # the viewer's needs a display server (Xvfb), which the GPU machine does not have.
-for t in $(ls $G | grep -v -E '^(morphray|fuzz_regressions|nifti_properties|nifti_loader|phantom|reference|reference_raymarch|peaks|viewer)$'); do
+want tests && for t in $(ls $G | grep -v -E '^(morphray|fuzz_regressions|nifti_properties|nifti_loader|phantom|reference|reference_raymarch|peaks|viewer)$'); do
     echo "== $t"
     $G/$t --test-threads=4 --nocapture 2>&1 | grep -v -E "^ +[0-9]+: |^ +at /rustc|^stack backtrace|^note: Some details"
 done 2>&1 | tee "$OUT/tests.txt" | grep -E "==|test result|FAILED|panicked"
 $G/morphray peaks --json > "$W/peaks.json"
-common="--tissues csf,gm,wm,pathology --frames 100 --repeat 10"
 run() { echo "== morphray $*" | tee -a "$OUT/run-log.txt"; $G/morphray "$@" 2>&1 | tee -a "$OUT/run-log.txt"; }
+if want bench; then
+common="--tissues csf,gm,wm,pathology --frames 100 --repeat 10"
 # Issue 7: time and memory of the full plan, DVR without curvature, MIP; bricking at the same image.
 run bench $common --curvature on --shading on --json "$W/bench-full.json"
 run bench $common --curvature off --json "$W/bench-dvr-no-curvature.json"
@@ -49,11 +53,14 @@ $G/morphray --bricked plan --size 1920x1080 --tissues csf,gm,wm,pathology --curv
 run --memory-budget 16M plan --size 512x512 --curvature on
 run --memory-budget 16M render --size 512x512 --curvature on -o "$W/budget-16M.png"
 run render --size 512x512 --curvature on -o "$W/whole.png"
+fi
+if want accuracy; then
 # Issue 6: errors at 256x256 against the f64 pipeline, times at 1920x1080.
-run accuracy --size 256x256 --time-size 1920x1080 --views 3 --frames 9 --json "$W/accuracy.json" --plot "$W/accuracy.svg"
+run accuracy --size 256x256 --time-size 1920x1080 --views 3 --frames 25 --json "$W/accuracy.json" --plot "$W/accuracy.svg"
 if [ -f .data/mni152.nii.gz ]; then
-    run accuracy .data/mni152.nii.gz --size 256x256 --time-size 1920x1080 --views 3 --frames 9 \
+    run accuracy .data/mni152.nii.gz --size 256x256 --time-size 1920x1080 --views 3 --frames 25 \
         --json "$W/accuracy-mni152.json" --plot "$W/accuracy-mni152.svg"
+fi
 fi
 nvidia-smi --query-gpu=clocks.sm,clocks.mem --format=csv | tee -a "$OUT/nvidia-smi.txt"
 tar czf "$OUT/results.tgz" -C "$W" .

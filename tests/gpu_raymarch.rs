@@ -630,11 +630,42 @@ fn empty_space_skipping_changes_no_pixel() {
             // The same lattice samples minus samples of zero opacity: identical up to the
             // order-independent f32 arithmetic of the compositing, i.e. exactly.
             assert_eq!(a, b, "{visible:?} {interpolation:?}");
-            // And skipping really skips: fewer samples marched.
+            // And skipping really ran: enough bricks are empty for the engine to use it.
             let ranges = engine.brick_ranges(&p.prepared).unwrap();
             let occupied = ranges.occupied_fraction(&on.classification);
-            assert!(occupied < 1.0, "some bricks are empty ({occupied})");
+            assert!(
+                occupied <= morphray::engine::MAX_OCCUPANCY_FOR_SKIPPING,
+                "bricks visible: {occupied}"
+            );
         }
     }
+    common::assert_no_validation_errors(&engine);
+}
+
+#[test]
+fn empty_space_skipping_is_used_only_where_there_is_empty_space() {
+    let mut engine = common::engine();
+    let (volume, _) = phantom(48);
+    let p = prepare(&mut engine, &volume, |_| {});
+    let mut target = engine
+        .render_target(16, 16, vk::Format::R8G8B8A8_UNORM)
+        .unwrap();
+    let frame = engine
+        .render(&mut target, &p.prepared, p.derived.as_ref(), &p.scene)
+        .unwrap();
+    assert!(frame.skipped_empty_space, "the phantom's corners are empty");
+    // A window that sees the background too: every brick is visible, nothing can be skipped,
+    // and the engine marches without the brick lookups (the image is the same either way).
+    let mut everything = p.scene;
+    everything.classification.style_mut(TissueClass::Csf).window =
+        Some(morphray::analysis::Window {
+            lo: -0.1,
+            hi: 1.1,
+            edge: 0.01,
+        });
+    let frame = engine
+        .render(&mut target, &p.prepared, p.derived.as_ref(), &everything)
+        .unwrap();
+    assert!(!frame.skipped_empty_space);
     common::assert_no_validation_errors(&engine);
 }

@@ -10,8 +10,10 @@
 //! - Each setting changes one knob from the render/view default; the curvature knobs are compared
 //!   with the curvature-on reference, everything else with the curvature-off one, and the
 //!   frontier is computed within each of the two groups, counting differences below the
-//!   measurement resolution (5 % in time, 1 % in error) as ties.
-//! - Time is the median GPU raymarch time (timestamps) over `--frames` rounds of every view,
+//!   measurement resolution as ties: 1 % in error; in time 5 %, or the two settings' spreads
+//!   (half their rounds' 10th..90th percentile range) together when that is larger.
+//! - Time is the median over `--frames` rounds of the mean GPU raymarch time (timestamps) of the
+//!   views, rendered as RGBA8 at `--time-size` (errors are measured at `--size`),
 //!   after two warm-up frames (lavapipe compiles a pipeline at its first dispatch); each round
 //!   renders every setting once, so load from other processes falls on all settings alike; jitter
 //!   advances per round like real rendering; the error is measured on frame 0, whose
@@ -35,7 +37,7 @@ use crate::scene::{
     OpacityCorrection, Scene, VolumeGeometry,
 };
 use crate::study::metrics::{ImageError, compare};
-use crate::study::pareto::frontier_within;
+use crate::study::pareto::{frontier_with_spread, frontier_within};
 use crate::study::plot::{PlotPoint, write_svg};
 use ash::vk;
 
@@ -157,7 +159,10 @@ struct SettingResult {
     name: &'static str,
     knob: &'static str,
     group: &'static str,
+    /// Median over the timing rounds of the mean frame time over the views.
     gpu_ms: f64,
+    /// Relative half-width of the rounds' 10th..90th percentile range: the time's resolution.
+    time_spread: f64,
     precompute_ms: f64,
     error: ImageError,
     samples_per_frame: f64,
@@ -264,12 +269,15 @@ fn reference_image(r: &ReferenceRaymarch<'_>, width: u32, height: u32) -> Vec<[f
     rows.into_iter().flatten().collect()
 }
 
-fn median(values: &mut [f64]) -> f64 {
+/// Median and relative half-width of the 10th..90th percentile range of `values`.
+fn median_and_spread(values: &mut [f64]) -> (f64, f64) {
     if values.is_empty() {
-        return f64::NAN;
+        return (f64::NAN, f64::NAN);
     }
     values.sort_by(f64::total_cmp);
-    values[values.len() / 2]
+    let at = |q: f64| values[((values.len() - 1) as f64 * q).round() as usize];
+    let median = at(0.5);
+    (median, (at(0.9) - at(0.1)) / (2.0 * median.max(1e-12)))
 }
 
 /// Runs the command.
@@ -372,6 +380,7 @@ pub fn run(args: &AccuracyArgs, global: &super::GlobalOptions) -> Result<(), Err
             knob: setting.knob,
             group: group_name,
             gpu_ms: f64::NAN,
+            time_spread: f64::NAN,
             precompute_ms: f64::NAN,
             error: ImageError::default(),
             samples_per_frame: f64::NAN,
@@ -510,6 +519,7 @@ pub fn run(args: &AccuracyArgs, global: &super::GlobalOptions) -> Result<(), Err
     );
     for round in 0..args.frames {
         for slot in live.iter_mut().flatten() {
+            let mut round_ms = 0.0;
             for &(azimuth, elevation) in views {
                 let mut view = slot.scene;
                 view.camera.azimuth_deg = azimuth;
@@ -522,19 +532,19 @@ pub fn run(args: &AccuracyArgs, global: &super::GlobalOptions) -> Result<(), Err
                     slot.derived.as_ref(),
                     &view,
                 )?;
-                slot.times.extend(
-                    frame
-                        .gpu_timings
-                        .iter()
-                        .filter(|t| t.name == "raymarch")
-                        .map(|t| t.gpu_ms),
-                );
+                round_ms += frame
+                    .gpu_timings
+                    .iter()
+                    .filter(|t| t.name == "raymarch")
+                    .map(|t| t.gpu_ms)
+                    .sum::<f64>();
             }
+            slot.times.push(round_ms / views.len() as f64);
         }
     }
     for (result, slot) in results.iter_mut().zip(live.iter_mut()) {
         if let Some(slot) = slot {
-            result.gpu_ms = median(&mut slot.times);
+            (result.gpu_ms, result.time_spread) = median_and_spread(&mut slot.times);
         }
     }
     drop(live);
@@ -548,11 +558,14 @@ pub fn run(args: &AccuracyArgs, global: &super::GlobalOptions) -> Result<(), Err
         let members: Vec<usize> = (0..results.len())
             .filter(|&i| results[i].group == group && results[i].skipped.is_none())
             .collect();
-        let measured: Vec<(f64, f64)> = members
+        let measured: Vec<(f64, f64, f64)> = members
             .iter()
-            .map(|&i| (results[i].gpu_ms, results[i].error.rmse))
+            .map(|&i| {
+                let r = &results[i];
+                (r.gpu_ms, r.time_spread, r.error.rmse)
+            })
             .collect();
-        for j in frontier_within(&measured, TIME_TOLERANCE, ERROR_TOLERANCE) {
+        for j in frontier_with_spread(&measured, TIME_TOLERANCE, ERROR_TOLERANCE) {
             results[members[j]].frontier = true;
         }
         let projected: Vec<(f64, f64)> = members
@@ -665,7 +678,7 @@ fn print_table(r: &AccuracyReport<'_>) {
     ));
     print_line(&format!("reference: {}", r.reference));
     print_line(
-        "setting                        group          GPU ms   precompute  RMSE      PSNR dB  SSIM    max abs  frontier  Xe-LP model ms",
+        "setting                        group          GPU ms   +-%   precompute  RMSE      PSNR dB  SSIM    max abs  frontier  Xe-LP model ms",
     );
     for s in &r.settings {
         if let Some(why) = &s.skipped {
@@ -673,10 +686,11 @@ fn print_table(r: &AccuracyReport<'_>) {
             continue;
         }
         print_line(&format!(
-            "{:<30} {:<14} {:>7.3}  {:>9.3}  {:>8.5}  {:>7.2}  {:>6.4}  {:>7.4}  {:<8}  {:>8.3}{}",
+            "{:<30} {:<14} {:>7.3} {:>5.1}  {:>9.3}  {:>8.5}  {:>7.2}  {:>6.4}  {:>7.4}  {:<8}  {:>8.3}{}",
             s.name,
             s.group,
             s.gpu_ms,
+            s.time_spread * 100.0,
             s.precompute_ms,
             s.error.rmse,
             s.error.psnr_db,

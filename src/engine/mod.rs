@@ -24,7 +24,7 @@ pub use bricked::HostPrepared;
 pub use derive::Derived;
 pub use open::{OpenError, OpenedVolume};
 pub use prepare::{BrickAtlas, PrepareTimings, PreparedVolume, VolumeLayout};
-pub use render::{FRAMES_IN_FLIGHT, Frame, RenderTarget, SampleCounts};
+pub use render::{FRAMES_IN_FLIGHT, Frame, MAX_OCCUPANCY_FOR_SKIPPING, RenderTarget, SampleCounts};
 pub use twin::{Twin, TwinUpdate};
 
 use crate::gpu::{
