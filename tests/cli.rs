@@ -370,6 +370,21 @@ fn a_tiny_accuracy_study_reports_every_knob_with_a_frontier() {
     };
     assert!(rmse("step 0.125") < rmse("default") && rmse("default") < rmse("step 2"));
     assert!(settings.iter().any(|s| s["frontier"] == true));
+    // The naive opacity correction fails the stability grid on the device: never on the frontier.
+    let naive = settings
+        .iter()
+        .find(|s| s["name"] == "naive opacity correction")
+        .unwrap();
+    assert!(
+        naive["unstable"].is_string() && naive["frontier"] == false,
+        "{naive}"
+    );
+    assert!(
+        v["opacity_stability"]["exact"]["relative"]
+            .as_f64()
+            .unwrap()
+            < 2e-5
+    );
     let plot = std::fs::read_to_string(&svg).unwrap();
     assert!(plot.starts_with("<svg") && plot.contains("Pareto frontier"));
 }

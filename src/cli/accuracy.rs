@@ -18,6 +18,10 @@
 //!   renders every setting once, so load from other processes falls on all settings alike; jitter
 //!   advances per round like real rendering; the error is measured on frame 0, whose
 //!   jitter pattern the reference shares. Precomputation (derived volumes) is reported apart.
+//! - Stability: the images cannot show the naive opacity correction's failure (per-sample
+//!   opacities below about 1e-6), so the study also runs the compositing probe over NUMERICS.md's
+//!   (a, r) grid on the device; a setting whose formula is off by more than 0.1 % there is kept
+//!   off the frontier, with the measured reason.
 //! - Interpolation other than trilinear is compared with the trilinear reference: for the cubic
 //!   B-spline the error includes its intended smoothing.
 //! - Devices measured are one class each; the integrated class is projected from the counted
@@ -39,6 +43,9 @@ use crate::scene::{
 use crate::study::metrics::{ImageError, compare};
 use crate::study::pareto::{frontier_with_spread, frontier_within};
 use crate::study::plot::{PlotPoint, write_svg};
+use crate::study::stability::{
+    OpacityStability, UNSTABLE_RELATIVE_ERROR, opacity_grid, worst_errors,
+};
 use ash::vk;
 
 /// The views every setting is rendered from: (azimuth, elevation) in degrees.
@@ -171,6 +178,10 @@ struct SettingResult {
     xe_lp_frontier: bool,
     default: bool,
     skipped: Option<String>,
+    /// Why the setting is kept off the frontier despite its images (a failed stability check).
+    unstable: Option<String>,
+    /// Whether the setting uses the naive f32 opacity correction.
+    naive_opacity: bool,
 }
 
 #[derive(serde::Serialize)]
@@ -196,6 +207,8 @@ struct AccuracyReport<'a> {
     reference: &'static str,
     settings: Vec<SettingResult>,
     default_on_frontier: bool,
+    /// Worst relative errors of the exact and the naive opacity correction on this device.
+    opacity_stability: OpacityStability,
     recommendations: Vec<Recommendation>,
 }
 
@@ -389,6 +402,8 @@ pub fn run(args: &AccuracyArgs, global: &super::GlobalOptions) -> Result<(), Err
             xe_lp_frontier: false,
             default: setting.name == "default",
             skipped: None,
+            unstable: None,
+            naive_opacity: scene.effects.quality.opacity_correction == OpacityCorrection::Naive,
         };
         let format = match prepared_by_format
             .iter()
@@ -553,10 +568,43 @@ pub fn run(args: &AccuracyArgs, global: &super::GlobalOptions) -> Result<(), Err
         opened.engine.set_normalized_format(vk::Format::R16_UNORM)?;
     }
 
+    // Numerical stability of the opacity-correction knob, on this device (see study/stability.rs):
+    // a setting that fails it stays off the frontier, whatever its images show.
+    let probe = crate::passes::compositing_probe::CompositingProbe::new(
+        opened.engine.device(),
+        vk::PipelineCache::null(),
+    )?;
+    let grid = opacity_grid();
+    let probed = probe.run(
+        opened.engine.device(),
+        crate::passes::compositing_probe::ProbeJob::OpacityCorrection,
+        &grid,
+    )?;
+    let stability = worst_errors(&grid, &probed);
+    for result in results.iter_mut() {
+        let worst = if result.naive_opacity {
+            stability.naive
+        } else {
+            stability.exact
+        };
+        if worst.relative > UNSTABLE_RELATIVE_ERROR {
+            result.unstable = Some(format!(
+                "opacity correction off by {:.0} % at a = {:e}, r = {} on this device (NUMERICS.md)",
+                worst.relative * 100.0,
+                worst.alpha,
+                worst.ratio
+            ));
+        }
+    }
+
     // Frontiers within each group, on measured and on projected time.
     for group in ["curvature off", "curvature on"] {
         let members: Vec<usize> = (0..results.len())
-            .filter(|&i| results[i].group == group && results[i].skipped.is_none())
+            .filter(|&i| {
+                results[i].group == group
+                    && results[i].skipped.is_none()
+                    && results[i].unstable.is_none()
+            })
             .collect();
         let measured: Vec<(f64, f64, f64)> = members
             .iter()
@@ -626,6 +674,7 @@ pub fn run(args: &AccuracyArgs, global: &super::GlobalOptions) -> Result<(), Err
         reference: "f64 pipeline: normalization and derivative twins, reference raymarcher at step 0.125, trilinear, exact opacity correction, no early termination",
         settings: results,
         default_on_frontier,
+        opacity_stability: stability,
         recommendations,
     };
     if let Some(path) = &args.json {
@@ -696,7 +745,13 @@ fn print_table(r: &AccuracyReport<'_>) {
             s.error.psnr_db,
             s.error.ssim,
             s.error.max_abs,
-            if s.frontier { "yes" } else { "" },
+            if s.frontier {
+                "yes"
+            } else if s.unstable.is_some() {
+                "unstable"
+            } else {
+                ""
+            },
             s.xe_lp_model_ms,
             if s.default {
                 "   <- render/view default"
@@ -709,6 +764,20 @@ fn print_table(r: &AccuracyReport<'_>) {
         "default on the measured frontier: {}",
         if r.default_on_frontier { "yes" } else { "NO" }
     ));
+    print_line(&format!(
+        "opacity correction on this device, worst relative error over NUMERICS.md's grid: exact {:.2e}, naive {:.2e} (a = {:e}, r = {})",
+        r.opacity_stability.exact.relative,
+        r.opacity_stability.naive.relative,
+        r.opacity_stability.naive.alpha,
+        r.opacity_stability.naive.ratio
+    ));
+    for s in r.settings.iter().filter(|s| s.unstable.is_some()) {
+        print_line(&format!(
+            "kept off the frontier: {}: {}",
+            s.name,
+            s.unstable.as_deref().unwrap_or("")
+        ));
+    }
     for rec in &r.recommendations {
         print_line(&format!(
             "recommended for {}: interaction `{}`, diagnosis `{}`",

@@ -7,3 +7,4 @@
 pub mod metrics;
 pub mod pareto;
 pub mod plot;
+pub mod stability;
