@@ -697,8 +697,8 @@ pub fn run(args: &AccuracyArgs, global: &super::GlobalOptions) -> Result<(), Err
             })
             .collect();
         let title = format!(
-            "morphray accuracy vs time on {} ({}x{}, curvature off)",
-            report.device, width, height
+            "{} on {}: error at {}x{}, time at {}x{} (curvature off)",
+            report.input, report.device, width, height, time_size.0, time_size.1
         );
         write_svg(path, &title, &points).map_err(|e| Error::Usage(e.to_string()))?;
     }
