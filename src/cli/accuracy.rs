@@ -141,6 +141,23 @@ fn settings() -> Vec<Setting> {
             edit: |_| {},
         });
     }
+    // The storage formats again at the stills' step, where the step no longer hides their
+    // quantization: what the defaults' R16 and f16 buy for diagnosis-quality images.
+    v.push(Setting {
+        name: "step 0.125, I_norm R8",
+        knob: "storage format at step 0.125",
+        curvature: false,
+        format: vk::Format::R8_UNORM,
+        edit: |x| x.step_voxels = 0.125,
+    });
+    v.push(s(
+        "step 0.125, gradient 8-bit",
+        "storage format at step 0.125",
+        |x| {
+            x.step_voxels = 0.125;
+            x.effects.quality.derived_precision = DerivedPrecision::Snorm8;
+        },
+    ));
     let c = |name, edit: Edit| Setting {
         name,
         knob: "curvature",
