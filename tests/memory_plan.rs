@@ -136,9 +136,12 @@ fn the_ledger_holds_exactly_the_planned_allocations() {
 fn scene_changes_run_and_hold_only_what_they_must() {
     let volume = generate(&PhantomSpec::cube(40)).unwrap().volume;
     let mut engine = common::engine();
+    // f16 derived volumes: one derivative dispatch per change (8-bit storage runs two, the
+    // maximum first for its scale).
     let mut opened = open(&mut engine, &volume, |s| {
         s.effects.curvature = true;
         s.effects.shading = true;
+        s.effects.quality.derived_precision = morphray::scene::DerivedPrecision::F16;
     });
     let mut target = engine
         .render_target(IMAGE[0], IMAGE[1], vk::Format::R8G8B8A8_UNORM)

@@ -102,8 +102,8 @@ fn settings() -> Vec<Setting> {
         s("gradient f32", "gradient", |x| {
             x.effects.quality.derived_precision = DerivedPrecision::F32
         }),
-        s("gradient 8-bit", "gradient", |x| {
-            x.effects.quality.derived_precision = DerivedPrecision::Snorm8
+        s("gradient f16", "gradient", |x| {
+            x.effects.quality.derived_precision = DerivedPrecision::F16
         }),
         s("gradient on the fly", "gradient", |x| {
             x.effects.gradient_source = GradientSource::OnTheFly
@@ -151,11 +151,11 @@ fn settings() -> Vec<Setting> {
         edit: |x| x.step_voxels = 0.125,
     });
     v.push(s(
-        "step 0.125, gradient 8-bit",
+        "step 0.125, gradient f16",
         "storage format at step 0.125",
         |x| {
             x.step_voxels = 0.125;
-            x.effects.quality.derived_precision = DerivedPrecision::Snorm8;
+            x.effects.quality.derived_precision = DerivedPrecision::F16;
         },
     ));
     let c = |name, edit: Edit| Setting {
@@ -169,6 +169,10 @@ fn settings() -> Vec<Setting> {
     v.push(c("curvature on the fly", |x| {
         x.effects.curvature = true;
         x.effects.quality.curvature_source = CurvatureSource::OnTheFly;
+    }));
+    v.push(c("curvature stored, f16", |x| {
+        x.effects.curvature = true;
+        x.effects.quality.derived_precision = DerivedPrecision::F16;
     }));
     v.push(c("curvature stored, f32", |x| {
         x.effects.curvature = true;

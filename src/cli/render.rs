@@ -1,13 +1,16 @@
 //! `morphray render`: one PNG (or a turntable of PNGs) of a volume, with provenance.
 
-use super::args::{GradientArg, ModeArg, ProjectionArg, RenderArgs, SceneArgs, WindowsArg};
+use super::args::{
+    GradientArg, ModeArg, PrecisionArg, ProjectionArg, RenderArgs, SceneArgs, WindowsArg,
+};
 use super::output::{ms, print_line};
 use super::png::{Provenance, write_rgba8};
 use super::session;
 use crate::analysis::TissueReport;
 use crate::error::Error;
 use crate::scene::{
-    Camera, Classification, GradientSource, Projection, RenderMode, Scene, TissueClass,
+    Camera, Classification, DerivedPrecision, GradientSource, Projection, RenderMode, Scene,
+    TissueClass,
 };
 use ash::vk;
 use std::path::{Path, PathBuf};
@@ -53,6 +56,11 @@ pub fn scene_from_args(args: &SceneArgs, report: &TissueReport) -> Result<Scene,
     scene.effects.gradient_source = match args.gradient {
         GradientArg::Precomputed => GradientSource::Precomputed,
         GradientArg::OnTheFly => GradientSource::OnTheFly,
+    };
+    scene.effects.quality.derived_precision = match args.derived_precision {
+        PrecisionArg::Snorm8 => DerivedPrecision::Snorm8,
+        PrecisionArg::F16 => DerivedPrecision::F16,
+        PrecisionArg::F32 => DerivedPrecision::F32,
     };
     if !(args.step.is_finite() && args.step > 0.0 && args.step <= 16.0) {
         return Err(Error::Usage(format!(
