@@ -228,6 +228,9 @@ struct AccuracyReport<'a> {
     reference: &'static str,
     settings: Vec<SettingResult>,
     default_on_frontier: bool,
+    /// Median over the settings of each setting's round-to-round time spread (relative
+    /// half-width of its 10th..90th percentile range).
+    typical_time_spread: f64,
     /// Worst relative errors of the exact and the naive opacity correction on this device.
     opacity_stability: OpacityStability,
     recommendations: Vec<Recommendation>,
@@ -302,6 +305,10 @@ fn reference_image(r: &ReferenceRaymarch<'_>, width: u32, height: u32) -> Vec<[f
     });
     rows.into_iter().flatten().collect()
 }
+
+/// A typical round-to-round time spread above this means the timings measured contention, not
+/// the settings (a quiet H100 shows about 1 %, a quiet lavapipe under 10 %).
+const NOISY_TIME_SPREAD: f64 = 0.15;
 
 /// Median and relative half-width of the 10th..90th percentile range of `values`.
 fn median_and_spread(values: &mut [f64]) -> (f64, f64) {
@@ -646,6 +653,12 @@ pub fn run(args: &AccuracyArgs, global: &super::GlobalOptions) -> Result<(), Err
         }
     }
     let default_on_frontier = results.iter().any(|r| r.default && r.frontier);
+    let mut spreads: Vec<f64> = results
+        .iter()
+        .map(|r| r.time_spread)
+        .filter(|s| s.is_finite())
+        .collect();
+    let (typical_time_spread, _) = median_and_spread(&mut spreads);
     let adapter = opened.engine.device().adapter().clone();
     let recommend = |class: String,
                      on_frontier: &dyn Fn(&SettingResult) -> bool,
@@ -695,6 +708,7 @@ pub fn run(args: &AccuracyArgs, global: &super::GlobalOptions) -> Result<(), Err
         reference: "f64 pipeline: normalization and derivative twins, reference raymarcher at step 0.125, trilinear, exact opacity correction, no early termination",
         settings: results,
         default_on_frontier,
+        typical_time_spread,
         opacity_stability: stability,
         recommendations,
     };
@@ -785,6 +799,15 @@ fn print_table(r: &AccuracyReport<'_>) {
         "default on the measured frontier: {}",
         if r.default_on_frontier { "yes" } else { "NO" }
     ));
+    if r.typical_time_spread > NOISY_TIME_SPREAD {
+        print_line(&format!(
+            "warning: GPU times varied by +-{:.0} % between rounds (median over the settings): \
+             the device was busy, time differences under {:.0} % count as ties, so the frontier \
+             and the recommendations rest on the errors alone; rerun on an idle device",
+            r.typical_time_spread * 100.0,
+            r.typical_time_spread * 200.0
+        ));
+    }
     print_line(&format!(
         "opacity correction on this device, worst relative error over NUMERICS.md's grid: exact {:.2e}, naive {:.2e} (a = {:e}, r = {})",
         r.opacity_stability.exact.relative,

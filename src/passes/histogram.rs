@@ -17,8 +17,12 @@ use std::sync::Arc;
 /// Number of bins.
 pub const BINS: usize = 256;
 
-/// Voxels per invocation: enough to amortize the 256-bin flush of each workgroup.
-const VOXELS_PER_INVOCATION: u32 = 16;
+/// Consecutive voxels an invocation bins per loop step (`RUN` in the shader): one index division
+/// and one subgroup vote per run instead of per voxel.
+const RUN: u64 = 4;
+
+/// Runs per invocation: 16 voxels each, enough to amortize the 256-bin flush of each workgroup.
+const RUNS_PER_INVOCATION: u32 = 4;
 
 /// Push constants of `histogram.wgsl`.
 #[repr(C)]
@@ -32,7 +36,7 @@ pub struct HistogramParams {
     pub voxel_count: u32,
     /// Loop steps per invocation.
     pub iterations: u32,
-    /// Voxels between an invocation's steps.
+    /// Runs of 4 voxels between an invocation's steps.
     pub stride: u32,
 }
 
@@ -71,9 +75,9 @@ impl HistogramPass {
         let [x, y, z] = normalized.extent();
         let voxels = x as u64 * y as u64 * z as u64;
         let shape = linear_dispatch(
-            voxels,
+            voxels.div_ceil(RUN),
             self.pipeline.invocations_per_workgroup(),
-            VOXELS_PER_INVOCATION,
+            RUNS_PER_INVOCATION,
             device.adapter().max_workgroup_count_x,
         );
         let params = HistogramParams {

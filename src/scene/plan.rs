@@ -14,7 +14,8 @@
 //!   readback of the histogram) are counted in the preparation peak, which must fit too.
 //! - Over budget, the plan degrades in a fixed order, cheapest accuracy first as the accuracy study
 //!   measured it (ACCURACY.md; each step names its setting there): 8-bit derived volumes (-0.05
-//!   dB), R8 I_norm (no measurable change), bricking (lossless for the visible tissues, but about
+//!   dB; already the default, so this step only applies to scenes that asked for f16 or f32
+//!   with `--derived-precision`), R8 I_norm (no measurable change), bricking (lossless for the visible tissues, but about
 //!   2x the raymarch time and a host-side preparation), and last gradients on the fly (-10.9 dB).
 //!   Then only the steps the fitting plan needs are kept. A volume side over the device's 3D
 //!   image limit forces bricking. When nothing fits, the error names the volume, the budget and
