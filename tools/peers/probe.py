@@ -67,6 +67,9 @@ def check_vtk():
         win.Render()
         win.WaitForCompletion()
         say("vtk window class", win.GetClassName())
+        if hasattr(win, "GetNumberOfDevices"):
+            # EGL devices VTK can pick with VTK_DEFAULT_EGL_DEVICE_INDEX (default 0).
+            say("vtk EGL devices", win.GetNumberOfDevices())
         lines = [
             ln.strip()
             for ln in win.ReportCapabilities().splitlines()
