@@ -7,14 +7,21 @@
 # study (errors at 256x256, times at 1920x1080; the phantom, and MNI152 when .data/ carries it).
 # The device returns at most 8 files: run-log.txt and tests.txt beside
 # results.tgz, which holds every JSON, SVG and PNG.
-# Stages: `bash benches/device-run.sh [tests] [bench] [accuracy]` (default: all three).
+# Stages: `bash benches/device-run.sh [tests] [bench] [sweep] [accuracy]` (default: tests, bench,
+# accuracy); `sweep` times the raymarch, derivative and normalize passes over workgroup shapes.
 set -uo pipefail
 stages=" ${*:-tests bench accuracy} "
 want() { [[ "$stages" == *" $1 "* ]]; }
-for f in .gl/lib{vulkan1,egl1,glvnd0,opengl0,gl1,glx0,gles2}_*.deb; do dpkg -x "$f" /; done
+# GL: the folder of Debian packages (.gl; a bench/peers call may carry a smaller one without the
+# validation layers and spirv-tools). G: the binaries (.gpu, or just the release binary).
+GL=${GL:-.gl}
+G=${G:-.gpu}
+for f in "$GL"/lib{vulkan1,egl1,glvnd0,opengl0,gl1,glx0,gles2}_*.deb; do dpkg -x "$f" /; done
 ldconfig
 mkdir -p /opt/vk
-for f in .gl/vulkan-tools*.deb .gl/vulkan-validationlayers*.deb .gl/libx*.deb .gl/libwayland*.deb .gl/spirv-tools*.deb; do dpkg -x "$f" /opt/vk; done
+for f in "$GL"/vulkan-tools*.deb "$GL"/vulkan-validationlayers*.deb "$GL"/libx*.deb "$GL"/libwayland*.deb "$GL"/spirv-tools*.deb; do
+    [ -f "$f" ] && dpkg -x "$f" /opt/vk
+done
 export PATH=/opt/vk/usr/bin:$PATH
 export LD_LIBRARY_PATH=/opt/vk/usr/lib/x86_64-linux-gnu
 export VK_LAYER_PATH=/opt/vk/usr/share/vulkan/explicit_layer.d
@@ -22,7 +29,6 @@ export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
 OUT=${OUT:-/tmp/morphray-out}
 mkdir -p "$OUT"
 nvidia-smi --query-gpu=name,driver_version,clocks.sm,clocks.mem,clocks.max.sm,temperature.gpu,power.draw --format=csv | tee "$OUT/nvidia-smi.txt"
-G=.gpu
 $G/morphray devices
 # The cli tests start the binary at the path cargo compiled into them.
 cli_binary=$(grep -a -o '/[[:alnum:]_./-]*/target/release/morphray' $G/cli | head -n 1 || true)
@@ -37,8 +43,8 @@ want tests && for t in $(ls $G | grep -v -E '^(morphray|fuzz_regressions|nifti_p
 done 2>&1 | tee "$OUT/tests.txt" | grep -E "==|test result|FAILED|panicked"
 $G/morphray peaks --json > "$W/peaks.json"
 run() { echo "== morphray $*" | tee -a "$OUT/run-log.txt"; $G/morphray "$@" 2>&1 | tee -a "$OUT/run-log.txt"; }
-if want bench; then
 common="--tissues csf,gm,wm,pathology --frames 100 --repeat 10"
+if want bench; then
 # Issue 7: time and memory of the full plan, DVR without curvature, MIP; bricking at the same image.
 run bench $common --curvature on --shading on --json "$W/bench-full.json"
 run bench $common --curvature off --json "$W/bench-dvr-no-curvature.json"
@@ -53,6 +59,24 @@ $G/morphray --bricked plan --size 1920x1080 --tissues csf,gm,wm,pathology --curv
 run --memory-budget 16M plan --size 512x512 --curvature on
 run --memory-budget 16M render --size 512x512 --curvature on -o "$W/budget-16M.png"
 run render --size 512x512 --curvature on -o "$W/whole.png"
+fi
+if want sweep; then
+# Issue 5: workgroup shapes as measured choices (full plan; the analysis passes run once each).
+for wg in 8x8 16x8 16x16 8x4 32x4 4x4; do
+    run --wg raymarch=$wg bench $common --curvature on --shading on --json "$W/sweep-raymarch-$wg.json"
+done
+for wg in 8x8x4 4x4x4 16x4x4 8x8x8 32x4x2 8x8x1; do
+    run --wg derivatives=$wg --wg normalize=$wg bench $common --curvature on --shading on --json "$W/sweep-volume-$wg.json"
+done
+fi
+if want peers; then
+# Issue 5: the peers on the same volume file, image size and sampling distance
+# (tools/peers/README.md), beside morphray's bench of the same file and scenes.
+$G/morphray phantom -o /tmp/phantom.nii.gz
+run bench /tmp/phantom.nii.gz --tissues csf,gm,wm,pathology --frames 200 --curvature on --shading on --json "$W/side-full.json"
+run bench /tmp/phantom.nii.gz --tissues csf,gm,wm,pathology --frames 200 --shading on --json "$W/side-dvr-shaded.json"
+run bench /tmp/phantom.nii.gz --tissues csf,gm,wm,pathology --frames 200 --mode mip --json "$W/side-mip.json"
+bash tools/peers/device-peers.sh /tmp/phantom.nii.gz --size 1920x1080 --frames 200 --trials 5 --png --out "$W/peers" 2>&1 | tee -a "$OUT/run-log.txt"
 fi
 if want accuracy; then
 # Issue 6: errors at 256x256 against the f64 pipeline, times at 1920x1080.
