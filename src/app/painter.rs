@@ -161,7 +161,7 @@ impl Painter {
         self.next_slot
     }
 
-    /// Waits for the frame in `slot` (if any) and records its times in [`Painter::completed`].
+    /// Waits for the frame in `slot` (if any) and records its times in `Painter::completed`.
     pub fn wait_slot(&mut self, slot: usize) -> GpuResult<()> {
         let Some(s) = self.slots.get_mut(slot) else {
             return Ok(());
