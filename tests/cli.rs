@@ -276,6 +276,9 @@ fn a_tiny_bench_reports_every_pass_as_json() {
         "2",
         "--repeat",
         "2",
+        // Time to first pixel has its own test below.
+        "--trials",
+        "0",
         "--json",
         json.to_str().unwrap(),
     ]);
@@ -311,6 +314,144 @@ fn a_tiny_bench_reports_every_pass_as_json() {
     assert!(v["plan"]["allocations"].as_array().unwrap().len() > 3);
     assert!(v["plan"]["total_bytes"].as_u64().unwrap() > 0);
     assert_eq!(v["plan"]["degradations"], serde_json::json!([]));
+}
+
+#[test]
+fn a_tiny_bench_times_the_first_pixel_over_fresh_processes() {
+    // No file: the bench writes the phantom as .nii.gz and times loading it. Each trial is a
+    // fresh process; the warm trials must find the cache the first untimed one saved.
+    let json = temp("ttfp.json");
+    let cache = temp("ttfp-parent-cache");
+    let o = morphray(&[
+        "--pipeline-cache",
+        cache.to_str().unwrap(),
+        "bench",
+        "--size",
+        "64x64",
+        "--frames",
+        "2",
+        "--repeat",
+        "1",
+        "--trials",
+        "2",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    assert_eq!(v["input"], "phantom (written as .nii.gz)");
+    let t = &v["ttfp"];
+    assert_eq!(t["trials"], 2);
+    for side in ["cold", "warm"] {
+        let s = &t[side];
+        for phase in [
+            "read",
+            "inflate",
+            "convert",
+            "instance",
+            "device",
+            "engine",
+            "pipelines",
+            "upload",
+            "minmax",
+            "normalize",
+            "histogram",
+            "derivatives",
+            "raymarch",
+            "exec",
+        ] {
+            let p = &s["phases"][phase];
+            assert_eq!(p["n"], 2, "{side} {phase}: {p}");
+            for q in ["median", "p5", "p95"] {
+                let x = p[q].as_f64().unwrap_or(f64::NAN);
+                assert!(x.is_finite() && x > 0.0, "{side} {phase} {q}: {p}");
+            }
+        }
+        for gpu in [
+            "minmax",
+            "normalize",
+            "histogram",
+            "derivatives",
+            "raymarch",
+        ] {
+            assert!(
+                s["gpu_ms"][gpu]["median"].as_f64().unwrap() > 0.0,
+                "{side} {gpu}"
+            );
+        }
+        let total = s["total_ms"]["median"].as_f64().unwrap();
+        let in_process = s["in_process_ms"]["median"].as_f64().unwrap();
+        assert!(
+            total.is_finite() && total >= in_process && in_process > 0.0,
+            "{s}"
+        );
+    }
+    // Cold trials start empty and save; warm trials load what the untimed trial saved.
+    for bytes in t["cold"]["cache_loaded_bytes"].as_array().unwrap() {
+        assert_eq!(bytes, 0);
+    }
+    for bytes in t["cold"]["cache_written_bytes"].as_array().unwrap() {
+        assert!(bytes.as_u64().unwrap() > 0);
+    }
+    for bytes in t["warm"]["cache_loaded_bytes"].as_array().unwrap() {
+        assert!(
+            bytes.as_u64().unwrap() > 0,
+            "the warm trial found the cache"
+        );
+    }
+    assert_eq!(t["warm"]["cache_rejected"], serde_json::json!([]));
+    // The bench's own process used the cache directory it was given.
+    assert_eq!(v["pipeline_cache"]["mode"], "directory");
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.contains("time to first pixel"), "{text}");
+}
+
+#[test]
+fn a_damaged_pipeline_cache_is_a_note_not_a_failure() {
+    let dir = temp("damaged-cache");
+    std::fs::create_dir_all(&dir).unwrap();
+    let cache_dir = |o: &Output| -> Vec<PathBuf> {
+        assert!(o.status.success(), "{}", stderr(o));
+        std::fs::read_dir(&dir)
+            .unwrap()
+            .flatten()
+            .map(|e| e.path())
+            .filter(|p| p.extension().is_some_and(|e| e == "bin"))
+            .collect()
+    };
+    let png = temp("damaged-cache.png");
+    let args = [
+        "--pipeline-cache",
+        dir.to_str().unwrap(),
+        "render",
+        "--size",
+        "16x16",
+        "-o",
+        png.to_str().unwrap(),
+    ];
+    let phantom = generate(&PhantomSpec::cube(20)).unwrap();
+    let input = temp("cache20.nii");
+    write_nifti1(&phantom.volume, &input, false).unwrap();
+    let mut with_input = args.to_vec();
+    with_input.push(input.to_str().unwrap());
+    let files = cache_dir(&morphray(&with_input));
+    assert_eq!(files.len(), 1, "one cache file per device and driver");
+    std::fs::write(&files[0], b"not a pipeline cache").unwrap();
+    let o = morphray(&with_input);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(
+        err.contains("pipeline cache") && err.contains("not used"),
+        "{err}"
+    );
+    assert!(!err.contains("panicked"), "{err}");
+    // Rewritten whole after the first frame.
+    let files = cache_dir(&o);
+    assert!(std::fs::read(&files[0]).unwrap().starts_with(b"MRPCACHE"));
+    // `off` needs no directory at all.
+    let mut off = with_input.clone();
+    off[1] = "off";
+    assert!(morphray(&off).status.success());
 }
 
 #[test]

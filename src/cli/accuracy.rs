@@ -340,6 +340,7 @@ pub fn run(args: &AccuracyArgs, global: &super::GlobalOptions) -> Result<(), Err
         false,
         global.engine_config(),
         Some(&scene_args),
+        true,
     )?;
     let base = opened.scene;
     let views = &VIEWS[..args.views];
@@ -600,7 +601,7 @@ pub fn run(args: &AccuracyArgs, global: &super::GlobalOptions) -> Result<(), Err
     // a setting that fails it stays off the frontier, whatever its images show.
     let probe = crate::passes::compositing_probe::CompositingProbe::new(
         opened.engine.device(),
-        vk::PipelineCache::null(),
+        opened.engine.pipeline_cache().raw(),
     )?;
     let grid = opacity_grid();
     let probed = probe.run(
@@ -740,6 +741,7 @@ pub fn run(args: &AccuracyArgs, global: &super::GlobalOptions) -> Result<(), Err
     if validation {
         session::check_validation(&opened.engine)?;
     }
+    session::persist_pipeline_cache(&opened.engine);
     print_table(&report);
     Ok(())
 }

@@ -52,6 +52,15 @@ pub struct Cli {
     #[arg(long, global = true, value_name = "N")]
     pub subgroup: Option<u32>,
 
+    /// Where compiled GPU pipelines are kept between runs, so later starts skip the driver's
+    /// shader compiler: a directory, `memory` (this run only) or `off` (no pipeline cache).
+    /// Default: $MORPHRAY_CACHE_DIR, else $XDG_CACHE_HOME/morphray, else ~/.cache/morphray. One
+    /// file per GPU and driver (pipelines-VENDOR-DEVICE-DRIVER-UUID.bin); a damaged file, or one
+    /// from another GPU or driver, is ignored with a note and replaced. The file is written after
+    /// the first frame, only when it changed; failing to write it is a warning, not an error.
+    #[arg(long, global = true, value_name = "DIR|memory|off")]
+    pub pipeline_cache: Option<String>,
+
     /// What to do.
     #[command(subcommand)]
     pub command: Command,
@@ -365,8 +374,18 @@ pub struct AccuracyArgs {
 /// Options of `bench`.
 #[derive(Debug, Args)]
 pub struct BenchArgs {
-    /// NIfTI-1/2 file; without one, the built-in digital phantom.
+    /// NIfTI-1/2 file; without one, the built-in digital phantom, written to a temporary
+    /// .nii.gz first (and removed afterwards), so reading and inflating are real work.
     pub file: Option<PathBuf>,
+    /// Time to first pixel: run this many fresh processes of morphray with an empty pipeline
+    /// cache (cold) and as many with a cache a first untimed process filled (warm), each
+    /// timing its phases from process start to the first frame's fence; medians and p5..p95
+    /// are reported. 0 skips it.
+    #[arg(long, default_value_t = 5, value_name = "K")]
+    pub trials: u32,
+    /// Internal: run as one time-to-first-pixel trial (open, first frame, one JSON line).
+    #[arg(long, hide = true)]
+    pub ttfp_child: bool,
     /// Frames of the orbit (azimuth advancing 360/N degrees per frame).
     #[arg(long, default_value_t = 200)]
     pub frames: u32,

@@ -6,6 +6,9 @@
 //! in the same run, and texture fetches over the texel rate), and the same counts are projected
 //! onto an Intel Xe-LP as a model. The raymarch is timed over an orbit of frames without
 //! readback; a second, untimed pass over the same frames counts the samples each frame took.
+//! Time to first pixel is measured first, over fresh processes (`ttfp.rs`), before this process
+//! opens a device; without a file the input is the phantom written as .nii.gz, so reading and
+//! inflating are part of it.
 
 use super::args::BenchArgs;
 use super::output::{json, print_line};
@@ -107,6 +110,10 @@ struct BenchReport<'a> {
     tuning: crate::gpu::KernelTuning,
     /// Valid timestamp bits after the profile's clamp.
     timestamp_valid_bits: u32,
+    /// How this process's pipeline cache was set up.
+    pipeline_cache: crate::gpu::CacheLoad,
+    /// Time to first pixel over fresh processes (None with `--trials 0`).
+    ttfp: Option<super::ttfp::TtfpReport>,
 }
 
 fn pass_report(
@@ -146,8 +153,46 @@ fn times_of(timings: &[crate::gpu::PassTiming], name: &str) -> Option<f64> {
     timings.iter().find(|t| t.name == name).map(|t| t.gpu_ms)
 }
 
+/// Removes the bench's temporary input when dropped (also on errors).
+struct TemporaryInput(Option<std::path::PathBuf>);
+
+impl Drop for TemporaryInput {
+    fn drop(&mut self) {
+        if let Some(dir) = &self.0 {
+            let _ = std::fs::remove_dir_all(dir);
+        }
+    }
+}
+
+/// The bench's input: the given file, or the phantom written as .nii.gz (libdeflate's default
+/// level) into a temporary directory, so reading and inflating are real work as for a user's
+/// file.
+fn bench_input(args: &BenchArgs) -> Result<(std::path::PathBuf, String, TemporaryInput), Error> {
+    if let Some(file) = &args.file {
+        let label = file
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_else(|| file.display().to_string());
+        return Ok((file.clone(), label, TemporaryInput(None)));
+    }
+    let dir = std::env::temp_dir().join(format!("morphray-bench-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).map_err(|source| Error::Write {
+        path: dir.display().to_string(),
+        source,
+    })?;
+    let guard = TemporaryInput(Some(dir.clone()));
+    let path = dir.join("phantom.nii.gz");
+    let phantom =
+        crate::volume::phantom::generate(&crate::volume::phantom::PhantomSpec::cohort_a())?;
+    crate::volume::nifti::write_nifti1(&phantom.volume, &path, true)?;
+    Ok((path, "phantom (written as .nii.gz)".into(), guard))
+}
+
 /// Runs the command.
 pub fn run(args: &BenchArgs, global: &super::GlobalOptions) -> Result<(), Error> {
+    if args.ttfp_child {
+        return super::ttfp::run_child(args, global);
+    }
     let validation = global.validation;
     if args.frames == 0 || args.repeat == 0 {
         return Err(Error::Usage(
@@ -158,12 +203,21 @@ pub fn run(args: &BenchArgs, global: &super::GlobalOptions) -> Result<(), Error>
     let (width, height) = args.scene.size.unwrap_or((1920, 1080));
     let mut scene_args = args.scene.clone();
     scene_args.size = Some((width, height));
+    let (input, input_label, _temporary) = bench_input(args)?;
+    // Before this process opens a device of its own, so the trials have the machine to
+    // themselves.
+    let ttfp = if args.trials > 0 {
+        Some(super::ttfp::run_trials(args, &input, args.file.is_none())?)
+    } else {
+        None
+    };
     let mut opened = session::open(
-        args.file.as_deref(),
+        Some(&input),
         args.frame,
         false,
         global.engine_config(),
         Some(&scene_args),
+        true,
     )?;
     let scene = opened.scene;
     let adapter = opened.engine.device().adapter().clone();
@@ -379,13 +433,14 @@ pub fn run(args: &BenchArgs, global: &super::GlobalOptions) -> Result<(), Error>
     if validation {
         session::check_validation(&opened.engine)?;
     }
+    session::persist_pipeline_cache(&opened.engine);
     let report = BenchReport {
         engine: format!("morphray {}", env!("CARGO_PKG_VERSION")),
         device: adapter.name.clone(),
         driver: adapter.driver.clone(),
         device_type: adapter.type_name(),
         subgroup_size: adapter.subgroup_size,
-        input: &opened.source.label,
+        input: &input_label,
         dims: opened.twin.prepared.dims,
         sample_kind: volume.samples.kind(),
         image: [width, height],
@@ -404,6 +459,8 @@ pub fn run(args: &BenchArgs, global: &super::GlobalOptions) -> Result<(), Error>
         device_profile: opened.engine.device().profile().cloned(),
         tuning: opened.engine.device().tuning().clone(),
         timestamp_valid_bits: adapter.timestamp_valid_bits,
+        pipeline_cache: opened.engine.pipeline_cache().load().clone(),
+        ttfp,
     };
     if let Some(path) = &args.json {
         std::fs::write(path, json(&report)).map_err(|source| Error::Write {
@@ -496,8 +553,11 @@ fn print_text(r: &BenchReport<'_>) {
             d.texel_rate / 1e9
         ));
     }
+    if let Some(t) = &r.ttfp {
+        super::ttfp::print_text(t);
+    }
     print_line(&format!(
-        "first pixel path (host): load {:.1} ms | device {:.1} ms | pipelines {:.1} ms | prepare {:.1} ms | wall {:.1} ms",
+        "first pixel path of this process (host): load {:.1} ms | device {:.1} ms | pipelines {:.1} ms | prepare {:.1} ms | wall {:.1} ms",
         r.open_ms.load.read_ms
             + r.open_ms.load.inflate_ms
             + r.open_ms.load.convert_ms

@@ -16,6 +16,7 @@ pub mod png;
 pub mod render;
 pub mod session;
 pub mod source;
+mod ttfp;
 mod view;
 
 use crate::error::Error;
@@ -25,6 +26,8 @@ use std::process::ExitCode;
 
 /// Runs the command line and returns the process exit status.
 pub fn main() -> ExitCode {
+    // First: the time-to-first-pixel trials measure from here (and from before the exec).
+    ttfp::mark_process_start();
     std::panic::set_hook(Box::new(|info| {
         let message = info
             .payload()
@@ -67,6 +70,8 @@ pub struct GlobalOptions {
     pub profile: Option<crate::gpu::DeviceProfile>,
     /// Workgroup and subgroup choices.
     pub tuning: crate::gpu::KernelTuning,
+    /// Pipeline cache (the user's cache directory unless `--pipeline-cache` says otherwise).
+    pub pipeline_cache: crate::gpu::PipelineCacheConfig,
 }
 
 impl GlobalOptions {
@@ -77,7 +82,22 @@ impl GlobalOptions {
         config.force_bricking = self.bricked;
         config.device.profile = self.profile.clone();
         config.device.tuning = self.tuning.clone();
+        config.pipeline_cache = self.pipeline_cache.clone();
         config
+    }
+}
+
+/// `--pipeline-cache`: `off`, `memory`, a directory, or (absent) the user's cache directory
+/// (in memory when no home or cache directory is known).
+fn pipeline_cache_config(option: Option<&str>) -> crate::gpu::PipelineCacheConfig {
+    use crate::gpu::PipelineCacheConfig as Config;
+    match option.map(str::trim) {
+        Some("off") => Config::Off,
+        Some("memory") => Config::InMemory,
+        Some(dir) => Config::Directory(dir.into()),
+        None => crate::gpu::pipeline_cache::default_dir()
+            .map(Config::Directory)
+            .unwrap_or(Config::InMemory),
     }
 }
 
@@ -103,6 +123,7 @@ pub fn run(cli: &Cli) -> Result<(), Error> {
             .map(crate::gpu::DeviceProfile::load)
             .transpose()?,
         tuning,
+        pipeline_cache: pipeline_cache_config(cli.pipeline_cache.as_deref()),
     };
     let global = &global;
     match &cli.command {

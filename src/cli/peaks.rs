@@ -36,6 +36,7 @@ pub fn run(args: &PeaksArgs, global: &super::GlobalOptions) -> Result<(), Error>
         false,
         global.engine_config(),
         None,
+        false,
     )?;
     let r = &opened.report;
     let mut timings = BTreeMap::new();
@@ -80,6 +81,7 @@ pub fn run(args: &PeaksArgs, global: &super::GlobalOptions) -> Result<(), Error>
     if validation {
         session::check_validation(&opened.engine)?;
     }
+    session::persist_pipeline_cache(&opened.engine);
     if args.json {
         print_line(&json(&report));
         return Ok(());

@@ -49,6 +49,7 @@ pub fn run(args: &PlanArgs, global: &super::GlobalOptions) -> Result<(), Error> 
         false,
         global.engine_config(),
         Some(&args.scene),
+        false,
     )?;
     let (width, height) = args.scene.size.unwrap_or((1024, 1024));
     let engine = opened.engine;
@@ -59,6 +60,7 @@ pub fn run(args: &PlanArgs, global: &super::GlobalOptions) -> Result<(), Error> 
     if global.validation {
         session::check_validation(&engine)?;
     }
+    session::persist_pipeline_cache(&engine);
     let plan = &opened.plan;
     let report = PlanReport {
         input: &opened.source.label,

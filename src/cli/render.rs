@@ -114,6 +114,7 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
         true,
         global.engine_config(),
         Some(&args.scene),
+        true,
     )?;
     // The planned scene: the arguments' scene with any degradation the budget required.
     let base = opened.scene;
@@ -137,6 +138,10 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
         let frame = opened
             .engine
             .render_twin(&mut target, &mut opened.twin, &scene)?;
+        if index == 0 {
+            // After the first frame: its pipelines are all compiled now.
+            session::persist_pipeline_cache(&opened.engine);
+        }
         let path = if args.turntable.is_some() {
             frame_path(&args.output, index)
         } else {

@@ -393,7 +393,10 @@ impl Engine {
             timings: PrepareTimings {
                 pipelines_ms: 0.0,
                 upload_write_ms: host.host_ms,
+                // Host normalization and the brick uploads: no GPU analysis passes run.
+                upload_ms: start.elapsed().as_secs_f64() * 1e3 + host.host_ms,
                 wall_ms: start.elapsed().as_secs_f64() * 1e3 + host.host_ms,
+                ..Default::default()
             },
             brick_ranges: ranges,
         })

@@ -34,12 +34,7 @@ impl Engine {
             let h = voxel_mm as f32;
             return self.derive_scaled(prepared, outputs, [h, h * h]);
         }
-        let max_only = DerivativeOutputs {
-            magnitude: false,
-            curvature: false,
-            normal: false,
-            precision: outputs.precision,
-        };
+        let max_only = max_only_pass(outputs);
         let first = self.derive_scaled(prepared, max_only, [1.0, 1.0])?;
         let g = first.stats.max_magnitude.max(1e-12);
         // |g| fills [0, 1]; k up to 2 g / voxel (twice the step-edge scale of k_ref) fills [-1, 1].
@@ -133,6 +128,27 @@ impl Engine {
             stats,
             gpu_timings,
         })
+    }
+}
+
+/// The dispatch that only finds max |g|, which 8-bit storage runs first for its scale.
+fn max_only_pass(outputs: DerivativeOutputs) -> DerivativeOutputs {
+    DerivativeOutputs {
+        magnitude: false,
+        curvature: false,
+        normal: false,
+        precision: outputs.precision,
+    }
+}
+
+/// The derivative pipeline variants computing `outputs` runs, in order (two for 8-bit storage:
+/// the maximum, then the stores).
+pub(crate) fn derivative_variants(outputs: DerivativeOutputs) -> Vec<DerivativeOutputs> {
+    let stores = outputs.magnitude || outputs.curvature;
+    if outputs.precision == DerivedPrecision::Snorm8 && stores {
+        vec![max_only_pass(outputs), outputs]
+    } else {
+        vec![outputs]
     }
 }
 

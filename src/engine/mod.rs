@@ -2,7 +2,11 @@
 //!
 //! Decisions:
 //! - Passes (pipelines) are created on first use and cached per variant (sample kind, derivative
-//!   outputs), so a second volume of the same kind creates no pipeline.
+//!   outputs), so a second volume of the same kind creates no pipeline. Every pipeline is created
+//!   through the engine's one [`PipelineCache`] (in memory by default; a directory when the
+//!   caller asks, saved only when the caller says so, after its first frame). A caller that
+//!   knows what its first frame needs can have them compiled ahead on worker threads
+//!   (`pipelines.rs`).
 //! - The data flow of DESIGN.md: upload -> min/max -> (CPU, f64) normalization plan ->
 //!   normalize -> histogram -> (CPU) peaks; derived volumes only when asked for. The min/max
 //!   result makes one host round trip, because the scale and offset are computed in f64.
@@ -13,6 +17,7 @@ mod bricked;
 mod derive;
 mod occupancy;
 mod open;
+mod pipelines;
 mod prepare;
 mod probe;
 pub mod readback;
@@ -22,14 +27,16 @@ pub mod upload;
 
 pub use bricked::HostPrepared;
 pub use derive::Derived;
-pub use open::{OpenError, OpenedVolume};
+pub use open::{OpenError, OpenTimings, OpenedVolume};
+pub use pipelines::PipelineTimes;
 pub use prepare::{BrickAtlas, PrepareTimings, PreparedVolume, VolumeLayout};
 pub use render::{FRAMES_IN_FLIGHT, Frame, MAX_OCCUPANCY_FOR_SKIPPING, RenderTarget, SampleCounts};
 pub use twin::{Twin, TwinUpdate};
 
+use crate::gpu::pipeline_cache::PersistError;
 use crate::gpu::{
     Access, Buffer, BufferDesc, Device, DeviceConfig, Filter, GpuResult, Image, ImageDesc,
-    Recording, Sampler,
+    PersistOutcome, PipelineCache, PipelineCacheConfig, Recording, Sampler,
 };
 use crate::passes::derivatives::{DerivativeOutputs, DerivativePass};
 use crate::passes::histogram::HistogramPass;
@@ -54,6 +61,9 @@ pub struct EngineConfig {
     pub memory_budget: Option<u64>,
     /// Brick volumes even when they fit whole (to measure what bricking costs).
     pub force_bricking: bool,
+    /// Pipeline cache: off, in memory (the default: no disk I/O unless asked for), or loaded
+    /// from and saved into a directory ([`Engine::persist_pipeline_cache`] saves it).
+    pub pipeline_cache: PipelineCacheConfig,
 }
 
 impl Default for EngineConfig {
@@ -63,12 +73,13 @@ impl Default for EngineConfig {
             normalized_format: vk::Format::R16_UNORM,
             memory_budget: None,
             force_bricking: false,
+            pipeline_cache: PipelineCacheConfig::InMemory,
         }
     }
 }
 
 /// The analysis passes of one sample kind.
-struct KindPasses {
+pub(crate) struct KindPasses {
     minmax: MinMaxPass,
     normalize: NormalizePass,
     histogram: HistogramPass,
@@ -135,8 +146,23 @@ pub struct Engine {
     nearest: Arc<Sampler>,
     linear: Arc<Sampler>,
     placeholders: Placeholders,
-    pipeline_cache: vk::PipelineCache,
+    pipeline_cache: Arc<PipelineCache>,
     counters: EngineCounters,
+    /// Pipelines being created on worker threads (`pipelines.rs`), and those threads.
+    pending: Vec<pipelines::Pending>,
+    workers: Vec<std::thread::JoinHandle<()>>,
+    workers_cancelled: Arc<std::sync::atomic::AtomicBool>,
+    pipeline_times: PipelineTimes,
+    /// First start and last end of the workers' pipelines that were used.
+    ahead_window: Option<(std::time::Instant, std::time::Instant)>,
+}
+
+impl Drop for Engine {
+    fn drop(&mut self) {
+        // Workers hold the device and the cache, so they are safe to outlive the engine; joining
+        // them just keeps their work from running on behind its back.
+        self.join_pipeline_workers();
+    }
 }
 
 impl Engine {
@@ -151,6 +177,7 @@ impl Engine {
     /// engines, as the viewer shares one between its interface thread and its loader thread
     /// (volumes prepared by one are rendered by the other).
     pub fn with_device(device: Device, config: EngineConfig) -> GpuResult<Engine> {
+        let pipeline_cache = Arc::new(PipelineCache::new(&device, &config.pipeline_cache)?);
         let nearest = Sampler::new(&device, Filter::Nearest)?;
         let linear = Sampler::new(&device, Filter::Linear)?;
         let placeholders = Placeholders {
@@ -204,14 +231,32 @@ impl Engine {
             nearest,
             linear,
             placeholders,
-            pipeline_cache: vk::PipelineCache::null(),
+            pipeline_cache,
             counters: EngineCounters::default(),
+            pending: Vec::new(),
+            workers: Vec::new(),
+            workers_cancelled: Arc::default(),
+            pipeline_times: PipelineTimes::default(),
+            ahead_window: None,
         })
     }
 
     /// What the engine has compiled and run so far.
     pub fn counters(&self) -> EngineCounters {
         self.counters
+    }
+
+    /// The pipeline cache every pipeline of this engine is created through (how it was loaded:
+    /// [`PipelineCache::load`]).
+    pub fn pipeline_cache(&self) -> &PipelineCache {
+        &self.pipeline_cache
+    }
+
+    /// Saves the pipeline cache when the engine was configured with a cache directory and the
+    /// cache changed since it was loaded (see [`PipelineCache::persist`]). Call it after the
+    /// first frame: nothing on the way to the first pixel should wait for the disk.
+    pub fn persist_pipeline_cache(&self) -> Result<PersistOutcome, PersistError> {
+        self.pipeline_cache.persist()
     }
 
     /// The device.
@@ -283,31 +328,5 @@ impl Engine {
         }
         self.config.normalized_format = format;
         Ok(())
-    }
-
-    fn kind_passes(&mut self, kind: SampleKind) -> GpuResult<&KindPasses> {
-        if !self.kind_passes.contains_key(&kind) {
-            let passes = KindPasses {
-                minmax: MinMaxPass::new(&self.device, kind, self.pipeline_cache)?,
-                normalize: NormalizePass::new(&self.device, kind, self.pipeline_cache)?,
-                histogram: HistogramPass::new(&self.device, kind, self.pipeline_cache)?,
-            };
-            self.kind_passes.insert(kind, passes);
-            self.counters.pipelines_created += 3;
-        }
-        self.kind_passes
-            .get(&kind)
-            .ok_or_else(|| crate::gpu::GpuError::InvalidRequest("pass cache lost an entry".into()))
-    }
-
-    fn derivative_pass(&mut self, outputs: DerivativeOutputs) -> GpuResult<&DerivativePass> {
-        if !self.derivative_passes.contains_key(&outputs) {
-            let pass = DerivativePass::new(&self.device, outputs, self.pipeline_cache)?;
-            self.derivative_passes.insert(outputs, pass);
-            self.counters.pipelines_created += 1;
-        }
-        self.derivative_passes
-            .get(&outputs)
-            .ok_or_else(|| crate::gpu::GpuError::InvalidRequest("pass cache lost an entry".into()))
     }
 }

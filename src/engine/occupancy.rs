@@ -2,21 +2,26 @@
 
 use super::Engine;
 use super::prepare::PreparedVolume;
-use crate::gpu::{Access, Buffer, BufferDesc, GpuResult, Recording};
-use crate::passes::occupancy::{BRICK_SIDE, OccupancyPass, brick_grid};
+use crate::gpu::{Access, Buffer, BufferDesc, GpuResult, PassTiming, Recording};
+use crate::passes::occupancy::{BRICK_SIDE, brick_grid};
 use crate::scene::occupancy::BrickRanges;
 use std::sync::Arc;
 
 impl Engine {
     /// The per-brick I_norm ranges of `prepared` (one GPU pass the first time, cached after).
     pub fn brick_ranges(&mut self, prepared: &PreparedVolume) -> GpuResult<Arc<BrickRanges>> {
+        self.brick_ranges_timed(prepared).map(|(ranges, _)| ranges)
+    }
+
+    /// [`Engine::brick_ranges`] with the GPU time of its pass (empty when they were cached).
+    pub fn brick_ranges_timed(
+        &mut self,
+        prepared: &PreparedVolume,
+    ) -> GpuResult<(Arc<BrickRanges>, Vec<PassTiming>)> {
         if let Some(r) = prepared.brick_ranges.get() {
-            return Ok(r.clone());
+            return Ok((r.clone(), Vec::new()));
         }
-        if self.occupancy_pass.is_none() {
-            self.occupancy_pass = Some(OccupancyPass::new(&self.device, self.pipeline_cache)?);
-            self.counters.pipelines_created += 1;
-        }
+        self.occupancy_pass()?;
         self.counters.occupancy_runs += 1;
         let Some(pass) = &self.occupancy_pass else {
             return Err(crate::gpu::GpuError::InvalidRequest(
@@ -44,7 +49,7 @@ impl Engine {
         );
         rec.copy_buffer(&gpu, &host, 8 * bricks);
         rec.barriers(&[(&host, Access::TransferWrite, Access::HostRead)], &[]);
-        rec.submit()?.wait()?;
+        let timings = rec.submit()?.wait()?;
         let mut bytes = vec![0u8; 8 * bricks as usize];
         host.read(0, &mut bytes)?;
         let ranges = bytes
@@ -60,6 +65,9 @@ impl Engine {
             side: BRICK_SIDE,
             ranges,
         });
-        Ok(prepared.brick_ranges.get_or_init(|| ranges).clone())
+        Ok((
+            prepared.brick_ranges.get_or_init(|| ranges).clone(),
+            timings,
+        ))
     }
 }

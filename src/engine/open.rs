@@ -14,7 +14,7 @@
 
 use super::Engine;
 use super::bricked::HostPrepared;
-use super::prepare::PreparedVolume;
+use super::prepare::{PrepareTimings, PreparedVolume};
 use super::twin::Twin;
 use crate::analysis::{TissueReport, analyze};
 use crate::gpu::GpuError;
@@ -22,6 +22,7 @@ use crate::scene::Scene;
 use crate::scene::plan::{DoesNotFit, Layout, Plan, STORAGE_BRICK, STORAGE_HALO};
 use crate::volume::Volume;
 use ash::vk;
+use std::time::Instant;
 
 /// Why a volume could not be opened.
 #[derive(Debug, thiserror::Error)]
@@ -32,6 +33,29 @@ pub enum OpenError {
     /// No plan of the scene fits the memory budget.
     #[error(transparent)]
     DoesNotFit(#[from] DoesNotFit),
+}
+
+/// Host times of [`Engine::open_volume`], milliseconds, in the order they ran.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct OpenTimings {
+    /// Planning the scene against the budget (twice when bricked).
+    pub plan_ms: f64,
+    /// Upload, min/max, normalization and histogram (or the host preparation and brick upload
+    /// of a bricked volume), with their own breakdown.
+    pub prepare: PrepareTimings,
+    /// Histogram analysis: peaks, Table-1 row, tissue windows (CPU).
+    pub peaks_ms: f64,
+    /// The derived volumes the scene needs (pipeline creation, dispatches, the maximum's
+    /// readback); 0 when the scene needs none.
+    pub derivatives_ms: f64,
+    /// Part of `derivatives_ms`: getting the derivative pipelines (waiting for a worker, or
+    /// creating them).
+    pub derivatives_pipelines_ms: f64,
+    /// Getting pipelines during the whole call (in `prepare.pipelines_ms` and
+    /// `derivatives_pipelines_ms`).
+    pub pipelines_ms: f64,
+    /// The whole call.
+    pub wall_ms: f64,
 }
 
 /// A volume ready to render: the twin (prepared volume and derived volumes), the histogram
@@ -45,6 +69,8 @@ pub struct OpenedVolume {
     pub scene: Scene,
     /// The plan it was prepared for.
     pub plan: Plan,
+    /// Where the time went.
+    pub timings: OpenTimings,
 }
 
 impl Engine {
@@ -58,8 +84,12 @@ impl Engine {
         image: [u32; 2],
         make_scene: &dyn Fn(&TissueReport) -> Scene,
     ) -> Result<OpenedVolume, OpenError> {
+        let start = Instant::now();
+        let pipelines_before = self.pipeline_times.caller_ms;
+        let mut timings = OpenTimings::default();
         let effects = make_scene(&analyze(&[0; 256], 0.0, 1.0, 0, 0)).effects;
         let first = self.plan(effects, volume, image, 1.0);
+        timings.plan_ms = ms(start);
         let (prepared, report, mut scene, plan) = match first {
             Ok(plan) if plan.layout == Layout::Whole => {
                 let format = if plan.normalized_format == "R8_UNORM" {
@@ -69,18 +99,26 @@ impl Engine {
                 };
                 self.set_normalized_format(format)?;
                 let prepared = self.prepare(volume)?;
+                timings.prepare = prepared.timings.clone();
+                let before_peaks = Instant::now();
                 let report = report_of(&prepared);
                 let scene = make_scene(&report);
+                timings.peaks_ms = ms(before_peaks);
                 (prepared, report, scene, plan)
             }
             _ => {
+                let before_host = Instant::now();
                 let host = self.prepare_on_host(volume, vk::Format::R16_UNORM)?;
+                let before_peaks = Instant::now();
                 let report = report_of_host(&host);
                 let scene = make_scene(&report);
+                timings.peaks_ms = ms(before_peaks);
                 let fraction = host
                     .brick_ranges(STORAGE_BRICK, STORAGE_HALO)
                     .occupied_fraction(&scene.classification);
+                let before_plan = Instant::now();
                 let plan = self.plan(effects, volume, image, fraction)?;
+                timings.plan_ms += ms(before_plan);
                 let host = if plan.normalized_format == "R8_UNORM" {
                     self.prepare_on_host(volume, vk::Format::R8_UNORM)?
                 } else {
@@ -91,19 +129,35 @@ impl Engine {
                     Layout::Whole => 64,
                 };
                 let prepared = self.upload_bricked(&host, &scene.classification, staging_slots)?;
+                timings.prepare = prepared.timings.clone();
+                // The host preparation, minus the analysis and the second plan timed above.
+                timings.prepare.wall_ms = ms(before_host) - timings.peaks_ms - timings.plan_ms;
                 (prepared, report, scene, plan)
             }
         };
         scene.effects = plan.effects;
         let mut twin = Twin::new(prepared);
+        let before_derivatives = Instant::now();
+        let derivative_pipelines_before = self.pipeline_times.caller_ms;
         self.update_twin(&mut twin, &scene.effects)?;
+        timings.derivatives_ms = ms(before_derivatives);
+        timings.derivatives_pipelines_ms =
+            self.pipeline_times.caller_ms - derivative_pipelines_before;
+        timings.pipelines_ms = self.pipeline_times.caller_ms - pipelines_before;
+        timings.wall_ms = ms(start);
         Ok(OpenedVolume {
             twin,
             report,
             scene,
             plan,
+            timings,
         })
     }
+}
+
+/// Milliseconds since `since`.
+fn ms(since: Instant) -> f64 {
+    since.elapsed().as_secs_f64() * 1e3
 }
 
 fn report_of(prepared: &PreparedVolume) -> TissueReport {

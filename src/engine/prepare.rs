@@ -14,12 +14,22 @@ use std::sync::Arc;
 use std::time::Instant;
 
 /// Host-side times of [`Engine::prepare`] (GPU pass times are in `PreparedVolume::gpu_timings`).
+/// The per-pass walls follow one another and add up to (nearly) `wall_ms`.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct PrepareTimings {
     /// Creating pipelines for this sample kind (0 when cached).
     pub pipelines_ms: f64,
     /// Writing the samples into mapped memory.
     pub upload_write_ms: f64,
+    /// The whole upload on the host: allocating the buffers and writing the samples (a staged
+    /// upload's GPU copy runs in the min/max submission).
+    pub upload_ms: f64,
+    /// Recording, submitting and waiting for the min/max submission, and reading its result.
+    pub minmax_ms: f64,
+    /// Allocating I_norm, recording, submitting and waiting for the normalization.
+    pub normalize_ms: f64,
+    /// Waiting for the histogram (submitted right behind the normalization) and reading its bins.
+    pub histogram_ms: f64,
     /// Wall time of the whole preparation.
     pub wall_ms: f64,
 }
@@ -110,6 +120,11 @@ impl PreparedVolume {
     }
 }
 
+/// Milliseconds since `since`.
+fn ms(since: Instant) -> f64 {
+    since.elapsed().as_secs_f64() * 1e3
+}
+
 /// Checks that the volume's size fits the 32-bit indices and the 3D image limit.
 fn checked_dims(engine: &Engine, volume: &Volume) -> GpuResult<[u32; 3]> {
     let max = engine.device.adapter().max_image_dimension_3d;
@@ -139,18 +154,23 @@ impl Engine {
         self.counters.prepares += 1;
         let kind = volume.samples.kind();
         let voxel_count = volume.voxel_count() as u64;
-        let before_pipelines = Instant::now();
-        self.kind_passes(kind)?;
-        let pipelines_ms = before_pipelines.elapsed().as_secs_f64() * 1e3;
         let device = self.device.clone();
         let normalized_format = self.config.normalized_format;
-        let passes = self.kind_passes(kind)?;
 
         // Submission 1: upload and min/max; the host needs the range before normalizing.
+        // The upload needs no pipeline, so it runs first: analysis pipelines still compiling on
+        // a worker (`Engine::start_pipelines`) get that much longer before they are waited for.
+        let before_upload = Instant::now();
         let mut rec = Recording::new(&device, "upload and min/max")?;
         let before_write = Instant::now();
         let (samples, upload_path) = upload_samples(&device, &mut rec, &volume.samples)?;
         let upload_write_ms = before_write.elapsed().as_secs_f64() * 1e3;
+        let upload_ms = ms(before_upload);
+        let before_pipelines = Instant::now();
+        self.kind_passes(kind)?;
+        let pipelines_ms = ms(before_pipelines);
+        let passes = self.kind_passes(kind)?;
+        let before_minmax = Instant::now();
         let range_gpu = Buffer::new(&device, BufferDesc::gpu_storage("min/max result", 8))?;
         let range_host = Buffer::new(&device, BufferDesc::readback("min/max result (host)", 8))?;
         rec.begin_pass("minmax");
@@ -176,8 +196,14 @@ impl Engine {
         let max_key = u32::from_le_bytes([words[4], words[5], words[6], words[7]]);
         let stored_range = decode_result(min_key, max_key);
         let normalization = normalize::plan(dims, stored_range, volume.to_physical);
+        let minmax_ms = ms(before_minmax);
 
-        // Submission 2: normalize, then histogram of what was written.
+        // Submissions 2 and 3: normalize, then histogram of what was written. Two submissions,
+        // so the host sees when each pass ends (their walls are measured separately). The
+        // histogram is recorded while the normalization runs and submitted when it is done:
+        // drivers may signal fences of queued submissions together (lavapipe does), which would
+        // hide where one pass ends; the GPU idles only for one submission's latency.
+        let before_normalize = Instant::now();
         let normalized = Image::new(
             &device,
             ImageDesc::volume("normalized volume", dims, normalized_format),
@@ -186,13 +212,14 @@ impl Engine {
             &device,
             BufferDesc::gpu_storage("histogram bins", (BINS * 4) as u64),
         )?;
-        let mut rec = Recording::new(&device, "normalize and histogram")?;
+        let mut rec = Recording::new(&device, "normalize")?;
         rec.begin_pass("normalize");
         passes
             .normalize
             .record(&mut rec, &samples, &normalization.params, &normalized)?;
         rec.end_pass();
-        // Orders the normalized writes before the histogram's (and later passes') reads.
+        // Orders the normalized writes before the histogram's (and later passes') reads; a
+        // barrier also orders work of later submissions to the same queue.
         rec.barriers(
             &[],
             &[(
@@ -201,11 +228,16 @@ impl Engine {
                 Access::ComputeSampled,
             )],
         );
+        let normalizing = rec.submit()?;
+        let mut rec = Recording::new(&device, "histogram")?;
         rec.begin_pass("histogram");
         passes
             .histogram
             .record(&device, &mut rec, &normalized, &samples, &bins)?;
         rec.end_pass();
+        gpu_timings.extend(normalizing.wait()?);
+        let normalize_ms = ms(before_normalize);
+        let before_histogram = Instant::now();
         gpu_timings.extend(rec.submit()?.wait()?);
         let mut bin_bytes = vec![0u8; BINS * 4];
         read_buffer(&device, &bins, Access::ComputeWriteBuffer, &mut bin_bytes)?;
@@ -214,6 +246,7 @@ impl Engine {
             *bin = u32::from_le_bytes([chunk[0], chunk[1], chunk[2], chunk[3]]);
         }
         let finite_voxels = histogram.iter().map(|&c| c as u64).sum();
+        let histogram_ms = ms(before_histogram);
 
         Ok(PreparedVolume {
             dims,
@@ -233,7 +266,11 @@ impl Engine {
             timings: PrepareTimings {
                 pipelines_ms,
                 upload_write_ms,
-                wall_ms: start.elapsed().as_secs_f64() * 1e3,
+                upload_ms,
+                minmax_ms,
+                normalize_ms,
+                histogram_ms,
+                wall_ms: ms(start),
             },
         })
     }

@@ -18,7 +18,7 @@ impl Engine {
             &self.device,
             BufferDesc::gpu_storage("bandwidth probe (target)", bytes),
         )?;
-        let kernel = CopyPass::new(&self.device, self.pipeline_cache)?;
+        let kernel = CopyPass::new(&self.device, self.pipeline_cache.raw())?;
         let mut rates = Vec::new();
         for _ in 0..repeats.max(1) {
             let mut rec = Recording::new(&self.device, "bandwidth probe")?;

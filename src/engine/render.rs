@@ -18,7 +18,7 @@ use crate::gpu::{
     Access, Buffer, BufferDesc, GpuError, GpuResult, Image, ImageDesc, PassTiming, Recording,
 };
 use crate::passes::occupancy::BRICK_SIDE;
-use crate::passes::raymarch::{COUNTER_WORDS, RaymarchInputs, RaymarchPass, RaymarchVariant};
+use crate::passes::raymarch::{COUNTER_WORDS, RaymarchInputs, RaymarchVariant};
 use crate::scene::uniforms::{AtlasInfo, FrameInputs, GradientStats, RaymarchUniforms};
 use crate::scene::{Scene, VolumeGeometry};
 use ash::vk;
@@ -156,17 +156,6 @@ impl Engine {
             count_samples: false,
             read_back: true,
         })
-    }
-
-    fn raymarch_pass(&mut self, variant: RaymarchVariant) -> GpuResult<&RaymarchPass> {
-        if !self.raymarch_passes.contains_key(&variant) {
-            let pass = RaymarchPass::new(&self.device, variant, self.pipeline_cache)?;
-            self.raymarch_passes.insert(variant, pass);
-            self.counters.pipelines_created += 1;
-        }
-        self.raymarch_passes
-            .get(&variant)
-            .ok_or_else(|| GpuError::InvalidRequest("pass cache lost an entry".into()))
     }
 
     /// Renders `scene` into `target`, waits, and reads the frame back.

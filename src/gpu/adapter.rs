@@ -66,6 +66,8 @@ pub struct AdapterInfo {
     pub vendor_id: u32,
     /// Vendor's device id.
     pub device_id: u32,
+    /// Driver version as the driver encodes it (keys the on-disk pipeline cache).
+    pub driver_version: u32,
     /// Driver's pipeline-cache UUID (keys the on-disk pipeline cache).
     pub pipeline_cache_uuid: [u8; 16],
     /// Default subgroup size.
@@ -363,6 +365,7 @@ fn describe(
         driver: format!("{driver_name} {driver_info}").trim().to_string(),
         vendor_id: properties.vendor_id,
         device_id: properties.device_id,
+        driver_version: properties.driver_version,
         pipeline_cache_uuid: properties.pipeline_cache_uuid,
         subgroup_size: subgroup.subgroup_size,
         subgroup_size_range: has_subgroup_size_control.then_some((

@@ -115,6 +115,7 @@ impl Device {
             profile,
             tuning,
             owned: false,
+            timings: Default::default(),
         })
     }
 }

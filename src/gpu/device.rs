@@ -20,6 +20,7 @@ use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
 use std::ffi::CStr;
 use std::mem::ManuallyDrop;
 use std::sync::{Arc, Mutex};
+use std::time::Instant;
 
 /// How to create a device.
 #[derive(Clone, Debug, Default)]
@@ -34,6 +35,23 @@ pub struct DeviceConfig {
     pub tuning: KernelTuning,
 }
 
+/// Host times of creating a device, milliseconds (all zero for an adopted device). The path to
+/// the first pixel waits for all three, so they are measured separately.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct DeviceTimings {
+    /// Opening the Vulkan loader and creating the instance (layers, extensions, messenger).
+    pub instance_ms: f64,
+    /// Part of `instance_ms`: opening the loader library and the layer and version queries
+    /// before `vkCreateInstance`.
+    pub loader_ms: f64,
+    /// Enumerating the physical devices and describing each (properties, features, formats).
+    pub adapter_ms: f64,
+    /// `vkCreateDevice`, the queue and the memory allocator.
+    pub device_ms: f64,
+    /// Part of `device_ms`: the memory allocator (and the memory-property query).
+    pub allocator_ms: f64,
+}
+
 /// A created or adopted device before its allocator exists.
 pub(crate) struct DeviceParts {
     pub(crate) instance: Instance,
@@ -44,6 +62,7 @@ pub(crate) struct DeviceParts {
     pub(crate) profile: Option<DeviceProfile>,
     pub(crate) tuning: KernelTuning,
     pub(crate) owned: bool,
+    pub(crate) timings: DeviceTimings,
 }
 
 /// What a device needs beyond compute to draw an interface and show it in a window (the
@@ -68,6 +87,7 @@ pub struct DeviceShared {
     pub(crate) ledger: Arc<MemoryLedger>,
     pub(crate) profile: Option<DeviceProfile>,
     pub(crate) tuning: KernelTuning,
+    pub(crate) timings: DeviceTimings,
     // False for an integrator's device (`Device::adopt`): the integrator destroys it.
     pub(crate) owned: bool,
     // Dropped last: the instance must outlive the device.
@@ -100,12 +120,20 @@ impl Device {
         let surface_extensions = presentation
             .map(|p| p.surface_extensions.as_slice())
             .unwrap_or(&[]);
+        let ms = |since: Instant| since.elapsed().as_secs_f64() * 1e3;
+        let mut timings = DeviceTimings::default();
+        let start = Instant::now();
         let instance = Instance::with_extensions(config.validation, surface_extensions)?;
+        timings.instance_ms = ms(start);
+        timings.loader_ms = instance.loader_ms;
+        let start = Instant::now();
         let selector = match &config.selector {
             DeviceSelector::Auto => DeviceSelector::from_env(),
             other => other.clone(),
         };
         let (physical, adapter) = select(&instance, &selector)?;
+        timings.adapter_ms = ms(start);
+        let start = Instant::now();
         // A profile clamps what the engine may use (never more than the device offers).
         let adapter = match &config.profile {
             Some(profile) => profile.clamp(adapter),
@@ -159,8 +187,15 @@ impl Device {
             profile: config.profile.clone(),
             tuning,
             owned: true,
+            timings,
         };
-        Self::assemble(parts)
+        let before_allocator = Instant::now();
+        let mut device = Self::assemble(parts)?;
+        if let Some(shared) = Arc::get_mut(&mut device.shared) {
+            shared.timings.device_ms = ms(start);
+            shared.timings.allocator_ms = ms(before_allocator);
+        }
+        Ok(device)
     }
 
     /// The allocator and the shared state around a created (or adopted) device.
@@ -174,6 +209,7 @@ impl Device {
             profile,
             tuning,
             owned,
+            timings,
         } = parts;
         // SAFETY: query on the physical device this device was created from.
         let memory_properties =
@@ -210,6 +246,7 @@ impl Device {
                 ledger: Arc::new(MemoryLedger::default()),
                 profile,
                 tuning,
+                timings,
                 owned,
                 instance: ManuallyDrop::new(instance),
             }),
@@ -219,6 +256,11 @@ impl Device {
     /// What the chosen physical device offers.
     pub fn adapter(&self) -> &AdapterInfo {
         &self.shared.adapter
+    }
+
+    /// How long creating this device took (zero for an adopted device).
+    pub fn creation_timings(&self) -> DeviceTimings {
+        self.shared.timings
     }
 
     /// Validation messages so far (empty when validation is off).

@@ -54,6 +54,8 @@ pub struct Instance {
     validation_enabled: bool,
     // False for an integrator's instance (see `Instance::adopt`): the integrator destroys it.
     owned: bool,
+    // Opening the loader and the layer and version queries before vkCreateInstance (ms).
+    pub(crate) loader_ms: f64,
 }
 
 impl Instance {
@@ -65,6 +67,7 @@ impl Instance {
     /// Like [`Instance::new`], with extra instance extensions enabled (the window system's
     /// surface extensions, for the viewer); one the loader lacks is a typed error naming it.
     pub fn with_extensions(validation: Validation, extra: &[&CStr]) -> GpuResult<Self> {
+        let start = std::time::Instant::now();
         // SAFETY: loading the system Vulkan loader; ash checks the symbols it needs.
         let entry =
             unsafe { ash::Entry::load() }.map_err(|e| GpuError::LoaderMissing(e.to_string()))?;
@@ -92,6 +95,7 @@ impl Instance {
             )));
         }
 
+        let loader_ms = start.elapsed().as_secs_f64() * 1e3;
         let app_info = vk::ApplicationInfo::default()
             .application_name(c"morphray")
             .application_version(0)
@@ -163,6 +167,7 @@ impl Instance {
             log,
             validation_enabled: use_validation,
             owned: true,
+            loader_ms,
         })
     }
 
@@ -177,6 +182,7 @@ impl Instance {
             log: new_log(),
             validation_enabled: false,
             owned: false,
+            loader_ms: 0.0,
         }
     }
 

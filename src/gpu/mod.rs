@@ -1,5 +1,5 @@
 //! The object layer on ash: instance, device choice, memory, buffers, images, samplers,
-//! descriptors, pipelines, command recording and submission, barriers, timestamps.
+//! descriptors, pipelines and their cache, command recording and submission, barriers, timestamps.
 //!
 //! Decisions (details in each file):
 //! - RAII everywhere: every object owns its handle and an `Arc` of the device; work in flight
@@ -20,6 +20,7 @@ pub mod image;
 pub mod instance;
 pub mod memory;
 pub mod pipeline;
+pub mod pipeline_cache;
 pub mod profile;
 pub mod sampler;
 pub mod shaders;
@@ -31,12 +32,13 @@ pub use adopt::AdoptedHandles;
 pub use buffer::{Buffer, BufferDesc};
 pub use commands::{Recording, Submission};
 pub use descriptors::{DescriptorSet, Resource};
-pub use device::{Device, DeviceConfig, Presentation};
+pub use device::{Device, DeviceConfig, DeviceTimings, Presentation};
 pub use error::{GpuError, GpuResult};
 pub use image::{Image, ImageDesc};
 pub use instance::{Instance, Validation};
 pub use memory::{AllocationRecord, MemoryIntent};
 pub use pipeline::{ComputePipeline, SpecValue};
+pub use pipeline_cache::{CacheLoad, PersistOutcome, PipelineCache, PipelineCacheConfig};
 pub use profile::{DeviceProfile, KernelTuning};
 pub use sampler::{Filter, Sampler};
 pub use sync::Access;

@@ -1,0 +1,182 @@
+//! The on-disk pipeline cache on a real device: saved after use, found by the next engine, and
+//! a truncated, garbage or foreign-device file is rejected with a reason (never a panic or a
+//! failed run) while the engine still renders. Validation layer on.
+
+mod common;
+
+use morphray::engine::{Engine, EngineConfig};
+use morphray::gpu::pipeline_cache::{CacheKey, decode_file, encode_file, file_name};
+use morphray::gpu::{DeviceConfig, PersistOutcome, PipelineCacheConfig, Validation};
+use morphray::scene::{Classification, Scene};
+use morphray::volume::phantom::{PhantomSpec, generate};
+use std::path::{Path, PathBuf};
+
+fn engine(cache: PipelineCacheConfig) -> Engine {
+    Engine::new(EngineConfig {
+        device: DeviceConfig {
+            validation: Validation::Required,
+            ..Default::default()
+        },
+        pipeline_cache: cache,
+        ..Default::default()
+    })
+    .unwrap_or_else(|e| {
+        panic!(
+            "this test needs a Vulkan device with the validation layer \
+             (Debian: apt-get install mesa-vulkan-drivers libvulkan1 vulkan-validationlayers): {e}"
+        )
+    })
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!(
+        "morphray-pipeline-cache-{}-{name}",
+        std::process::id()
+    ));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Opens a small phantom and renders one frame (creating every pipeline a first frame needs).
+fn render_once(engine: &mut Engine) {
+    let volume = generate(&PhantomSpec::cube(20)).unwrap().volume;
+    let make_scene = |r: &morphray::analysis::TissueReport| {
+        Scene::new(Classification::from_tissue_windows(&r.adaptive_windows))
+    };
+    let mut opened = engine.open_volume(&volume, [16, 16], &make_scene).unwrap();
+    let mut target = engine
+        .render_target(16, 16, ash::vk::Format::R8G8B8A8_UNORM)
+        .unwrap();
+    engine
+        .render_twin(&mut target, &mut opened.twin, &opened.scene)
+        .unwrap();
+    common::assert_no_validation_errors(engine);
+}
+
+fn cache_file(engine: &Engine, dir: &Path) -> PathBuf {
+    dir.join(file_name(&CacheKey::of(engine.device().adapter())))
+}
+
+#[test]
+fn a_saved_cache_is_found_by_the_next_engine_and_saved_only_when_changed() {
+    let dir = temp_dir("roundtrip");
+    let config = PipelineCacheConfig::Directory(dir.clone());
+    let mut first = engine(config.clone());
+    let load = first.pipeline_cache().load().clone();
+    assert_eq!(
+        (load.loaded_bytes, &load.rejected),
+        (0, &None),
+        "no file yet"
+    );
+    assert_eq!(
+        load.path.as_deref(),
+        Some(cache_file(&first, &dir).as_path())
+    );
+    render_once(&mut first);
+    let saved = first.persist_pipeline_cache().unwrap();
+    assert!(
+        matches!(saved, PersistOutcome::Written { bytes, .. } if bytes >= 32),
+        "{saved:?}"
+    );
+    assert!(cache_file(&first, &dir).exists());
+    // No temporary files are left beside it.
+    let names: Vec<_> = std::fs::read_dir(&dir).unwrap().flatten().collect();
+    assert_eq!(names.len(), 1, "{names:?}");
+    drop(first);
+
+    let mut second = engine(config);
+    let load = second.pipeline_cache().load().clone();
+    assert!(load.loaded_bytes >= 32, "{load:?}");
+    assert_eq!(load.rejected, None);
+    render_once(&mut second);
+    // The same pipelines again: nothing new to save.
+    assert!(matches!(
+        second.persist_pipeline_cache().unwrap(),
+        PersistOutcome::Unchanged { .. }
+    ));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn truncated_garbage_and_foreign_cache_files_are_rejected_and_the_engine_still_renders() {
+    let dir = temp_dir("bad");
+    let config = PipelineCacheConfig::Directory(dir.clone());
+    let mut maker = engine(config.clone());
+    render_once(&mut maker);
+    maker.persist_pipeline_cache().unwrap();
+    let path = cache_file(&maker, &dir);
+    let key = CacheKey::of(maker.device().adapter());
+    drop(maker);
+    let good = std::fs::read(&path).unwrap();
+    let payload = decode_file(&good, &key).unwrap().to_vec();
+    let mut foreign_payload = payload.clone();
+    // vendorID of VkPipelineCacheHeaderVersionOne (bytes 8..12).
+    foreign_payload[8..12].copy_from_slice(&(key.vendor_id ^ 0xffff).to_le_bytes());
+    let garbage: Vec<u8> = (0..3000u32).map(|i| (i * 7919 % 251) as u8).collect();
+    let cases: [(&str, Vec<u8>); 4] = [
+        ("truncated", good[..good.len() - 5].to_vec()),
+        ("empty", Vec::new()),
+        ("garbage", garbage),
+        ("foreign device", encode_file(&foreign_payload)),
+    ];
+    for (what, bytes) in cases {
+        std::fs::write(&path, &bytes).unwrap();
+        let mut engine = engine(config.clone());
+        let load = engine.pipeline_cache().load().clone();
+        assert_eq!(load.loaded_bytes, 0, "{what}: {load:?}");
+        let reason = load.rejected.unwrap_or_default();
+        assert!(!reason.is_empty(), "{what} was not rejected");
+        if what == "foreign device" {
+            assert!(reason.contains("another device"), "{what}: {reason}");
+        }
+        // The run goes on with an empty cache, and the next save replaces the bad file.
+        render_once(&mut engine);
+        assert!(matches!(
+            engine.persist_pipeline_cache().unwrap(),
+            PersistOutcome::Written { .. }
+        ));
+        let rewritten = std::fs::read(&path).unwrap();
+        assert!(decode_file(&rewritten, &key).is_ok(), "{what}");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_cache_that_cannot_be_written_is_an_error_value_not_a_failed_engine() {
+    let dir = temp_dir("unwritable");
+    // A file where the cache directory should be: creating the directory fails.
+    let blocked = dir.join("not-a-directory");
+    std::fs::write(&blocked, b"x").unwrap();
+    let mut engine = engine(PipelineCacheConfig::Directory(blocked.join("cache")));
+    // Even looking for the file fails (not a directory): a reason, an empty cache, no error.
+    let load = engine.pipeline_cache().load().clone();
+    assert_eq!(load.loaded_bytes, 0);
+    assert!(load.rejected.is_some(), "{load:?}");
+    render_once(&mut engine);
+    let error = engine.persist_pipeline_cache().unwrap_err();
+    assert!(error.to_string().contains("cannot write"), "{error}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn in_memory_and_off_caches_touch_no_disk() {
+    for config in [PipelineCacheConfig::InMemory, PipelineCacheConfig::Off] {
+        let mut engine = engine(config.clone());
+        assert_eq!(engine.pipeline_cache().load().path, None);
+        assert_eq!(
+            engine.pipeline_cache().raw() == ash::vk::PipelineCache::null(),
+            config == PipelineCacheConfig::Off
+        );
+        render_once(&mut engine);
+        assert_eq!(
+            engine.persist_pipeline_cache().unwrap(),
+            PersistOutcome::NotPersistent
+        );
+    }
+    // The library's default is in memory.
+    assert_eq!(
+        EngineConfig::default().pipeline_cache,
+        PipelineCacheConfig::InMemory
+    );
+}
