@@ -43,7 +43,8 @@ want tests && for t in $(ls $G | grep -v -E '^(morphray|fuzz_regressions|nifti_p
 done 2>&1 | tee "$OUT/tests.txt" | grep -E "==|test result|FAILED|panicked"
 $G/morphray peaks --json > "$W/peaks.json"
 run() { echo "== morphray $*" | tee -a "$OUT/run-log.txt"; $G/morphray "$@" 2>&1 | tee -a "$OUT/run-log.txt"; }
-common="--tissues csf,gm,wm,pathology --frames 100 --repeat 10"
+# Time to first pixel is measured once, in the peers stage (--trials 5 of the side-by-side bench).
+common="--tissues csf,gm,wm,pathology --frames 100 --repeat 10 --trials 0"
 if want bench; then
 # Issue 7: time and memory of the full plan, DVR without curvature, MIP; bricking at the same image.
 run bench $common --curvature on --shading on --json "$W/bench-full.json"
@@ -73,9 +74,9 @@ if want peers; then
 # Issue 5: the peers on the same volume file, image size and sampling distance
 # (tools/peers/README.md), beside morphray's bench of the same file and scenes.
 $G/morphray phantom -o /tmp/phantom.nii.gz
-run bench /tmp/phantom.nii.gz --tissues csf,gm,wm,pathology --frames 200 --curvature on --shading on --json "$W/side-full.json"
-run bench /tmp/phantom.nii.gz --tissues csf,gm,wm,pathology --frames 200 --shading on --json "$W/side-dvr-shaded.json"
-run bench /tmp/phantom.nii.gz --tissues csf,gm,wm,pathology --frames 200 --mode mip --json "$W/side-mip.json"
+run bench /tmp/phantom.nii.gz --tissues csf,gm,wm,pathology --frames 200 --trials 5 --curvature on --shading on --json "$W/side-full.json"
+run bench /tmp/phantom.nii.gz --tissues csf,gm,wm,pathology --frames 200 --trials 5 --shading on --json "$W/side-dvr-shaded.json"
+run bench /tmp/phantom.nii.gz --tissues csf,gm,wm,pathology --frames 200 --trials 5 --mode mip --json "$W/side-mip.json"
 bash tools/peers/device-peers.sh /tmp/phantom.nii.gz --size 1920x1080 --frames 200 --trials 5 --png --out "$W/peers" 2>&1 | tee -a "$OUT/run-log.txt"
 fi
 if want accuracy; then
