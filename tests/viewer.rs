@@ -379,3 +379,28 @@ fn closing_the_window_during_a_load_exits_cleanly() {
         "closing does not wait for the whole load"
     );
 }
+
+/// A window smaller than the interface panels leaves no room for the volume: the scripted run
+/// still ends after its frames (it used to wait forever for a volume frame) and says why.
+#[test]
+fn a_window_too_small_for_the_volume_ends_and_says_why() {
+    let dir = temp_dir("tiny");
+    let volume = small_phantom(&dir);
+    let o = view(
+        &[
+            volume.to_str().unwrap(),
+            "--size",
+            "320x200",
+            "--frames",
+            "3",
+            "--offscreen",
+        ],
+        false,
+    );
+    assert_ok(&o);
+    let log = stdout(&o);
+    assert!(
+        log.contains("leaves no room for the volume beside the panels"),
+        "{log}"
+    );
+}

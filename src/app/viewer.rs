@@ -161,6 +161,9 @@ pub struct Viewer {
     last: Option<Rendered>,
     serial: u64,
     volume_frames: u64,
+    /// Frames drawn with a volume loaded but no room for it (the panels fill a tiny window):
+    /// they count towards `--frames`, or a scripted run at such a size would never end.
+    empty_view_frames: u64,
     log: FrameLog,
     runner: Runner,
     synthetic: std::collections::VecDeque<Vec<egui::Event>>,
@@ -238,6 +241,7 @@ impl Viewer {
             last: None,
             serial: 0,
             volume_frames: 0,
+            empty_view_frames: 0,
             log,
             runner,
             synthetic: Default::default(),
@@ -747,12 +751,22 @@ impl Viewer {
         };
         self.size = size;
         let view_rect = px_rect(outcome.view, ppp, size);
+        if self.current.is_some() && (view_rect[2] == 0 || view_rect[3] == 0) {
+            if self.empty_view_frames == 0 {
+                self.log.say(&format!(
+                    "the window ({}x{}) leaves no room for the volume beside the panels: \
+                     nothing to raymarch until it is larger",
+                    size[0], size[1]
+                ));
+            }
+            self.empty_view_frames += 1;
+        }
 
         // Exit decision before painting, so the last frame carries the screenshot copy.
         let frames_done = self
             .config
             .frames
-            .is_some_and(|n| self.volume_frames + 1 >= n as u64);
+            .is_some_and(|n| self.volume_frames + self.empty_view_frames + 1 >= n as u64);
         let script_done = self.runner.finished() && self.synthetic.is_empty();
         let last = self.exit
             || (self.config.frames.is_some()
