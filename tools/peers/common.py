@@ -231,6 +231,35 @@ def result_skeleton(peer, args, volume):
     }
 
 
+def timing_fields(ttfp_ms, phases, ms, stats, warm, args, png):
+    """The measurement fields every peer's JSON carries: time to first pixel with its phases, the
+    orbit's frame times and FPS, the warm-up, and where the last frame went."""
+    return {
+        "ttfp_ms": {
+            "total": round(ttfp_ms, 3),
+            "phases": {k: round(v, 3) for k, v in phases.ms.items()},
+            "clock": phases.clock,
+        },
+        "frames": len(ms),
+        "frames_requested": args.frames,
+        "warmup": warm,
+        "frame_ms": stats,
+        "fps": round(1e3 / stats["median"], 3) if ms else None,
+        "fps_mean": round(1e3 * len(ms) / sum(ms), 3) if ms else None,
+        "png": png,
+    }
+
+
+def orbit_summary(ms, stats):
+    """The frame-time part of a peer's one-line summary ('' when no orbit was rendered)."""
+    if not ms:
+        return ""
+    return (
+        f"; {stats['n']} frames median {stats['median']:.2f} ms (p5 {stats['p5']:.2f}, "
+        f"p95 {stats['p95']:.2f}), {1e3 / stats['median']:.1f} FPS"
+    )
+
+
 def finish(result, args, summary):
     if args.json:
         with open(args.json, "w") as f:

@@ -242,29 +242,14 @@ def main():
                 "sync": "renderer.render() + device._poll_wait() per frame",
                 "mip_refinement": "pygfx adds 4 bisection steps (8 samples) around the maximum per ray",
             },
-            "ttfp_ms": {
-                "total": round(ttfp_ms, 3),
-                "phases": {k: round(v, 3) for k, v in ph.ms.items()},
-                "clock": ph.clock,
-            },
-            "frames": len(ms),
-            "frames_requested": args.frames,
-            "warmup": warm,
-            "frame_ms": stats,
-            "fps": round(1e3 / stats["median"], 3) if ms else None,
-            "fps_mean": round(1e3 * len(ms) / sum(ms), 3) if ms else None,
-            "png": png,
+            **common.timing_fields(ttfp_ms, ph, ms, stats, warm, args, png),
         }
     )
     summary = (
         f"{result['peer']} {result['peer_version']} (wgpu {wgpu.__version__}) on {result['renderer']}: {w}x{h}, "
         f"step {step:g} voxel, ttfp {ttfp_ms:.0f} ms ({', '.join(f'{k} {v:.0f}' for k, v in ph.ms.items())})"
     )
-    if ms:
-        summary += (
-            f"; {stats['n']} frames median {stats['median']:.2f} ms (p5 {stats['p5']:.2f}, p95 {stats['p95']:.2f}), "
-            f"{result['fps']:.1f} FPS"
-        )
+    summary += common.orbit_summary(ms, stats)
     common.finish(result, args, summary)
 
 
