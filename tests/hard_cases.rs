@@ -34,8 +34,8 @@ mod hard_support;
 
 use common::volumes::{Rng, smooth_field};
 use hard_support::{
-    ALL_OUTPUTS, assert_finite_in_range, compare, derived_data, normalized, reference, render,
-    volume, volume_with_affine,
+    ALL_OUTPUTS, CheckedPrepare, assert_finite_in_range, compare, derived_data, normalized,
+    prepare_checked, reference, render, volume, volume_with_affine,
 };
 use morphray::engine::{Engine, PreparedVolume};
 use morphray::reference;
@@ -69,20 +69,15 @@ fn tissue_scene() -> Scene {
 
 /// Checks everything `prepare` promises on `v` against the f64 twins, and returns I_norm.
 fn check_prepare(label: &str, engine: &mut Engine, v: &Volume) -> (PreparedVolume, Vec<f32>) {
-    let prepared = engine.prepare(v).unwrap();
+    // Range = the finite range, bit for bit (asserted by prepare_checked).
+    let CheckedPrepare {
+        prepared,
+        finite,
+        finite_count,
+        cpu_range,
+        norm,
+    } = prepare_checked(label, engine, v);
     let n = v.voxel_count();
-    let finite: Vec<bool> = (0..n).map(|i| v.samples.get(i).is_finite()).collect();
-    let finite_count = finite.iter().filter(|&&f| f).count();
-    // Range = the finite range, bit for bit (NaN and +-Inf excluded by bit tests).
-    let cpu_range = reference::minmax::finite_min_max(&v.samples);
-    assert_eq!(
-        prepared
-            .stored_range
-            .map(|(a, b)| (a.to_bits(), b.to_bits())),
-        cpu_range.map(|(a, b)| (a.to_bits(), b.to_bits())),
-        "{label}: stored range"
-    );
-    let norm = normalized(engine, &prepared);
     assert_eq!(norm.len(), n);
     for (i, x) in norm.iter().enumerate() {
         assert!(

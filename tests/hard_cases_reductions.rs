@@ -13,7 +13,7 @@ mod common;
 mod hard_support;
 
 use common::volumes::Rng;
-use hard_support::{derived_data, normalized, volume};
+use hard_support::{CheckedPrepare, derived_data, normalized, prepare_checked, volume};
 use morphray::engine::Engine;
 use morphray::passes::derivatives::DerivativeOutputs;
 use morphray::reference;
@@ -47,19 +47,14 @@ fn awkward_samples(rng: &mut Rng, n: usize) -> Vec<f32> {
 /// Prepares `v` and checks range, histogram (bit-exact with its twin on the GPU's own I_norm;
 /// bin(1.0) = 255; sum = finite count) against the CPU.
 fn check_histogram(label: &str, engine: &mut Engine, v: &Volume) {
-    let prepared = engine.prepare(v).unwrap();
+    let CheckedPrepare {
+        prepared,
+        finite,
+        finite_count,
+        cpu_range,
+        norm,
+    } = prepare_checked(label, engine, v);
     let n = v.voxel_count();
-    let finite: Vec<bool> = (0..n).map(|i| v.samples.get(i).is_finite()).collect();
-    let finite_count = finite.iter().filter(|&&f| f).count();
-    let cpu_range = reference::minmax::finite_min_max(&v.samples);
-    assert_eq!(
-        prepared
-            .stored_range
-            .map(|(a, b)| (a.to_bits(), b.to_bits())),
-        cpu_range.map(|(a, b)| (a.to_bits(), b.to_bits())),
-        "{label}: range"
-    );
-    let norm = normalized(engine, &prepared);
     let twin = reference::histogram::histogram(&norm, |i| finite[i]);
     assert_eq!(prepared.histogram, twin, "{label}: histogram");
     let sum: u64 = prepared.histogram.iter().map(|&c| c as u64).sum();

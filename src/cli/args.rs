@@ -25,7 +25,7 @@ pub struct Cli {
     /// bricking, then gradients on the fly; `morphray plan` shows which and what each costs) or
     /// the command stops with a message naming what did not fit. Default: what the device
     /// reports available (VK_EXT_memory_budget, or the heap size).
-    #[arg(long, global = true, value_name = "BYTES", value_parser = parse_bytes)]
+    #[arg(long, global = true, value_name = "BYTES", value_parser = crate::gpu::profile::parse_bytes)]
     pub memory_budget: Option<u64>,
 
     /// Brick the volume even when it fits whole (32^3 bricks with a 3-voxel halo, read through
@@ -401,32 +401,6 @@ pub struct BenchArgs {
     /// Scene.
     #[command(flatten)]
     pub scene: SceneArgs,
-}
-
-fn parse_bytes(text: &str) -> Result<u64, String> {
-    let t = text.trim();
-    let (number, unit) = match t.char_indices().find(|(_, c)| c.is_ascii_alphabetic()) {
-        Some((i, _)) => (&t[..i], t[i..].to_ascii_uppercase()),
-        None => (t, String::new()),
-    };
-    let scale: u64 = match unit.trim_end_matches('B').trim_end_matches("I") {
-        "" => 1,
-        "K" => 1 << 10,
-        "M" => 1 << 20,
-        "G" => 1 << 30,
-        _ => {
-            return Err(format!(
-                "`{text}`: use a number of bytes, optionally with K, M or G"
-            ));
-        }
-    };
-    number
-        .trim()
-        .parse::<u64>()
-        .ok()
-        .and_then(|n| n.checked_mul(scale))
-        .filter(|&n| n > 0)
-        .ok_or_else(|| format!("`{text}` is not a positive number of bytes"))
 }
 
 fn parse_size(text: &str) -> Result<(u32, u32), String> {

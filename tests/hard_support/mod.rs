@@ -266,3 +266,38 @@ pub fn orthographic_along_y(prepared: &PreparedVolume, half_mm: f64) -> Camera {
         projection: Projection::Orthographic,
     }
 }
+
+/// `prepare` of `v` beside the CPU's view of the same samples: which voxels are finite, how many,
+/// the finite range, and the GPU's I_norm read back.
+pub struct CheckedPrepare {
+    pub prepared: PreparedVolume,
+    pub finite: Vec<bool>,
+    pub finite_count: usize,
+    pub cpu_range: Option<(f64, f64)>,
+    pub norm: Vec<f32>,
+}
+
+/// Prepares `v` and asserts the one promise every hard-case check starts from: the stored range
+/// is the finite range of the samples, bit for bit (NaN and +-Inf excluded by bit tests).
+pub fn prepare_checked(label: &str, engine: &mut Engine, v: &Volume) -> CheckedPrepare {
+    let prepared = engine.prepare(v).unwrap();
+    let n = v.voxel_count();
+    let finite: Vec<bool> = (0..n).map(|i| v.samples.get(i).is_finite()).collect();
+    let finite_count = finite.iter().filter(|&&f| f).count();
+    let cpu_range = morphray::reference::minmax::finite_min_max(&v.samples);
+    assert_eq!(
+        prepared
+            .stored_range
+            .map(|(a, b)| (a.to_bits(), b.to_bits())),
+        cpu_range.map(|(a, b)| (a.to_bits(), b.to_bits())),
+        "{label}: stored range"
+    );
+    let norm = normalized(engine, &prepared);
+    CheckedPrepare {
+        prepared,
+        finite,
+        finite_count,
+        cpu_range,
+        norm,
+    }
+}
