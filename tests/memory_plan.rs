@@ -403,9 +403,7 @@ fn dropping_the_engine_frees_every_allocation_and_vulkan_object() {
         let host = engine
             .prepare_on_host(&volume, vk::Format::R16_UNORM)
             .unwrap();
-        let atlas = engine
-            .upload_bricked(&host, &opened.scene.classification, 4)
-            .unwrap();
+        let atlas = engine.upload_bricked(&host, &opened.scene, 4).unwrap();
         drop(atlas);
         assert!(!ledger.live().is_empty());
     }

@@ -6,11 +6,13 @@
 //!   work: min/max over finite samples, `I_norm` in f64, quantized to the atlas format the way
 //!   the GPU stores it (round to nearest), and the histogram binned with the GPU's f32 rule from
 //!   the quantized values, so peaks and windows come out as on a whole volume.
-//! - Only resident bricks go to the GPU: a 32^3 brick (plus a 3-voxel halo) is resident when a
-//!   visible tissue window can be non-zero somewhere in its halo-extended range
-//!   (`BrickRanges::occupancy_bits`). Skipped bricks hold nothing a ray could see under that
-//!   classification, so the image matches the whole volume's; a classification that needs more
-//!   bricks needs a new upload (`render` refuses it with a typed error rather than drawing holes).
+//! - Only resident bricks go to the GPU: a 32^3 brick (plus a 3-voxel halo) is resident when the
+//!   scene can read a value from its halo-extended range that changes the image
+//!   (`BrickRanges::needed_bits`: a visible tissue window in DVR, any value above the display
+//!   window's black point in MIP, any value reaching the floor in MinIP). Skipped bricks hold
+//!   nothing a ray could see in that scene, so the image matches the whole volume's; a scene
+//!   that needs more bricks needs a new upload (`render` refuses it with a typed error rather
+//!   than drawing holes).
 //! - Slots are packed into an atlas that respects the 3D image limit (slots along x first), and
 //!   filled through one staging buffer reused batch by batch, so the upload itself stays within
 //!   a few megabytes.
@@ -23,7 +25,7 @@ use crate::passes::histogram::BINS;
 use crate::passes::normalize::{self, Normalization};
 use crate::passes::occupancy::BRICK_SIDE;
 use crate::reference;
-use crate::scene::Classification;
+use crate::scene::Scene;
 use crate::scene::occupancy::BrickRanges;
 use crate::scene::plan::{STORAGE_BRICK, STORAGE_HALO, atlas_slots};
 use crate::volume::{SampleKind, Volume};
@@ -194,18 +196,18 @@ impl Engine {
         })
     }
 
-    /// Uploads the bricks `classification` can see into an atlas; everything else stays on the
-    /// host. The result renders like a whole volume for that classification.
+    /// Uploads the bricks `scene` can see into an atlas; everything else stays on the host. The
+    /// result renders like a whole volume for that scene.
     pub fn upload_bricked(
         &mut self,
         host: &HostPrepared,
-        classification: &Classification,
+        scene: &Scene,
         staging_slots: u32,
     ) -> GpuResult<PreparedVolume> {
         let slots_per_batch = staging_slots.max(1) as usize;
         let start = Instant::now();
         let storage = host.brick_ranges(STORAGE_BRICK, STORAGE_HALO);
-        let bits = storage.occupancy_bits(classification);
+        let bits = storage.needed_bits(scene);
         let resident: Vec<usize> = (0..storage.ranges.len())
             .filter(|&b| bits[b / 32] >> (b % 32) & 1 == 1)
             .collect();

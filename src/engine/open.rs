@@ -7,8 +7,8 @@
 //! - A whole volume is normalized and histogrammed on the GPU. A bricked one (over the budget or
 //!   the 3D image limit) is normalized in f64 on the host, because the whole-volume sample buffer
 //!   the GPU kernels read is exactly what does not fit; the histogram then comes from the host,
-//!   the scene's classification decides which bricks are resident, and the plan is made again
-//!   with that occupancy.
+//!   the scene decides which bricks are resident (its tissue windows in DVR, the values MIP and
+//!   MinIP can show otherwise), and the plan is made again with that occupancy.
 //! - The caller builds the scene from the histogram analysis (adaptive windows need the peaks),
 //!   so `open_volume` takes a function from the analysis to the scene.
 
@@ -115,7 +115,7 @@ impl Engine {
                 timings.peaks_ms = ms(before_peaks);
                 let fraction = host
                     .brick_ranges(STORAGE_BRICK, STORAGE_HALO)
-                    .occupied_fraction(&scene.classification);
+                    .needed_fraction(&scene);
                 let before_plan = Instant::now();
                 let plan = self.plan(effects, volume, image, fraction)?;
                 timings.plan_ms += ms(before_plan);
@@ -128,7 +128,7 @@ impl Engine {
                     Layout::Bricked { staging_slots, .. } => staging_slots,
                     Layout::Whole => 64,
                 };
-                let prepared = self.upload_bricked(&host, &scene.classification, staging_slots)?;
+                let prepared = self.upload_bricked(&host, &scene, staging_slots)?;
                 timings.prepare = prepared.timings.clone();
                 // The host preparation, minus the analysis and the second plan timed above.
                 timings.prepare.wall_ms = ms(before_host) - timings.peaks_ms - timings.plan_ms;

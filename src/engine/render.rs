@@ -244,8 +244,8 @@ impl Engine {
         let (atlas, brick_table) = match &prepared.layout {
             VolumeLayout::Whole => (AtlasInfo::default(), self.placeholders.occupancy.clone()),
             VolumeLayout::Bricked(a) => {
-                // The resident bricks were chosen for one classification; a scene that can see
-                // more would draw holes, so it is refused instead.
+                // The resident bricks were chosen for one scene; a scene that can see more would
+                // draw holes, so it is refused instead.
                 check_residency(prepared, a, scene)?;
                 let e = prepared.normalized.extent();
                 let info = AtlasInfo {
@@ -446,7 +446,7 @@ fn check_residency(
     };
     // The fine (8^3) ranges say which fine bricks the scene can see; each must lie in a resident
     // storage brick. Storage bricks are a whole number of fine bricks (32 = 4 x 8).
-    let bits = ranges.occupancy_bits(&scene.classification);
+    let bits = ranges.needed_bits(scene);
     let mut table = vec![0u8; 4 * atlas.grid.iter().map(|&g| g as usize).product::<usize>()];
     atlas.table.read(0, &mut table)?;
     let ratio = atlas.brick / ranges.side;
@@ -463,8 +463,8 @@ fn check_residency(
             .map_or(0, |w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]));
         if slot == 0 {
             return Err(GpuError::InvalidRequest(
-                "this bricked volume was uploaded for other tissue windows; the scene sees bricks \
-                 that are not resident (prepare it again with this classification)"
+                "this bricked volume was uploaded for another scene (tissue windows or mode); this \
+                 scene sees bricks that are not resident (open it again with this scene)"
                     .into(),
             ));
         }

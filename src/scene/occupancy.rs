@@ -7,8 +7,17 @@
 //! with non-zero opacity (outside it the smoothstep weight is exactly 0), widened by 1e-6 so f32
 //! rounding of the window bounds on the GPU can never turn a zero weight into a non-zero one:
 //! skipping is conservative, hence lossless.
+//!
+//! What a brick must hold to matter depends on the mode, because each mode reads the volume
+//! differently ([`BrickRanges::needed_bits`], which decides a bricked volume's resident bricks):
+//! DVR sees only values inside a visible tissue window; MIP and MinIP ignore the tissue windows
+//! and see every value, and a brick that is not resident reads as 0. So for MIP a brick is
+//! needed when its maximum is above 0 and above the display window's black point (below it, 0
+//! and the true values both show black); for MinIP when its maximum is above 0 and reaches the
+//! MinIP floor (samples below the floor are ignored, and 0 is below any positive floor).
 
 use super::classification::{Classification, MIN_EDGE};
+use super::{RenderMode, Scene};
 
 /// Margin that keeps the f64 test conservative against the shader's f32 window bounds.
 const MARGIN: f64 = 1e-6;
@@ -50,10 +59,46 @@ impl BrickRanges {
 
     /// Fraction of bricks occupied for a classification (for reports).
     pub fn occupied_fraction(&self, classification: &Classification) -> f64 {
-        let bits = self.occupancy_bits(classification);
-        let set: u32 = bits.iter().map(|w| w.count_ones()).sum();
-        set as f64 / self.ranges.len().max(1) as f64
+        fraction_set(&self.occupancy_bits(classification), self.ranges.len())
     }
+
+    /// One bit per brick: set where the scene's mode can read a value that changes the image
+    /// (see the module doc). These are the bricks a bricked volume must hold for `scene`.
+    pub fn needed_bits(&self, scene: &Scene) -> Vec<u32> {
+        match scene.effects.mode {
+            RenderMode::Dvr => self.occupancy_bits(&scene.classification),
+            RenderMode::Mip => {
+                let black = f64::from(scene.intensity_window[0]) - MARGIN;
+                self.bits_where(|hi| hi > 0.0 && hi > black)
+            }
+            RenderMode::MinIp => {
+                let floor = f64::from(scene.minip_floor) - MARGIN;
+                self.bits_where(|hi| hi > 0.0 && hi >= floor)
+            }
+        }
+    }
+
+    /// Fraction of bricks [`BrickRanges::needed_bits`] sets (for plans and reports).
+    pub fn needed_fraction(&self, scene: &Scene) -> f64 {
+        fraction_set(&self.needed_bits(scene), self.ranges.len())
+    }
+
+    /// Bits of the bricks whose maximum passes `keep`.
+    fn bits_where(&self, keep: impl Fn(f64) -> bool) -> Vec<u32> {
+        let mut bits = vec![0u32; self.ranges.len().div_ceil(32).max(1)];
+        for (b, &(_, hi)) in self.ranges.iter().enumerate() {
+            if keep(f64::from(hi)) {
+                bits[b / 32] |= 1 << (b % 32);
+            }
+        }
+        bits
+    }
+}
+
+/// Set bits over `count` bricks.
+fn fraction_set(bits: &[u32], count: usize) -> f64 {
+    let set: u32 = bits.iter().map(|w| w.count_ones()).sum();
+    set as f64 / count.max(1) as f64
 }
 
 /// The f64 twin of the brick-range kernel: (min, max) over each brick plus a 2-voxel halo.
@@ -130,6 +175,30 @@ mod tests {
             None,
         ]);
         assert_eq!(ranges.occupancy_bits(&c), vec![0b01]);
+    }
+
+    #[test]
+    fn mip_and_minip_need_bricks_by_value_not_by_tissue_window() {
+        // No tissue window at all (a volume without peaks): DVR needs nothing, MIP and MinIP
+        // need every brick that holds a value above 0.
+        let ranges = BrickRanges {
+            grid: [4, 1, 1],
+            side: 8,
+            ranges: vec![(0.0, 0.0), (0.0, 0.3), (0.5, 1.0), (0.0, 0.05)],
+        };
+        let mut scene = Scene::new(Classification::with_windows([None; 4]));
+        assert_eq!(ranges.needed_bits(&scene), vec![0]);
+        scene.effects.mode = RenderMode::Mip;
+        assert_eq!(ranges.needed_bits(&scene), vec![0b1110]);
+        // Below the display window's black point a brick shows black either way.
+        scene.intensity_window = [0.1, 1.0];
+        assert_eq!(ranges.needed_bits(&scene), vec![0b0110]);
+        scene.effects.mode = RenderMode::MinIp;
+        assert_eq!(ranges.needed_bits(&scene), vec![0b1110]);
+        // Samples under the MinIP floor are ignored, so are bricks that never reach it.
+        scene.minip_floor = 0.2;
+        assert_eq!(ranges.needed_bits(&scene), vec![0b0110]);
+        assert_eq!(ranges.needed_fraction(&scene), 0.5);
     }
 
     #[test]
