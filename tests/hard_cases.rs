@@ -14,7 +14,7 @@
 //! |---|---|---|---|---|
 //! | constant volume | CPU branch: scale 0, I_norm 0 | hc `hard_data_*` (constant: flag, finite params, I_norm 0, histogram [N, 0..], \|g\| 0, background image), hc `single_voxel_*` | gk `hard_ranges_*`, gk `plateaus_and_constant_*`, ref `normalize_constant_*`, unit `constant_and_empty_*` | drop the branch (scale = inf) -> hc `hard_data_*`, `single_voxel_*` |
 //! | NaN / +-Inf voxels | bit tests in min/max, normalize, histogram; NaN -> I_norm 0 | hc `hard_data_*` (all NaN, all +-Inf, mixed incl. NaN payloads), hc `a_nan_block_*`, hcr `histogram_*` | gk `histogram_puts_one_*`, gk `min_max_handles_*`, ref `minmax_f32_skips_*`, ref `histogram_counts_only_finite_*` | each of the 3 bit tests -> hc `hard_data_*` (+ hcr, `a_nan_block_*`) |
-//! | huge ranges (+-3e38, 1e30 + tiny) | f64 plan, power-of-two pre-exponent, offset = a sample | hc `hard_data_*` (+-3e38, +-FLT_MAX, 1e30 + 128 ulps, subnormal, negative: within 1/65535 of f64 eq. 1, monotone) | gk `hard_ranges_*`, unit `extreme_ranges_*`, ref `normalize_huge_range_*` | pre-exponent 0 -> hc `hard_data_*`; subnormal decode removed: NOT caught on lavapipe (no flush to zero) |
+//! | huge ranges (+-3e38, 1e30 + tiny, float64 at +-1.7e308) | f64 plan, power-of-two pre-exponent, offset = a sample, half-range (`imax/2 - imin/2`) | hc `hard_data_*` (+-3e38, +-FLT_MAX, 1e30 + 128 ulps, subnormal, negative: within 1/65535 of f64 eq. 1, monotone), hc `float64_data_near_the_f64_limit_*` (+-1.5e308 through a 2^1000 slope) | gk `hard_ranges_*`, unit `extreme_ranges_*`, unit `float64_ranges_near_*`, ref `normalize_huge_range_*` | pre-exponent 0 -> hc `hard_data_*`; full range instead of half -> hc `float64_*`, unit `float64_*`; subnormal decode removed: NOT caught on lavapipe (no flush to zero) |
 //! | value 1.0 in the histogram | `min(u32(clamp(x,0,1)*256), 255)` | hcr `histogram_and_range_*` (n = 1 .. 4096), hcr `histogram_of_a_million_*` | gk `histogram_puts_one_*`, ref `histogram_bin_edges_*`, ref `histogram_bin_is_exact_floor` | `* 255` and dropping `min` -> hcr both, hc `hard_data_*` |
 //! | zero gradient | `\|g\| > tau ? g/\|g\| : 0`; curvature gated | hc `exact_plateaus_*` (precomputed + on the fly, shading + curvature), hc `hard_data_*` (constant) | gk `plateaus_and_constant_*`, gk `a_linear_ramp_*` (k = 0), ref `plateaus_*` | derivatives.comp guard -> hc `exact_plateaus_*`, `hard_data_*`, `single_voxel_*`; raymarch on-the-fly guards: NOT caught on lavapipe (see report) |
 //! | anisotropic voxels | per-axis spacing, A^-T | hc `a_linear_ramp_on_a_0_1_x_0_1_x_10_*`, hc `a_world_object_on_a_0_1_x_0_1_x_10_*` | gk `a_linear_ramp_*` (0.5 x 1 x 3), gk `derivatives_match_*`, gr `anisotropic_and_flipped_*`, ref `linear_ramp_on_anisotropic_*` | A^-T dropped (stored or on the fly) -> hc both |
@@ -138,6 +138,47 @@ fn check_prepare(label: &str, engine: &mut Engine, v: &Volume) -> (PreparedVolum
         assert_eq!(prepared.histogram[0] as usize, finite_count, "{label}");
     }
     (prepared, norm)
+}
+
+#[test]
+fn float64_data_near_the_f64_limit_normalizes_like_eq_1_and_keeps_its_peaks() {
+    // What the loader makes of float64 voxels at +-1.7e308: f32 samples and a power-of-two
+    // slope. `imax - imin` overflows f64 here; the volume once came out "constant" (black) with
+    // 0 used voxels.
+    let dims = [19, 17, 13];
+    let mut rng = Rng(1708);
+    let field = smooth_field(dims, &mut rng, -1.0, 1.0);
+    let samples: Vec<f32> = field
+        .iter()
+        .map(|&x| (x * 1.5e308 / 2f64.powi(1000)) as f32)
+        .collect();
+    let mut v = volume(dims, [1.0; 3], Samples::from_f32(&samples));
+    v.to_physical = morphray::volume::LinearMap {
+        slope: 2f64.powi(1000),
+        intercept: 0.0,
+    };
+    let mut engine = common::engine();
+    let (prepared, norm) = check_prepare("float64 +-1.5e308", &mut engine, &v);
+    assert!(!prepared.normalization.constant);
+    let (lo, hi) = norm
+        .iter()
+        .fold((1.0f32, 0.0f32), |(lo, hi), &x| (lo.min(x), hi.max(x)));
+    assert!(lo == 0.0 && hi == 1.0, "I_norm spans [{lo}, {hi}]");
+    let report = morphray::analysis::analyze(
+        &prepared.histogram,
+        prepared.normalization.imin.unwrap_or(0.0),
+        prepared.normalization.imax.unwrap_or(0.0),
+        v.voxel_count(),
+        0,
+    );
+    assert!(report.used_voxels > 0, "{report:?}");
+    for peak in [report.peaks.csf, report.peaks.gm, report.peaks.wm]
+        .into_iter()
+        .flatten()
+    {
+        assert!(peak.raw.is_finite(), "{peak:?}");
+    }
+    common::assert_no_validation_errors(&engine);
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -19,7 +19,8 @@ use super::windows::TissueWindows;
 pub struct Peak {
     /// In `I_norm` (`[0, 1]`).
     pub norm: f64,
-    /// In physical units: `imin + norm * (imax - imin)`.
+    /// In physical units: `imin + norm * (imax - imin)`, or `(1 - norm) * imin + norm * imax`
+    /// when the range overflows f64 (float64 data near +-1.7e308).
     pub raw: f64,
 }
 
@@ -28,7 +29,11 @@ impl Peak {
     pub fn new(norm: f64, imin: f64, imax: f64) -> Self {
         Peak {
             norm,
-            raw: imin + norm * (imax - imin),
+            raw: if (imax - imin).is_finite() {
+                imin + norm * (imax - imin)
+            } else {
+                (1.0 - norm) * imin + norm * imax
+            },
         }
     }
 }

@@ -8,7 +8,9 @@
 //! - `offset` is the pre-scaled sample that maps to Imin, exactly representable, so
 //!   "1e30 + tiny" ranges subtract exactly (Sterbenz);
 //! - a negative scl_slope flips which stored extreme is Imin: `scale` is then negative;
-//! - a constant volume (Imax == Imin, or no finite voxel) gets scale 0: I_norm = 0 everywhere.
+//! - a constant volume (Imax == Imin, or no finite voxel) gets scale 0: I_norm = 0 everywhere;
+//! - the range is handled as half-range (`imax/2 - imin/2`), which cannot overflow: float64
+//!   data near +-1.7e308 has a range beyond f64 and was once taken for a constant volume.
 
 use crate::gpu::shaders::table;
 use crate::gpu::{
@@ -68,8 +70,9 @@ pub fn plan(
     };
     let (p1, p2) = (to_physical.apply(smin), to_physical.apply(smax));
     let (imin, imax) = (p1.min(p2), p1.max(p2));
-    let range = imax - imin;
-    if !(range > 0.0 && range.is_finite()) {
+    // Half the range: `imax - imin` itself overflows for float64 data near +-1.7e308.
+    let half_range = crate::reference::normalize::half_difference(imax, imin);
+    if !(half_range > 0.0 && half_range.is_finite()) {
         return constant_plan(Some(imin), Some(imax));
     }
     // Largest |sample| -> e with |sample| * 2^e in [0.5, 1).
@@ -82,7 +85,9 @@ pub fn plan(
     let e = e.clamp(-149, 149);
     let reference = if to_physical.slope >= 0.0 { smin } else { smax };
     let offset = reference * 2f64.powi(e);
-    let scale = to_physical.slope * 2f64.powi(-e) / range;
+    // slope / range first: slope * 2^-e alone overflows when the loader folded a large
+    // power-of-two scale into the slope (float64 data near 1.7e308).
+    let scale = (to_physical.slope / half_range) * 2f64.powi(-e - 1);
     Normalization {
         imin: Some(imin),
         imax: Some(imax),
@@ -213,5 +218,22 @@ mod tests {
                 apply(&n.params, hi32)
             );
         }
+    }
+
+    #[test]
+    fn float64_ranges_near_the_f64_limit_are_not_taken_for_constant() {
+        // float64 data at +-1.7e308 is stored as f32 with a power-of-two scale folded into the
+        // map: the physical range (3.4e308) is beyond f64, its half is not.
+        let map = LinearMap {
+            slope: 2f64.powi(1000),
+            intercept: 0.0,
+        };
+        let (lo, hi) = (-1.6e308 / map.slope, 1.6e308 / map.slope);
+        let n = plan([1, 1, 1], Some((lo, hi)), map);
+        assert!(!n.constant, "{n:?}");
+        assert!(n.params.scale.is_finite() && n.params.scale.is_normal());
+        assert!(apply(&n.params, lo).abs() < 1e-6);
+        assert!((apply(&n.params, hi) - 1.0).abs() < 1e-5);
+        assert!((apply(&n.params, 0.0) - 0.5).abs() < 1e-5);
     }
 }
