@@ -106,7 +106,13 @@ impl Engine {
                 timings.peaks_ms = ms(before_peaks);
                 (prepared, report, scene, plan)
             }
-            _ => {
+            first => {
+                if first.is_err() {
+                    // Over the budget (or the bricking limit) with every brick resident: the host
+                    // preparation is only worth it if some occupancy could fit. The best case
+                    // holds a single brick; when even that does not fit, say so now.
+                    self.plan(effects, volume, image, 0.0)?;
+                }
                 let before_host = Instant::now();
                 let host = self.prepare_on_host(volume, vk::Format::R16_UNORM)?;
                 let before_peaks = Instant::now();

@@ -20,6 +20,11 @@
 //!   Then only the steps the fitting plan needs are kept. A volume side over the device's 3D
 //!   image limit forces bricking. When nothing fits, the error names the volume, the budget and
 //!   the smallest plan tried.
+//! - A bricked plan may hold at most [`BRICKING_MAX_RATIO`] times the volume's R16 bytes plus
+//!   [`BRICKING_SLACK`]: a 32^3 brick with its halo is a 38^3 slot, so a volume thinner than a
+//!   brick (70000 x 1 x 1 once built an 886 MiB atlas for 280 KB of data, in half a minute)
+//!   would hold thousands of times its size. Such a volume is refused before anything is
+//!   allocated, with the bytes it would need.
 
 use super::{DerivedPrecision, Effects, GradientSource, RenderMode};
 use crate::passes::cost::{self, PassCost};
@@ -33,6 +38,19 @@ pub const STORAGE_BRICK: u32 = 32;
 /// Halo of a storage brick on each side: trilinear and cubic reads, and the derivative stencils
 /// at the brick's border, need neighbours up to 3 voxels out.
 pub const STORAGE_HALO: u32 = 3;
+
+/// A bricked plan holds at most this many times the volume's bytes as R16 (plus
+/// [`BRICKING_SLACK`]); a real head is bricked at under 2x, with halos and partly filled bricks.
+pub const BRICKING_MAX_RATIO: u64 = 8;
+/// Fixed allowance on top of [`BRICKING_MAX_RATIO`], for small volumes bricked to measure.
+pub const BRICKING_SLACK: u64 = 64 << 20;
+
+/// The most a bricked plan of a `dims` volume may hold.
+pub fn bricking_limit(dims: [u32; 3]) -> u64 {
+    (2 * voxels(dims))
+        .saturating_mul(BRICKING_MAX_RATIO)
+        .saturating_add(BRICKING_SLACK)
+}
 
 /// What the plan needs to know about the volume, the image and the device.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
@@ -171,8 +189,8 @@ pub struct Plan {
 /// No plan fits.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 #[error(
-    "the volume ({dims:?} voxels, {volume_bytes} bytes as R16) does not fit the memory budget of \
-     {budget} bytes: the smallest plan tried ({smallest_plan}) needs {smallest_bytes} bytes"
+    "the volume ({dims:?} voxels, {volume_bytes} bytes as R16) {limit}: the smallest plan tried \
+     ({smallest_plan}) needs {smallest_bytes} bytes"
 )]
 pub struct DoesNotFit {
     /// Volume dimensions.
@@ -181,6 +199,9 @@ pub struct DoesNotFit {
     pub volume_bytes: u64,
     /// The budget.
     pub budget: u64,
+    /// Which limit the smallest plan exceeds, as a phrase ("does not fit the memory budget of N
+    /// bytes", or the bricking limit).
+    pub limit: String,
     /// Description of the smallest plan tried.
     pub smallest_plan: String,
     /// Its peak bytes.
@@ -736,7 +757,10 @@ pub fn plan(
             accuracy_cost: measured_cost("bricked"),
         });
     }
-    let fits = |p: &Plan| p.peak_bytes <= input.budget;
+    let fits = |p: &Plan| {
+        p.peak_bytes <= input.budget
+            && (p.layout == Layout::Whole || p.peak_bytes <= bricking_limit(input.dims))
+    };
     let ladder: [LadderStep; 4] = [
         (
             "derived volumes stored as 8-bit SNORM",
@@ -835,10 +859,38 @@ pub fn plan(
 /// The error for a plan whose smallest form, `smallest`, still exceeds the budget.
 fn does_not_fit(input: &PlanInput, smallest: &Plan) -> DoesNotFit {
     let current = smallest;
+    let over_budget = current.peak_bytes > input.budget;
+    let limit = bricking_limit(input.dims);
+    let over_bricking = current.layout != Layout::Whole && current.peak_bytes > limit;
+    let mut limits = Vec::new();
+    if over_budget || !over_bricking {
+        limits.push(format!(
+            "does not fit the memory budget of {} bytes",
+            input.budget
+        ));
+    }
+    if over_bricking {
+        let why = if input.dims.iter().any(|&d| d > input.max_image_dimension_3d) {
+            format!(
+                "exceeds the device's 3D image limit of {} whole, ",
+                input.max_image_dimension_3d
+            )
+        } else {
+            String::new()
+        };
+        limits.push(format!(
+            "{why}cannot be bricked within {limit} bytes ({BRICKING_MAX_RATIO}x its R16 size plus \
+             {} MiB: a volume thinner than a {STORAGE_BRICK}-voxel brick leaves most of every \
+             {}^3 slot empty)",
+            BRICKING_SLACK >> 20,
+            STORAGE_BRICK + 2 * STORAGE_HALO
+        ));
+    }
     DoesNotFit {
         dims: input.dims,
         volume_bytes: 2 * voxels(input.dims),
         budget: input.budget,
+        limit: limits.join(" and "),
         smallest_plan: format!(
             "{}, {}, {:?} gradients",
             current.normalized_format,
@@ -1146,5 +1198,26 @@ mod tests {
             }
         ));
         assert!(p.degradations[0].what.contains("3D image limit of 2048"));
+    }
+
+    #[test]
+    fn a_volume_thinner_than_a_brick_is_refused_before_bricking_takes_thousands_of_times_its_size()
+    {
+        // 70000 x 1 x 1 (280 KB as f32) once built an 886 MiB atlas: every 32-voxel run of the
+        // line took a whole 38^3 slot.
+        let mut i = input();
+        i.dims = [70000, 1, 1];
+        i.max_image_dimension_3d = 2048;
+        let err = plan(f16_effects(), &i, &TexelSizes).unwrap_err();
+        let text = err.to_string();
+        assert!(text.contains("cannot be bricked within"), "{text}");
+        assert!(text.contains("3D image limit of 2048"), "{text}");
+        assert!(err.smallest_bytes > bricking_limit(i.dims), "{err:?}");
+        assert!(!text.contains("memory budget"), "{text}");
+        // A head-sized volume bricks well within the limit.
+        i.dims = [2100, 256, 192];
+        let p = plan(f16_effects(), &i, &TexelSizes).unwrap();
+        assert!(matches!(p.layout, Layout::Bricked { .. }));
+        assert!(p.peak_bytes <= bricking_limit(i.dims));
     }
 }
