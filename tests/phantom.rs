@@ -409,6 +409,24 @@ fn bad_specs_are_typed_errors() {
     };
     let e = generate(&huge).unwrap_err();
     assert!(matches!(e, PhantomError::TooLarge { .. }), "{e}");
+    // More than the machine has is refused before allocating (2048^3 used to be accepted on a
+    // 24 GB machine, each of its two buffers alone being reservable, and the process was killed
+    // while filling them), with the bytes it needs. Sized from this machine's memory so that
+    // each buffer alone is below what is available and both together above it.
+    let available = morphray::volume::host_memory::available_bytes()
+        .expect("this test reads /proc/meminfo (Linux)");
+    let planes = (available as f64 * 0.4 / (1u64 << 20) as f64).ceil() as usize;
+    let absurd = PhantomSpec {
+        dims: [1024, 1024, planes],
+        ..PhantomSpec::cube(1)
+    };
+    let e = generate(&absurd).unwrap_err();
+    let text = e.to_string();
+    let needed = 3 * (planes as u64) << 20;
+    assert!(
+        text.contains(&format!("needs {needed} bytes")) && text.contains("available"),
+        "{text}"
+    );
     // A 1-voxel phantom is valid.
     assert_eq!(generate(&PhantomSpec::cube(1)).unwrap().labels.len(), 1);
 }

@@ -199,11 +199,19 @@ pub enum PhantomError {
         /// The requested spacing.
         spacing: [f64; 3],
     },
-    /// The volume does not fit in memory.
-    #[error("a {dims:?} phantom needs more memory than could be allocated")]
+    /// The volume does not fit in memory (checked before allocating).
+    #[error(
+        "a {dims:?} phantom needs {} of host memory (2 bytes of sample and 1 of label per voxel){}; use smaller --dims",
+        bytes.map_or("more bytes than can be counted".to_string(), |b| format!("{b} bytes")),
+        available.map_or(String::new(), |a| format!(", but only {a} bytes are available"))
+    )]
     TooLarge {
         /// The requested dims.
         dims: [usize; 3],
+        /// Bytes it needs (None when the count overflows).
+        bytes: Option<u64>,
+        /// Bytes the system said were available (None when unknown).
+        available: Option<u64>,
     },
 }
 
@@ -523,7 +531,18 @@ pub fn generate_with_threads(spec: &PhantomSpec, threads: usize) -> Result<Phant
             spacing: spec.spacing_mm,
         });
     }
-    let too_large = || PhantomError::TooLarge { dims };
+    let available = crate::volume::host_memory::available_bytes();
+    let needed = dims.iter().try_fold(3u64, |a, &d| a.checked_mul(d as u64));
+    let too_large = || PhantomError::TooLarge {
+        dims,
+        bytes: needed,
+        available,
+    };
+    // Checked before allocating: with overcommit, reserving more than the machine has succeeds
+    // and the process is killed later while the pages are filled (2048^3 was, with no message).
+    if needed.is_none_or(|n| available.is_some_and(|a| n > a)) {
+        return Err(too_large());
+    }
     let count = dims
         .iter()
         .try_fold(1usize, |a, &d| a.checked_mul(d))
