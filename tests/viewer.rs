@@ -404,3 +404,104 @@ fn a_window_too_small_for_the_volume_ends_and_says_why() {
         "{log}"
     );
 }
+
+/// Runs `morphray view ARGS` (offscreen, or under Xvfb) and kills it after `limit`: a run that
+/// does not end by then is reported as hung (the viewer used to wait forever for a volume that
+/// failed to load).
+fn view_within(args: &[&str], window: bool, limit: std::time::Duration) -> Output {
+    let bin = env!("CARGO_BIN_EXE_morphray");
+    let mut command = if window {
+        let mut c = Command::new(xvfb_run());
+        c.args(["-a", "-s", "-screen 0 1280x1024x24", bin, "view"]);
+        c
+    } else {
+        let mut c = Command::new(bin);
+        c.env_remove("DISPLAY").env_remove("WAYLAND_DISPLAY");
+        c.arg("view");
+        c
+    };
+    let mut child = command
+        .args(args)
+        .env("MORPHRAY_VALIDATION", "required")
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("morphray runs");
+    let start = std::time::Instant::now();
+    while child.try_wait().expect("waits").is_none() {
+        if start.elapsed() > limit {
+            let _ = child.kill();
+            let o = child.wait_with_output().expect("killed");
+            panic!(
+                "`view {}` still ran after {limit:?}\nstdout:\n{}",
+                args.join(" "),
+                stdout(&o)
+            );
+        }
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+    child.wait_with_output().expect("output")
+}
+
+#[test]
+fn an_unattended_viewer_whose_volume_fails_to_load_exits_with_the_error() {
+    let dir = temp_dir("unattended");
+    let limit = std::time::Duration::from_secs(60);
+    let missing = dir.join("missing.nii.gz");
+    let cases: [(&str, bool, &[&str]); 3] = [
+        (
+            missing.to_str().unwrap(),
+            false,
+            &["--offscreen", "--frames", "3"],
+        ),
+        (
+            dir.to_str().unwrap(),
+            false,
+            &["--offscreen", "--frames", "3"],
+        ),
+        // Scripted in a window: --frames would never be reached without a volume.
+        (missing.to_str().unwrap(), true, &["--frames", "3"]),
+    ];
+    for (file, window, flags) in cases {
+        let mut args = vec![file, "--size", "320x240"];
+        args.extend_from_slice(flags);
+        let o = view_within(&args, window, limit);
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {stderr}");
+        assert!(
+            stderr.contains("morphray: cannot open the volume: could not read"),
+            "{args:?}: {stderr}"
+        );
+    }
+}
+
+#[test]
+fn an_interactive_window_shows_a_load_error_and_keeps_running() {
+    // No --frames: a person is watching. The window shows the error and stays open until it is
+    // closed (here by the script, after a screenshot of the error state).
+    let dir = temp_dir("interactive-error");
+    let missing = dir.join("missing.nii.gz");
+    let shot = dir.join("error.png");
+    let script = dir.join("close.txt");
+    std::fs::write(
+        &script,
+        format!("wait 5\nscreenshot {}\nwait 2\nclose\n", shot.display()),
+    )
+    .unwrap();
+    let o = view_within(
+        &[
+            missing.to_str().unwrap(),
+            "--size",
+            "480x360",
+            "--script",
+            script.to_str().unwrap(),
+        ],
+        true,
+        std::time::Duration::from_secs(120),
+    );
+    assert_ok(&o);
+    let log = stdout(&o);
+    assert!(log.contains("error shown: Cannot open"), "{log}");
+    let png = Png::read(&shot);
+    assert_eq!((png.width, png.height), (480, 360));
+}

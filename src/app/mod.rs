@@ -87,6 +87,11 @@ pub fn run(
         crate::cli::output::print_line(&format!("validation layer: {} error(s)", errors.len()));
     }
     viewer.shutdown()?;
+    if let Some(message) = viewer.fatal_error() {
+        return Err(AppError::Failed(format!(
+            "cannot open the volume: {message}"
+        )));
+    }
     if fail_on_validation && !errors.is_empty() {
         return Err(AppError::Failed(format!(
             "the Vulkan validation layer reported {} error(s); first: {}",

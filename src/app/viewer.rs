@@ -170,6 +170,11 @@ pub struct Viewer {
     screenshot_requests: Vec<PathBuf>,
     size: [u32; 2],
     exit: bool,
+    /// Why the session cannot go on: the first volume failed to load in a run nobody watches
+    /// (offscreen, or scripted with --frames), which would otherwise wait forever for a volume.
+    fatal: Option<String>,
+    /// No window: frames go to an offscreen image.
+    offscreen: bool,
     inject_device_lost: bool,
     /// Frames left of a scripted `idle` (raymarch only on change, as interactively).
     idle_frames: u32,
@@ -248,6 +253,8 @@ impl Viewer {
             screenshot_requests: Vec::new(),
             size,
             exit: false,
+            fatal: None,
+            offscreen: false,
             inject_device_lost: false,
             unapplied: Default::default(),
             watch_drag: None,
@@ -288,6 +295,7 @@ impl Viewer {
     /// Creates the GPU objects (for `window`, or offscreen) and hands the device to the loader.
     pub fn attach(&mut self, window: Option<&winit::window::Window>) -> Result<(), AppError> {
         let gpu = Gpu::new(&self.config.engine, window, self.size, self.config.vsync)?;
+        self.offscreen = window.is_none();
         self.status.device = gpu.device.adapter().name.clone();
         self.loader.provide_device(gpu.device.clone());
         self.log.say(&format!(
@@ -329,6 +337,11 @@ impl Viewer {
     /// The session log's summary lines.
     pub fn summary(&self) -> Vec<String> {
         self.log.summary()
+    }
+
+    /// Why an unattended session ended early (its first volume failed to load), if it did.
+    pub fn fatal_error(&self) -> Option<&str> {
+        self.fatal.as_deref()
     }
 
     /// Validation errors reported on the current device.
@@ -376,6 +389,12 @@ impl Viewer {
                     };
                     self.status.error = Some(format!("Cannot open: {message}{kept}"));
                     self.log.say(&format!("load failed: {message}"));
+                    // An interactive window keeps running and shows the error (the user can
+                    // open another file); a run nobody watches has nothing left to show.
+                    if self.current.is_none() && (self.offscreen || self.config.frames.is_some()) {
+                        self.fatal = Some(message.clone());
+                        self.exit = true;
+                    }
                     self.log
                         .pending
                         .retain(|p| p.until != Until::VolumeShown(id));
