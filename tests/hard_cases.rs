@@ -1,4 +1,4 @@
-//! Hard cases that must stay numerically stable (../shared/NUMERICS.md), through the real engine
+//! Hard cases that must stay numerically stable (NUMERICS.md at the repository root), through the real engine
 //! on the GPU: prepare (min/max, normalize, histogram), derive and render, on the data, shapes
 //! and grids where a missing technique turns into NaN, a wrong range or a wrong image.
 //!
@@ -12,20 +12,21 @@
 //!
 //! | row | technique | new tests (GPU) | existing tests | mutation -> failing test |
 //! |---|---|---|---|---|
-//! | constant volume | CPU branch: scale 0, I_norm 0 | hc `hard_data_*` (constant: flag, finite params, I_norm 0, histogram [N, 0..], \|g\| 0, background image), hc `single_voxel_*` | gk `hard_ranges_*`, gk `plateaus_and_constant_*`, ref `normalize_constant_*`, unit `constant_and_empty_*` | drop the branch (scale = inf) -> hc `hard_data_*`, `single_voxel_*` |
+//! | constant volume (Imax == Imin) | CPU branch: scale 0, I_norm 0 | hc `hard_data_*` (constant: flag, finite params, I_norm 0, histogram [N, 0..], \|g\| 0, background image), hc `single_voxel_*` | gk `hard_ranges_*`, gk `plateaus_and_constant_*`, ref `normalize_constant_*`, unit `constant_and_empty_*` | drop the branch (scale = inf) -> hc `hard_data_*`, `single_voxel_*` |
 //! | NaN / +-Inf voxels | bit tests in min/max, normalize, histogram; NaN -> I_norm 0 | hc `hard_data_*` (all NaN, all +-Inf, mixed incl. NaN payloads), hc `a_nan_block_*`, hcr `histogram_*` | gk `histogram_puts_one_*`, gk `min_max_handles_*`, ref `minmax_f32_skips_*`, ref `histogram_counts_only_finite_*` | each of the 3 bit tests -> hc `hard_data_*` (+ hcr, `a_nan_block_*`) |
-//! | huge ranges (+-3e38, 1e30 + tiny, float64 at +-1.7e308) | f64 plan, power-of-two pre-exponent, offset = a sample, half-range (`imax/2 - imin/2`) | hc `hard_data_*` (+-3e38, +-FLT_MAX, 1e30 + 128 ulps, subnormal, negative: within 1/65535 of f64 eq. 1, monotone), hc `float64_data_near_the_f64_limit_*` (+-1.5e308 through a 2^1000 slope) | gk `hard_ranges_*`, unit `extreme_ranges_*`, unit `float64_ranges_near_*`, ref `normalize_huge_range_*` | pre-exponent 0 -> hc `hard_data_*`; full range instead of half -> hc `float64_*`, unit `float64_*`; subnormal decode removed: NOT caught on lavapipe (no flush to zero) |
-//! | value 1.0 in the histogram | `min(u32(clamp(x,0,1)*256), 255)` | hcr `histogram_and_range_*` (n = 1 .. 4096), hcr `histogram_of_a_million_*` | gk `histogram_puts_one_*`, ref `histogram_bin_edges_*`, ref `histogram_bin_is_exact_floor` | `* 255` and dropping `min` -> hcr both, hc `hard_data_*` |
+//! | huge ranges (+-3e38, 1e30 + tiny) | f64 plan, power-of-two pre-exponent, offset = a sample | hc `hard_data_*` (+-3e38, +-FLT_MAX, 1e30 + 128 ulps, subnormal, negative: within 1/65535 of f64 eq. 1, monotone) | gk `hard_ranges_*`, unit `extreme_ranges_*`, ref `normalize_huge_range_*` | pre-exponent 0 -> hc `hard_data_*`; subnormal decode removed: NOT caught on lavapipe (no flush to zero) |
+//! | float64 data at +-1.7e308 | half-range `imax/2 - imin/2`, scale `(slope / range) 2^-e`, peak raw `(1-n) imin + n imax` | hc `float64_data_near_the_f64_limit_*` (+-1.5e308 through a 2^1000 slope: within 1/65535 of the f64 twin, used voxels > 0, finite peaks) | unit `float64_ranges_near_the_f64_limit_*` | full range instead of half -> hc `float64_*`, unit `float64_*` |
+//! | value exactly 1.0 in the histogram | `min(u32(clamp(x,0,1)*256), 255)` | hcr `histogram_and_range_*` (n = 1 .. 4096), hcr `histogram_of_a_million_*` | gk `histogram_puts_one_*`, ref `histogram_bin_edges_*`, ref `histogram_bin_is_exact_floor` | `* 255` and dropping `min` -> hcr both, hc `hard_data_*` |
 //! | zero gradient | `\|g\| > tau ? g/\|g\| : 0`; curvature gated | hc `exact_plateaus_*` (precomputed + on the fly, shading + curvature), hc `hard_data_*` (constant) | gk `plateaus_and_constant_*`, gk `a_linear_ramp_*` (k = 0), ref `plateaus_*` | derivatives.comp guard -> hc `exact_plateaus_*`, `hard_data_*`, `single_voxel_*`; raymarch on-the-fly guards: NOT caught on lavapipe (see report) |
 //! | anisotropic voxels | per-axis spacing, A^-T | hc `a_linear_ramp_on_a_0_1_x_0_1_x_10_*`, hc `a_world_object_on_a_0_1_x_0_1_x_10_*` | gk `a_linear_ramp_*` (0.5 x 1 x 3), gk `derivatives_match_*`, gr `anisotropic_and_flipped_*`, ref `linear_ramp_on_anisotropic_*` | A^-T dropped (stored or on the fly) -> hc both |
-//! | curvature precision | H from f32 samples | hc `single_voxel_*` (k vs f64 twin), hc `f16_derivatives_*` | gk `a_quadratic_bowl_*`, ref `sphere_distance_field_*` | samples rounded to f16 -> gk bowl, hc `single_voxel_*`, hc `f16_derivatives_*` |
+//! | curvature | H from f32 samples | hc `single_voxel_*` (k vs f64 twin), hc `f16_derivatives_*` | gk `a_quadratic_bowl_*`, ref `sphere_distance_field_*` | samples rounded to f16 -> gk bowl, hc `single_voxel_*`, hc `f16_derivatives_*` |
 //! | f16 storage of derivatives | NUMERICS: voxel units, spacing at use | hc `f16_derivatives_*` (0.1 .. 10 mm: within one f16 ulp), hc `f16_curvature_stays_finite_at_micrometre_spacing` (1 and 3 um) | - | stored in voxel units (|g| h, k h^2); removing the scale fails hc `f16_curvature_*` |
-//! | opacity correction | `-expm1(r log1p(-a))` via series | hcc `gpu_opacity_correction_*` (probe, log grid, naive fails), hcc `homogeneous_medium_*` (a = 0.05, 1e-4, 1e-6) | gr `opacity_correction_makes_*`, rr `homogeneous_slab_*`, rr `oblique_rays_*` | naive pow -> hcc both; no correction -> hcc `homogeneous_*`, gr step size |
+//! | opacity correction `1-(1-a)^r` | `-expm1(r log1p(-a))` via series | hcc `gpu_opacity_correction_*` (probe, log grid, naive fails), hcc `homogeneous_medium_*` (a = 0.05, 1e-4, 1e-6) | gr `opacity_correction_makes_*`, rr `homogeneous_slab_*`, rr `oblique_rays_*` | naive pow -> hcc both; no correction -> hcc `homogeneous_*`, gr step size |
 //! | accumulation | f32 registers | hcc `gpu_compositing_in_f32_*` (probe: f16 gives 0.756), hcc `three_thousand_*` (raymarch), hcc `early_termination_*` | - | f16 accumulator -> hcc `three_thousand_*`, `homogeneous_*`; ERT at 0.99 -> hcc `early_*` |
-//! | ray-box | \|d\| < 1e-20 containment, clamped count, start at max(t_near, 0) | hcg `gpu_rays_on_faces_*` (faces, edges, corners, grazing, eye on a face / at the centre; sample counts), hcg `gpu_rays_exactly_on_a_face_*`, hcg `views_at_90_degrees_keep_face_rays_on_the_face` (exact sin/cos of degrees) | gr `camera_inside_faces_*`, gr `no_nan_pixel_*`, rr `rays_exactly_on_faces_*`, rr `grazing_*`, unit `axis_aligned_rays_*` | containment branch -> hcg both; t_near clamp -> hcg `gpu_rays_on_faces_*`; count clamp: NOT caught (never negative here) |
-//! | subgroup reductions | identity in idle lanes, uniform loops | hcr `histogram_and_range_*` (n = 1, 2, 7, 31, 32, 33, 63, 64, 65, 255 .. 257, 1000, 4093, 4096), hcr `histogram_of_a_million_*` (101 x 103 x 97), hcr `derivative_maximum_*` | gk `min_max_is_exact_*` (n up to 1000003), gk `normalize_and_histogram_match_*`, unit `linear_dispatch_*` | histogram / min-max range masks -> hcr; derivatives mask: NOT caught on lavapipe (see report) |
+//! | ray-box with zero direction components, rays on faces, grazing rays, camera inside | \|d\| < 1e-20 containment, clamped count, start at max(t_near, 0) | hcg `gpu_rays_on_faces_*` (faces, edges, corners, grazing, eye on a face / at the centre; sample counts), hcg `gpu_rays_exactly_on_a_face_*`, hcg `views_at_90_degrees_keep_face_rays_on_the_face` (exact sin/cos of degrees) | gr `camera_inside_faces_*`, gr `no_nan_pixel_*`, rr `rays_exactly_on_faces_*`, rr `grazing_*`, unit `axis_aligned_rays_*` | containment branch -> hcg both; t_near clamp -> hcg `gpu_rays_on_faces_*`; count clamp: NOT caught (never negative here) |
+//! | subgroup reductions at sizes not multiple of workgroup or subgroup | identity in idle lanes, uniform loops | hcr `histogram_and_range_*` (n = 1, 2, 7, 31, 32, 33, 63, 64, 65, 255 .. 257, 1000, 4093, 4096), hcr `histogram_of_a_million_*` (101 x 103 x 97), hcr `derivative_maximum_*` | gk `min_max_is_exact_*` (n up to 1000003), gk `normalize_and_histogram_match_*`, unit `linear_dispatch_*` | histogram / min-max range masks -> hcr; derivatives mask: NOT caught on lavapipe (see report) |
 //! | float atomics | integer atomics on order-preserving keys | hcr `range_is_exact_over_negatives_*` | gk `min_max_handles_*`, ref `minmax_orders_negative_zero_*` | raw float bits as keys -> hcr, hc `hard_data_*` |
-//! | trilinear next to invalid voxels | NaN -> I_norm 0 (transparent), trilinear is convex | hc `a_nan_block_*` (= air block exactly; MIP never above the block-free MIP) | - | bit test dropped, or NaN -> 0.5 -> hc `a_nan_block_*` |
+//! | trilinear sampling next to invalid voxels | NaN -> I_norm 0 (transparent), trilinear is convex | hc `a_nan_block_*` (= air block exactly; MIP never above the block-free MIP) | - | bit test dropped, or NaN -> 0.5 -> hc `a_nan_block_*` |
 //! | step-size invariance (cheapest test) | opacity correction | hcc `homogeneous_medium_*` (A = 1 - e^-tau L at 0.25 / 0.5 / 1 voxel) | gr `opacity_correction_makes_*`, rr `homogeneous_slab_*` | as opacity correction |
 //! | histogram sum = finite voxels (cheapest test) | bit test + bin clamp | hcr both histogram tests, hc `hard_data_*` | gk `histogram_puts_one_*` | as NaN rows |
 
@@ -875,4 +876,24 @@ fn f16_curvature_stays_finite_at_micrometre_spacing() {
         );
     }
     common::assert_no_validation_errors(&engine);
+}
+
+#[test]
+fn every_numerics_row_is_covered_by_the_hard_case_table() {
+    // NUMERICS.md is the table the code cites; this file's module doc says which tests cover
+    // each of its rows. A row added there without tests here fails.
+    let numerics = include_str!("../NUMERICS.md");
+    let table = include_str!("hard_cases.rs");
+    let cases: Vec<&str> = numerics
+        .lines()
+        .filter(|l| l.starts_with("| ") && !l.starts_with("| case |"))
+        .filter_map(|l| l.split('|').nth(1).map(str::trim))
+        .collect();
+    assert!(cases.len() >= 15, "{cases:?}");
+    for case in cases {
+        assert!(
+            table.contains(&format!("//! | {case} |")),
+            "NUMERICS.md row `{case}` has no row in tests/hard_cases.rs's table"
+        );
+    }
 }
