@@ -189,8 +189,10 @@ pub fn describe(e: &std::io::Error) -> String {
 }
 
 /// Checks, before any work, that `path` can receive a complete file of `kind` (see the module's
-/// decisions): not an input, right extension, directory present and writable, existing target a
-/// regular file, existing NIfTI only with `force`.
+/// decisions): an existing target is a regular file and not an input, the extension is right,
+/// the directory is present and takes a new file, an existing NIfTI is replaced only with
+/// `force`. The most specific problem is reported first (`-o scan.nii.gz` onto the input says
+/// "it is the input", not "use .png").
 pub fn check_output(
     path: &Path,
     kind: OutputKind,
@@ -204,6 +206,9 @@ pub fn check_output(
             return fail(OutputProblem::IsDirectory(
                 path.join(format!("out{}", kind.extensions()[0])),
             ));
+        }
+        if !meta.is_file() {
+            return fail(OutputProblem::NotRegularFile);
         }
         if let Some(input) = inputs
             .iter()
@@ -228,13 +233,8 @@ pub fn check_output(
         }
         Ok(_) => {}
     }
-    if let Some(meta) = &existing {
-        if !meta.is_file() {
-            return fail(OutputProblem::NotRegularFile);
-        }
-        if kind == OutputKind::Nifti && !force {
-            return fail(OutputProblem::Exists);
-        }
+    if existing.is_some() && kind == OutputKind::Nifti && !force {
+        return fail(OutputProblem::Exists);
     }
     probe_directory(dir).map_err(|e| {
         OutputError::new(
