@@ -353,6 +353,8 @@ fn tissue_notes_are_printed_for_dvr_only() {
 
 #[test]
 fn nan_and_infinite_numbers_are_usage_errors_naming_the_flag() {
+    let dir = scratch("numbers");
+    let out = dir.join("x.png");
     for (flag, value) in [
         ("--azimuth", "NaN"),
         ("--elevation", "inf"),
@@ -360,9 +362,15 @@ fn nan_and_infinite_numbers_are_usage_errors_naming_the_flag() {
         ("--zoom", "infinity"),
         ("--step", "nan"),
     ] {
-        let o = morphray(&["render", "-o", "x.png", &format!("{flag}={value}")]);
+        let o = morphray(&["render", "-o", s(&out), &format!("{flag}={value}")]);
         assert_eq!(o.status.code(), Some(2), "{flag} {value}: {}", stderr(&o));
         assert!(stderr(&o).contains(flag), "{}", stderr(&o));
     }
-    assert!(!Path::new("x.png").exists());
+    // Nor can a turntable ask for billions of file names to be made and checked.
+    for frames in ["0", "10001", "4000000000"] {
+        let o = morphray(&["render", "-o", s(&out), "--turntable", frames]);
+        assert_eq!(o.status.code(), Some(2), "{frames}: {}", stderr(&o));
+    }
+    assert!(names(&dir).is_empty());
+    let _ = std::fs::remove_dir_all(dir);
 }

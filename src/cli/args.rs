@@ -276,8 +276,9 @@ pub struct RenderArgs {
     /// Output PNG (with --turntable N: frames are written as NAME-000.png, NAME-001.png, ...).
     #[arg(short, long, value_name = "PNG")]
     pub output: PathBuf,
-    /// Render N frames of a full orbit (azimuth advancing 360/N degrees per frame).
-    #[arg(long, value_name = "N")]
+    /// Render N frames of a full orbit (azimuth advancing 360/N degrees per frame), N from 1
+    /// to 10000 (every frame's file name is checked before the render starts).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=10_000))]
     pub turntable: Option<u32>,
     /// Frame of a 4-D file to render (0-based).
     #[arg(long, default_value_t = 0)]

@@ -114,9 +114,7 @@ fn frame_path(output: &Path, index: u32) -> PathBuf {
 /// Runs the command.
 pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error> {
     let validation = global.validation;
-    if args.turntable == Some(0) {
-        return Err(Error::Usage("--turntable needs at least 1 frame".into()));
-    }
+    // 1..=10000 frames (clap checks): the paths below are held, and checked, all at once.
     let frames = args.turntable.unwrap_or(1);
     let paths: Vec<PathBuf> = match args.turntable {
         Some(_) => (0..frames).map(|i| frame_path(&args.output, i)).collect(),
