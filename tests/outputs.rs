@@ -374,3 +374,35 @@ fn nan_and_infinite_numbers_are_usage_errors_naming_the_flag() {
     assert!(names(&dir).is_empty());
     let _ = std::fs::remove_dir_all(dir);
 }
+
+#[test]
+fn the_viewer_shows_warnings_and_keeps_them_in_its_screenshot() {
+    let dir = scratch("viewer");
+    let input = repaired_file(&dir);
+    let shot = dir.join("shot.png");
+    let o = morphray(&[
+        "view",
+        s(&input),
+        "--offscreen",
+        "--frames",
+        "1",
+        "--size",
+        "64x48",
+        "--screenshot",
+        s(&shot),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("morphray: warning: repaired.nii: pixdim[1]"),
+        "{}",
+        stderr(&o)
+    );
+    let chunks = morphray::cli::png::read_text_chunks(&shot).unwrap();
+    assert!(
+        chunks
+            .iter()
+            .any(|(k, v)| k == "morphray:warnings" && v.contains(REPAIR)),
+        "{chunks:?}"
+    );
+    let _ = std::fs::remove_dir_all(dir);
+}
