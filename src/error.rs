@@ -31,6 +31,9 @@ pub enum Error {
     /// Writing an image.
     #[error(transparent)]
     Png(#[from] PngError),
+    /// An output that cannot be written, found before the work or while writing.
+    #[error(transparent)]
+    Output(#[from] crate::files::write::OutputError),
     /// Writing another output file.
     #[error("cannot write {path}: {source}")]
     Write {

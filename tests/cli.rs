@@ -314,6 +314,8 @@ fn a_tiny_bench_reports_every_pass_as_json() {
     assert!(v["plan"]["allocations"].as_array().unwrap().len() > 3);
     assert!(v["plan"]["total_bytes"].as_u64().unwrap() > 0);
     assert_eq!(v["plan"]["degradations"], serde_json::json!([]));
+    // A clean file: an empty list of loader warnings, present all the same (issue 12).
+    assert_eq!(v["warnings"], serde_json::json!([]));
 }
 
 #[test]
@@ -528,6 +530,7 @@ fn a_tiny_accuracy_study_reports_every_knob_with_a_frontier() {
     );
     let plot = std::fs::read_to_string(&svg).unwrap();
     assert!(plot.starts_with("<svg") && plot.contains("Pareto frontier"));
+    assert_eq!(v["warnings"], serde_json::json!([]));
 }
 
 fn plan_json(input: &str, extra: &[&str]) -> serde_json::Value {

@@ -50,6 +50,9 @@ pub struct LoadedVolume {
     /// Derived volumes the scene needed when the load was requested (part of the load, so the
     /// first frame already shows the requested effects).
     pub derived: Option<Derived>,
+    /// The loader's repairs and warnings about the file (shown on stderr, kept in screenshots'
+    /// provenance).
+    pub warnings: Vec<String>,
 }
 
 /// Work for the thread.
@@ -364,6 +367,7 @@ impl Worker {
         };
         Ok(Some(LoadedVolume {
             id,
+            warnings: source.volume.warnings.clone(),
             label: source.label,
             path,
             sha256: source.sha256.unwrap_or_default(),

@@ -29,9 +29,10 @@ use super::status::{Loading, Status};
 use super::swapchain::{Surface, Swapchain};
 use super::ui::{self, Controls, Request};
 use crate::cli::args::SceneArgs;
-use crate::cli::png::{Provenance, write_rgba8};
+use crate::cli::png::{PngError, Provenance, write_rgba8};
 use crate::cli::render::scene_from_args;
 use crate::engine::{Derived, Engine, EngineConfig, RenderTarget};
+use crate::files::write::{OutputKind, check_output};
 use crate::gpu::{Device, GpuError, PassTiming, Presentation};
 use crate::passes::derivatives::DerivativeOutputs;
 use crate::scene::{Effects, Scene};
@@ -462,6 +463,10 @@ impl Viewer {
         self.status.dims = prepared.dims;
         self.status.spacing_mm = loaded.spacing_mm;
         self.status.ttfp_ms = None;
+        // As every command does: a view of a repaired file must not look like a clean one.
+        for warning in &loaded.warnings {
+            eprintln!("morphray: warning: {}: {warning}", loaded.label);
+        }
         self.arrived
             .push((format!("load {}", loaded.label), loaded.passes.clone()));
         self.log.say(&format!(
@@ -1078,7 +1083,14 @@ impl Viewer {
         self.flush_completed();
         for path in std::mem::take(&mut self.screenshot_requests) {
             let provenance = self.provenance();
-            match write_rgba8(&path, w, h, &pixels, &provenance) {
+            // The same rules as `render -o` (right extension, never over the open file); the
+            // write itself is atomic.
+            let input = self.current.as_ref().and_then(|c| c.loaded.path.clone());
+            let inputs: Vec<&std::path::Path> = input.as_deref().into_iter().collect();
+            let written = check_output(&path, OutputKind::Png, &inputs, false)
+                .map_err(PngError::from)
+                .and_then(|()| write_rgba8(&path, w, h, &pixels, &provenance));
+            match written {
                 Ok(()) => {
                     self.log.say(&format!("wrote {} ({w}x{h})", path.display()));
                     self.status.note = Some(format!("Saved {}", path.display()));
@@ -1090,9 +1102,13 @@ impl Viewer {
     }
 
     fn provenance(&self) -> Provenance {
-        let (input, sha) = match &self.current {
-            Some(c) => (c.loaded.label.clone(), c.loaded.sha256.clone()),
-            None => (String::new(), String::new()),
+        let (input, sha, warnings) = match &self.current {
+            Some(c) => (
+                c.loaded.label.clone(),
+                c.loaded.sha256.clone(),
+                c.loaded.warnings.clone(),
+            ),
+            None => (String::new(), String::new(), Vec::new()),
         };
         let parameters = serde_json::json!({
             "engine": format!("morphray {}", env!("CARGO_PKG_VERSION")),
@@ -1107,6 +1123,7 @@ impl Viewer {
             input_sha256: sha,
             command: self.config.command.clone(),
             parameters: parameters.to_string(),
+            warnings,
         }
     }
 

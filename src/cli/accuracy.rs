@@ -28,9 +28,10 @@
 //!   samples onto an Intel Xe-LP (passes/cost.rs), labelled as a model.
 
 use super::args::AccuracyArgs;
-use super::output::{json, print_line};
+use super::output::{json, print_line, print_warnings};
 use super::session;
 use crate::error::Error;
+use crate::files::write::{OutputKind, check_output, write_file};
 use crate::passes::cost::XE_LP;
 use crate::passes::raymarch::RaymarchVariant;
 use crate::reference::derivatives::{DEFAULT_TAU, IndexToWorld, voxel_derivatives};
@@ -42,7 +43,7 @@ use crate::scene::{
 };
 use crate::study::metrics::{ImageError, compare};
 use crate::study::pareto::{frontier_with_spread, frontier_within};
-use crate::study::plot::{PlotPoint, write_svg};
+use crate::study::plot::{PlotError, PlotPoint, write_svg};
 use crate::study::stability::{
     OpacityStability, UNSTABLE_RELATIVE_ERROR, opacity_grid, worst_errors,
 };
@@ -234,6 +235,8 @@ struct AccuracyReport<'a> {
     /// Worst relative errors of the exact and the naive opacity correction on this device.
     opacity_stability: OpacityStability,
     recommendations: Vec<Recommendation>,
+    /// The loader's repairs and warnings about the input.
+    warnings: Vec<String>,
 }
 
 /// The f64 derived volumes of the whole pipeline's truth: |g|, k and unit normals per voxel.
@@ -334,6 +337,14 @@ pub fn run(args: &AccuracyArgs, global: &super::GlobalOptions) -> Result<(), Err
     let time_size = args.time_size.unwrap_or((width, height));
     let mut scene_args = args.scene.clone();
     scene_args.size = Some((width, height));
+    // Before the study: outputs that cannot be written fail now, not after it.
+    let inputs: Vec<&std::path::Path> = args.file.as_deref().into_iter().collect();
+    if let Some(path) = &args.json {
+        check_output(path, OutputKind::Json, &inputs, false)?;
+    }
+    if let Some(path) = &args.plot {
+        check_output(path, OutputKind::Svg, &inputs, false)?;
+    }
     let mut opened = session::open(
         args.file.as_deref(),
         args.frame,
@@ -342,6 +353,7 @@ pub fn run(args: &AccuracyArgs, global: &super::GlobalOptions) -> Result<(), Err
         Some(&scene_args),
         true,
     )?;
+    print_warnings(&opened.source.volume.warnings);
     let base = opened.scene;
     let views = &VIEWS[..args.views];
     let volume = opened.source.volume.clone();
@@ -712,12 +724,10 @@ pub fn run(args: &AccuracyArgs, global: &super::GlobalOptions) -> Result<(), Err
         typical_time_spread,
         opacity_stability: stability,
         recommendations,
+        warnings: opened.source.volume.warnings.clone(),
     };
     if let Some(path) = &args.json {
-        std::fs::write(path, json(&report)).map_err(|source| Error::Write {
-            path: path.display().to_string(),
-            source,
-        })?;
+        write_file(path, json(&report).as_bytes())?;
     }
     if let Some(path) = &args.plot {
         let points: Vec<PlotPoint> = report
@@ -736,7 +746,10 @@ pub fn run(args: &AccuracyArgs, global: &super::GlobalOptions) -> Result<(), Err
             "{} on {}: error at {}x{}, time at {}x{} (curvature off)",
             report.input, report.device, width, height, time_size.0, time_size.1
         );
-        write_svg(path, &title, &points).map_err(|e| Error::Usage(e.to_string()))?;
+        write_svg(path, &title, &points).map_err(|e| match e {
+            PlotError::Write(e) => Error::Output(e),
+            other => Error::Usage(other.to_string()),
+        })?;
     }
     if validation {
         session::check_validation(&opened.engine)?;

@@ -218,13 +218,13 @@ pub struct SceneArgs {
     pub size: Option<(u32, u32)>,
     /// Camera rotation about the superior axis in degrees: 0 = anterior view (patient's left on
     /// the image's right), 90 = from the patient's right, 180 = posterior.
-    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = parse_finite)]
     pub azimuth: f64,
     /// Camera elevation in degrees above the axial plane (90 = from superior).
-    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = parse_finite)]
     pub elevation: f64,
     /// Magnification; 1 fits the whole volume in the image.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, value_parser = parse_finite)]
     pub zoom: f64,
     /// Move the view by RIGHT,UP millimetres in the image plane.
     #[arg(long, default_value = "0,0", value_parser = parse_pair, allow_hyphen_values = true)]
@@ -244,7 +244,7 @@ pub struct SceneArgs {
     pub windows: WindowsArg,
     /// Sampling distance along each ray, in voxels of the finest axis. Smaller is more accurate
     /// and slower; opacity is corrected so the image does not darken or brighten with it.
-    #[arg(long, default_value_t = 0.5)]
+    #[arg(long, default_value_t = 0.5, value_parser = parse_finite)]
     pub step: f64,
     /// Curvature weight w(k) = 1 + s*tanh(|k|/k_ref) on opacity (paper eq. 4), emphasizing thin,
     /// folded structures; computes the Hessian.
@@ -276,8 +276,9 @@ pub struct RenderArgs {
     /// Output PNG (with --turntable N: frames are written as NAME-000.png, NAME-001.png, ...).
     #[arg(short, long, value_name = "PNG")]
     pub output: PathBuf,
-    /// Render N frames of a full orbit (azimuth advancing 360/N degrees per frame).
-    #[arg(long, value_name = "N")]
+    /// Render N frames of a full orbit (azimuth advancing 360/N degrees per frame), N from 1
+    /// to 10000 (every frame's file name is checked before the render starts).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=10_000))]
     pub turntable: Option<u32>,
     /// Frame of a 4-D file to render (0-based).
     #[arg(long, default_value_t = 0)]
@@ -319,9 +320,14 @@ pub struct ViewArgs {
 /// Options of `phantom`.
 #[derive(Debug, Args)]
 pub struct PhantomArgs {
-    /// Output file; gzip-compressed when the name ends in .gz.
+    /// Output file, .nii or .nii.gz (gzip-compressed). An existing file is not replaced
+    /// unless --force is given (it may be a scan).
     #[arg(short, long, value_name = "NII")]
     pub output: PathBuf,
+    /// Replace an existing output file (atomically: the old file stays whole until the new one
+    /// is complete).
+    #[arg(long)]
+    pub force: bool,
     /// Dimensions X x Y x Z at 1 mm (the paper's cohort-A size by default).
     #[arg(long, default_value = "256x256x192", value_parser = parse_dims)]
     pub dims: [usize; 3],
@@ -421,6 +427,16 @@ fn parse_size(text: &str) -> Result<(u32, u32), String> {
     }
 }
 
+/// A finite number: NaN and infinities are usage errors naming the flag (clap adds the name),
+/// instead of a camera at NaN degrees rendered as 0 with `null` in the provenance.
+fn parse_finite(text: &str) -> Result<f64, String> {
+    match text.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() => Ok(v),
+        Ok(_) => Err(format!("`{text}` is not a finite number")),
+        Err(_) => Err(format!("`{text}` is not a number")),
+    }
+}
+
 fn parse_pair(text: &str) -> Result<(f64, f64), String> {
     let (a, b) = text
         .split_once(',')
@@ -469,6 +485,10 @@ mod tests {
         );
         assert_eq!(parse_pair("-3,4.5"), Ok((-3.0, 4.5)));
         assert!(parse_pair("nan,1").is_err());
+        assert_eq!(parse_finite("-30.5"), Ok(-30.5));
+        for bad in ["NaN", "nan", "inf", "-inf", "infinity", "ten"] {
+            assert!(parse_finite(bad).is_err(), "{bad}");
+        }
         assert_eq!(parse_colour("#ff0000"), Ok([1.0, 0.0, 0.0]));
         assert_eq!(parse_colour("0,255,0"), Ok([0.0, 1.0, 0.0]));
         assert!(parse_colour("#12345").is_err() && parse_colour("1,2").is_err());

@@ -11,9 +11,10 @@
 //! inflating are part of it.
 
 use super::args::BenchArgs;
-use super::output::{json, print_line};
+use super::output::{json, print_line, print_warnings};
 use super::session::{self, OpenTimings};
 use crate::error::Error;
+use crate::files::write::{OutputKind, check_output, write_file};
 use crate::passes::cost::{self, DeviceModel, H100, PassCost, XE_LP};
 use crate::passes::derivatives::DerivativeOutputs;
 use crate::scene::plan::{Layout, Plan};
@@ -114,6 +115,8 @@ struct BenchReport<'a> {
     pipeline_cache: crate::gpu::CacheLoad,
     /// Time to first pixel over fresh processes (None with `--trials 0`).
     ttfp: Option<super::ttfp::TtfpReport>,
+    /// The loader's repairs and warnings about the input.
+    warnings: Vec<String>,
 }
 
 fn pass_report(
@@ -203,6 +206,11 @@ pub fn run(args: &BenchArgs, global: &super::GlobalOptions) -> Result<(), Error>
     let (width, height) = args.scene.size.unwrap_or((1920, 1080));
     let mut scene_args = args.scene.clone();
     scene_args.size = Some((width, height));
+    // Before the minutes of measuring: a report that cannot be written fails now.
+    if let Some(path) = &args.json {
+        let inputs: Vec<&std::path::Path> = args.file.as_deref().into_iter().collect();
+        check_output(path, OutputKind::Json, &inputs, false)?;
+    }
     let (input, input_label, _temporary) = bench_input(args)?;
     // Before this process opens a device of its own, so the trials have the machine to
     // themselves.
@@ -219,6 +227,7 @@ pub fn run(args: &BenchArgs, global: &super::GlobalOptions) -> Result<(), Error>
         Some(&scene_args),
         true,
     )?;
+    print_warnings(&opened.source.volume.warnings);
     let scene = opened.scene;
     let adapter = opened.engine.device().adapter().clone();
     let documented = adapter.name.contains("H100").then_some(H100);
@@ -461,12 +470,10 @@ pub fn run(args: &BenchArgs, global: &super::GlobalOptions) -> Result<(), Error>
         timestamp_valid_bits: adapter.timestamp_valid_bits,
         pipeline_cache: opened.engine.pipeline_cache().load().clone(),
         ttfp,
+        warnings: opened.source.volume.warnings.clone(),
     };
     if let Some(path) = &args.json {
-        std::fs::write(path, json(&report)).map_err(|source| Error::Write {
-            path: path.display().to_string(),
-            source,
-        })?;
+        write_file(path, json(&report).as_bytes())?;
     }
     print_text(&report);
     Ok(())

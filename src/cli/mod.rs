@@ -136,12 +136,18 @@ pub fn run(cli: &Cli) -> Result<(), Error> {
         Command::Devices => devices::run(),
         Command::Plan(args) => plan::run(args, global),
         Command::Phantom(args) => {
+            // Before generating: an existing scan is never replaced without --force.
+            use crate::files::write::{OutputKind, check_output};
+            check_output(&args.output, OutputKind::Nifti, &[], args.force)?;
             let spec = crate::volume::phantom::PhantomSpec {
                 dims: args.dims,
                 ..crate::volume::phantom::PhantomSpec::cohort_a()
             };
             let phantom = crate::volume::phantom::generate(&spec)?;
-            let gzip = args.output.extension().is_some_and(|e| e == "gz");
+            let gzip = args
+                .output
+                .extension()
+                .is_some_and(|e| e.eq_ignore_ascii_case("gz"));
             crate::volume::nifti::write_nifti1(&phantom.volume, &args.output, gzip)?;
             output::print_line(&format!(
                 "wrote {} ({}x{}x{}, int16, 1 mm)",

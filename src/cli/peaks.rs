@@ -1,7 +1,7 @@
 //! `morphray peaks`: the paper's Table-1 row from the GPU histogram.
 
 use super::args::PeaksArgs;
-use super::output::{json, ms, print_line};
+use super::output::{json, ms, print_line, print_warnings};
 use super::session;
 use crate::analysis::{Peak, TissueWindows};
 use crate::error::Error;
@@ -25,6 +25,8 @@ struct PeaksReport<'a> {
     windows: &'a TissueWindows,
     device: String,
     timings_ms: BTreeMap<String, f64>,
+    /// The loader's repairs and warnings about the input.
+    warnings: &'a [String],
 }
 
 /// Runs the command.
@@ -38,6 +40,7 @@ pub fn run(args: &PeaksArgs, global: &super::GlobalOptions) -> Result<(), Error>
         None,
         false,
     )?;
+    print_warnings(&opened.source.volume.warnings);
     let r = &opened.report;
     let mut timings = BTreeMap::new();
     let t = &opened.timings;
@@ -77,6 +80,7 @@ pub fn run(args: &PeaksArgs, global: &super::GlobalOptions) -> Result<(), Error>
         windows: &r.adaptive_windows,
         device: opened.engine.device().adapter().name.clone(),
         timings_ms: timings,
+        warnings: &opened.source.volume.warnings,
     };
     if validation {
         session::check_validation(&opened.engine)?;

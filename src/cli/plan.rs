@@ -8,7 +8,7 @@
 //! against) with the Xe-LP model's time bound.
 
 use super::args::PlanArgs;
-use super::output::{json, print_line};
+use super::output::{json, print_line, print_warnings};
 use super::session;
 use crate::error::Error;
 use crate::gpu::{AllocationRecord, DeviceProfile, KernelTuning};
@@ -39,6 +39,8 @@ struct PlanReport<'a> {
     held_bytes: u64,
     device_profile: Option<&'a DeviceProfile>,
     tuning: &'a KernelTuning,
+    /// The loader's repairs and warnings about the input.
+    warnings: &'a [String],
 }
 
 /// Runs the command.
@@ -51,6 +53,7 @@ pub fn run(args: &PlanArgs, global: &super::GlobalOptions) -> Result<(), Error> 
         Some(&args.scene),
         false,
     )?;
+    print_warnings(&opened.source.volume.warnings);
     let (width, height) = args.scene.size.unwrap_or((1024, 1024));
     let engine = opened.engine;
     let twin = opened.twin;
@@ -82,6 +85,7 @@ pub fn run(args: &PlanArgs, global: &super::GlobalOptions) -> Result<(), Error> 
         held_bytes,
         device_profile: engine.device().profile(),
         tuning: engine.device().tuning(),
+        warnings: &opened.source.volume.warnings,
     };
     if args.json {
         print_line(&json(&report));

@@ -1,12 +1,17 @@
 //! PNG output with provenance: every figure carries what is needed to re-render it exactly.
 //!
-//! Decision: provenance goes into tEXt chunks (readable by any PNG tool, e.g. `identify -verbose`
-//! or Python's PIL `.text`): `Software` (engine and version), `morphray:input` (file name or
-//! `phantom`), `morphray:input-sha256` (hash of the input file's bytes as read, or of the
-//! phantom's samples), `morphray:command` (the command line), and `morphray:parameters` (all
-//! resolved parameters as JSON, including defaults the user did not type).
+//! Decisions:
+//! - Provenance goes into tEXt chunks (readable by any PNG tool, e.g. `identify -verbose`
+//!   or Python's PIL `.text`): `Software` (engine and version), `morphray:input` (file name or
+//!   `phantom`), `morphray:input-sha256` (hash of the input file's bytes as read, or of the
+//!   phantom's samples), `morphray:command` (the command line), `morphray:parameters` (all
+//!   resolved parameters as JSON, including defaults the user did not type), and
+//!   `morphray:warnings` (the loader's repairs and warnings about the input, a JSON list of
+//!   sentences, `[]` when there were none: an image of a repaired file says so).
+//! - The file is written through [`AtomicFile`]: a failure (a full disk included) leaves any
+//!   previous image intact and no partial file.
 
-use std::io::BufWriter;
+use crate::files::write::{AtomicFile, OutputError};
 use std::path::Path;
 
 /// Provenance written into a PNG.
@@ -20,15 +25,20 @@ pub struct Provenance {
     pub command: String,
     /// Every resolved parameter, as JSON.
     pub parameters: String,
+    /// The loader's repairs and warnings about the input, one sentence each.
+    pub warnings: Vec<String>,
 }
 
 /// A PNG that could not be written.
 #[derive(Debug, thiserror::Error)]
 pub enum PngError {
-    /// The output file could not be created or written.
-    #[error("cannot write {path}: {source}")]
+    /// The output file could not be created, written or put in place.
+    #[error(transparent)]
+    Output(#[from] OutputError),
+    /// The file to read could not be opened.
+    #[error("cannot read {path}: {source}")]
     Io {
-        /// Output path.
+        /// The file.
         path: String,
         /// Cause.
         source: std::io::Error,
@@ -43,7 +53,7 @@ pub enum PngError {
     },
 }
 
-/// Writes an RGBA8 image with provenance chunks.
+/// Writes an RGBA8 image with provenance chunks, atomically.
 pub fn write_rgba8(
     path: &Path,
     width: u32,
@@ -51,33 +61,44 @@ pub fn write_rgba8(
     rgba: &[u8],
     provenance: &Provenance,
 ) -> Result<(), PngError> {
-    let shown = path.display().to_string();
-    let encode = |e: png::EncodingError| PngError::Encode {
-        path: shown.clone(),
-        message: e.to_string(),
-    };
-    let file = std::fs::File::create(path).map_err(|source| PngError::Io {
-        path: shown.clone(),
-        source,
+    let mut file = AtomicFile::create(path)?;
+    encode(&mut file, width, height, rgba, provenance).map_err(|e| match e {
+        // The disk's own words ("no space left on device"), not "cannot encode".
+        png::EncodingError::IoError(io) => PngError::Output(file.error(io)),
+        other => PngError::Encode {
+            path: path.display().to_string(),
+            message: other.to_string(),
+        },
     })?;
-    let mut encoder = png::Encoder::new(BufWriter::new(file), width, height);
+    Ok(file.commit()?)
+}
+
+/// The PNG stream with its tEXt chunks.
+fn encode(
+    out: &mut AtomicFile,
+    width: u32,
+    height: u32,
+    rgba: &[u8],
+    provenance: &Provenance,
+) -> Result<(), png::EncodingError> {
+    let mut encoder = png::Encoder::new(out, width, height);
     encoder.set_color(png::ColorType::Rgba);
     encoder.set_depth(png::BitDepth::Eight);
     let software = format!("morphray {}", env!("CARGO_PKG_VERSION"));
+    let warnings = serde_json::to_string(&provenance.warnings).unwrap_or_else(|_| "[]".into());
     for (key, value) in [
         ("Software", software.as_str()),
         ("morphray:input", provenance.input.as_str()),
         ("morphray:input-sha256", provenance.input_sha256.as_str()),
         ("morphray:command", provenance.command.as_str()),
         ("morphray:parameters", provenance.parameters.as_str()),
+        ("morphray:warnings", warnings.as_str()),
     ] {
-        encoder
-            .add_text_chunk(key.to_string(), value.to_string())
-            .map_err(encode)?;
+        encoder.add_text_chunk(key.to_string(), value.to_string())?;
     }
-    let mut writer = encoder.write_header().map_err(encode)?;
-    writer.write_image_data(rgba).map_err(encode)?;
-    writer.finish().map_err(encode)
+    let mut writer = encoder.write_header()?;
+    writer.write_image_data(rgba)?;
+    writer.finish()
 }
 
 /// Reads the tEXt chunks of a PNG (for tests and for `render --from` style reuse).
@@ -121,6 +142,7 @@ mod tests {
             input_sha256: sha256_hex(b"abc"),
             command: "morphray render scan.nii.gz -o x.png".into(),
             parameters: "{\"step\":0.5}".into(),
+            warnings: vec!["pixdim[1] was 0; 1 mm used".into()],
         };
         write_rgba8(&path, 2, 1, &[255, 0, 0, 255, 0, 255, 0, 255], &provenance).unwrap();
         let chunks = read_text_chunks(&path).unwrap();
@@ -140,6 +162,10 @@ mod tests {
             Some("{\"step\":0.5}")
         );
         assert!(get("Software").unwrap().starts_with("morphray "));
+        assert_eq!(
+            get("morphray:warnings").as_deref(),
+            Some("[\"pixdim[1] was 0; 1 mm used\"]")
+        );
         let _ = std::fs::remove_file(path);
     }
 }

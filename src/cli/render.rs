@@ -1,13 +1,22 @@
 //! `morphray render`: one PNG (or a turntable of PNGs) of a volume, with provenance.
+//!
+//! Decisions:
+//! - Every output path (each turntable frame's too) is checked before the volume is loaded or a
+//!   device opened (`files::write::check_output`): a wrong extension, a missing or read-only
+//!   directory, a device or the input itself as the output fail in milliseconds, not after the
+//!   render.
+//! - Notes about tissues without a peak are printed in DVR mode only: they are about the
+//!   classification, which MIP and MinIP do not use.
 
 use super::args::{
     GradientArg, ModeArg, PrecisionArg, ProjectionArg, RenderArgs, SceneArgs, WindowsArg,
 };
-use super::output::{ms, print_line};
+use super::output::{ms, print_line, print_warnings};
 use super::png::{Provenance, write_rgba8};
 use super::session;
 use crate::analysis::TissueReport;
 use crate::error::Error;
+use crate::files::write::{OutputKind, check_output};
 use crate::scene::{
     Camera, Classification, DerivedPrecision, GradientSource, Projection, RenderMode, Scene,
     TissueClass,
@@ -105,8 +114,19 @@ fn frame_path(output: &Path, index: u32) -> PathBuf {
 /// Runs the command.
 pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error> {
     let validation = global.validation;
-    if args.turntable == Some(0) {
-        return Err(Error::Usage("--turntable needs at least 1 frame".into()));
+    // 1..=10000 frames (clap checks): the paths below are held, and checked, all at once.
+    let frames = args.turntable.unwrap_or(1);
+    let paths: Vec<PathBuf> = match args.turntable {
+        Some(_) => (0..frames).map(|i| frame_path(&args.output, i)).collect(),
+        None => vec![args.output.clone()],
+    };
+    let inputs: Vec<&Path> = args.file.as_deref().into_iter().collect();
+    // A turntable's -o names no file of its own, but `-o orbit.jpg` would still be a mistake.
+    if args.turntable.is_some() && !OutputKind::Png.accepts(&args.output) {
+        check_output(&args.output, OutputKind::Png, &inputs, false)?;
+    }
+    for path in &paths {
+        check_output(path, OutputKind::Png, &inputs, false)?;
     }
     let mut opened = session::open(
         args.file.as_deref(),
@@ -116,9 +136,11 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
         Some(&args.scene),
         true,
     )?;
+    print_warnings(&opened.source.volume.warnings);
     // The planned scene: the arguments' scene with any degradation the budget required.
     let base = opened.scene;
-    for name in missing_tissues(&base) {
+    let classified = base.effects.mode == RenderMode::Dvr;
+    for name in missing_tissues(&base).into_iter().filter(|_| classified) {
         eprintln!(
             "morphray: note: no {name} peak was found in this volume, so {name} cannot be shown"
         );
@@ -127,9 +149,8 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
     let mut target = opened
         .engine
         .render_target(width, height, vk::Format::R8G8B8A8_UNORM)?;
-    let frames = args.turntable.unwrap_or(1);
     let command = std::env::args().collect::<Vec<_>>().join(" ");
-    for index in 0..frames {
+    for (index, path) in (0..frames).zip(&paths) {
         let mut scene = base;
         if args.turntable.is_some() {
             scene.camera.azimuth_deg = args.scene.azimuth + 360.0 * index as f64 / frames as f64;
@@ -142,11 +163,6 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
             // After the first frame: its pipelines are all compiled now.
             session::persist_pipeline_cache(&opened.engine);
         }
-        let path = if args.turntable.is_some() {
-            frame_path(&args.output, index)
-        } else {
-            args.output.clone()
-        };
         let parameters = serde_json::json!({
             "engine": format!("morphray {}", env!("CARGO_PKG_VERSION")),
             "input": opened.source.label,
@@ -164,8 +180,9 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
             input_sha256: opened.source.sha256.clone().unwrap_or_default(),
             command: command.clone(),
             parameters: parameters.to_string(),
+            warnings: opened.source.volume.warnings.clone(),
         };
-        write_rgba8(&path, frame.width, frame.height, &frame.rgba8, &provenance)?;
+        write_rgba8(path, frame.width, frame.height, &frame.rgba8, &provenance)?;
         let gpu_ms: f64 = frame.gpu_timings.iter().map(|p| p.gpu_ms).sum();
         print_line(&format!(
             "wrote {} ({}x{}, raymarch {:.3} ms GPU)",

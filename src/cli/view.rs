@@ -21,6 +21,16 @@ pub fn run(args: &ViewArgs, global: &super::GlobalOptions) -> Result<(), Error> 
     if args.frames == Some(0) {
         return Err(Error::Usage("--frames needs at least 1 frame".into()));
     }
+    if let Some(path) = &args.screenshot {
+        // Before the window and the GPU: a screenshot that cannot be written fails now.
+        let inputs: Vec<&std::path::Path> = args.file.as_deref().into_iter().collect();
+        crate::files::write::check_output(
+            path,
+            crate::files::write::OutputKind::Png,
+            &inputs,
+            false,
+        )?;
+    }
     let engine = global.engine_config();
     let fail_on_validation = engine.device.validation == Validation::Required;
     let (width, height) = args.scene.size.unwrap_or((1280, 800));

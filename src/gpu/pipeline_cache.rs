@@ -27,7 +27,6 @@ use super::device::{Device, DeviceShared};
 use super::error::{GpuError, GpuResult, vk_err};
 use ash::vk;
 use sha2::{Digest, Sha256};
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
@@ -419,37 +418,17 @@ fn create_raw(device: &DeviceShared, initial: &[u8]) -> GpuResult<vk::PipelineCa
         .map_err(vk_err("vkCreatePipelineCache"))
 }
 
-/// Writes `bytes` to `path` through a temporary file in the same directory and a rename.
+/// Writes `bytes` to `path` atomically (`files::write`), creating its directory first.
 fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), PersistError> {
-    let io = |path: &Path| {
-        let path = path.to_path_buf();
-        move |source| PersistError::Io { path, source }
-    };
     let dir = path.parent().unwrap_or(Path::new("."));
-    std::fs::create_dir_all(dir).map_err(io(dir))?;
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "pipelines".into());
-    // Unique per process and call, so concurrent writers never share a temporary file.
-    static COUNTER: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
-    let n = COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    let temp = dir.join(format!(".{name}.{}.{n}.tmp", std::process::id()));
-    let written = std::fs::File::create(&temp)
-        .and_then(|mut f| {
-            f.write_all(bytes)?;
-            // On disk before the rename, so a crash cannot leave a renamed but empty file.
-            f.sync_all()
-        })
-        .and_then(|()| std::fs::rename(&temp, path));
-    if let Err(source) = written {
-        let _ = std::fs::remove_file(&temp);
-        return Err(PersistError::Io {
-            path: path.to_path_buf(),
-            source,
-        });
-    }
-    Ok(())
+    std::fs::create_dir_all(dir).map_err(|source| PersistError::Io {
+        path: dir.to_path_buf(),
+        source,
+    })?;
+    crate::files::write::write_file(path, bytes).map_err(|e| PersistError::Io {
+        path: path.to_path_buf(),
+        source: e.into_io_error(),
+    })
 }
 
 impl Drop for PipelineCache {

@@ -185,9 +185,10 @@ pub fn write_nifti1(volume: &Volume, path: &Path, gzip: bool) -> Result<(), Nift
     file.extend_from_slice(&header);
     file.extend_from_slice(data);
     let file = if gzip { gzip_compress(&file)? } else { file };
-    std::fs::write(path, file).map_err(|source| NiftiError::Io {
+    // Atomically (files::write): a failed write leaves any previous file whole.
+    crate::files::write::write_file(path, &file).map_err(|e| NiftiError::Io {
         action: "write",
         path: path.to_path_buf(),
-        source,
+        source: e.into_io_error(),
     })
 }
