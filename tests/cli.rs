@@ -718,3 +718,33 @@ fn profiles_and_tuning_apply_or_fail_in_one_line() {
     let o = morphray(&["--wg", "histogram=64", "peaks", input]);
     assert_one_line_failure(&o, "has no selectable workgroup");
 }
+
+#[test]
+fn peaks_json_reports_no_range_and_no_peak_for_a_volume_without_finite_voxels() {
+    // An all-NaN volume once reported imin = imax = 0 as if 0 had been measured.
+    let dir = temp("all-nan");
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("nan.nii");
+    let volume = morphray::volume::Volume::from_voxels(
+        "nan",
+        [5, 4, 3],
+        morphray::volume::Samples::from_f32(&[f32::NAN; 60]),
+        [
+            [1.0, 0.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0, 0.0],
+            [0.0, 0.0, 1.0, 0.0],
+            [0.0, 0.0, 0.0, 1.0],
+        ],
+        morphray::volume::LinearMap::IDENTITY,
+    )
+    .unwrap();
+    write_nifti1(&volume, &path, false).unwrap();
+    let o = morphray(&["peaks", path.to_str().unwrap(), "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(json["imin"].is_null() && json["imax"].is_null(), "{json}");
+    assert_eq!(json["nonfinite_voxels"], 60);
+    for tissue in ["csf", "gm", "wm"] {
+        assert!(json["peaks"][tissue].is_null(), "{tissue}: {json}");
+    }
+}

@@ -148,7 +148,12 @@ pub fn run(cli: &Cli) -> Result<(), Error> {
                 .output
                 .extension()
                 .is_some_and(|e| e.eq_ignore_ascii_case("gz"));
-            crate::volume::nifti::write_nifti1(&phantom.volume, &args.output, gzip)?;
+            if args.force {
+                crate::volume::nifti::write_nifti1(&phantom.volume, &args.output, gzip)?;
+            } else {
+                // No clobbering even of a file that appeared while the phantom was generated.
+                crate::volume::nifti::write_new_nifti1(&phantom.volume, &args.output, gzip)?;
+            }
             output::print_line(&format!(
                 "wrote {} ({}x{}x{}, int16, 1 mm)",
                 args.output.display(),

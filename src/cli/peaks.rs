@@ -16,8 +16,8 @@ struct PeaksReport<'a> {
     used_voxels: u64,
     used_voxels_definition: &'static str,
     nonfinite_voxels: usize,
-    imin: f64,
-    imax: f64,
+    imin: Option<f64>,
+    imax: Option<f64>,
     background_threshold: f64,
     peaks: BTreeMap<&'static str, Option<Peak>>,
     paper_windows: &'a TissueWindows,
@@ -67,8 +67,9 @@ pub fn run(args: &PeaksArgs, global: &super::GlobalOptions) -> Result<(), Error>
         used_voxels: r.used_voxels,
         used_voxels_definition: "finite voxels whose I_norm bin is at or above the background threshold",
         nonfinite_voxels: r.nonfinite_voxels,
-        imin: r.imin,
-        imax: r.imax,
+        // null without a finite voxel (the analysis' 0 would read as a real intensity).
+        imin: (r.finite_voxels > 0).then_some(r.imin),
+        imax: (r.finite_voxels > 0).then_some(r.imax),
         background_threshold: r.background_threshold,
         peaks: BTreeMap::from([("csf", r.peaks.csf), ("gm", r.peaks.gm), ("wm", r.peaks.wm)]),
         paper_windows: &r.paper_windows,
@@ -102,7 +103,10 @@ pub fn run(args: &PeaksArgs, global: &super::GlobalOptions) -> Result<(), Error>
         report.background_threshold,
         report.nonfinite_voxels
     ));
-    print_line(&format!("Imin {}  Imax {}", report.imin, report.imax));
+    match (report.imin, report.imax) {
+        (Some(lo), Some(hi)) => print_line(&format!("Imin {lo}  Imax {hi}")),
+        _ => print_line("Imin -  Imax -  (no finite voxel)"),
+    }
     print_line("tissue  peak I_norm  peak raw      paper window   inside?");
     let paper = [("csf", "0.05-0.12"), ("gm", "0.12-0.18"), ("wm", "> 0.18")];
     for (name, window) in paper {

@@ -37,7 +37,7 @@ pub use extensions::Extension;
 pub use gzip::inflate_if_gzip;
 pub use header::{ByteOrder, RawHeader, Storage, Version};
 pub use orientation::{OrientationFields, ResolvedGeometry};
-pub use writer::write_nifti1;
+pub use writer::{write_new_nifti1, write_nifti1};
 
 use crate::volume::Volume;
 use header::Decoded;

@@ -92,9 +92,32 @@ fn derive_qform(affine: &[[f64; 4]; 4], spacing: [f64; 3]) -> Option<([f64; 3], 
 }
 
 /// Writes `volume` as a NIfTI-1 file at `path` (gzip-compressed when `gzip`), as the module doc
-/// describes. Fails when a dimension exceeds 32767 (NIfTI-1's i16 dims), when the samples do not
-/// match the dims, when the affine or spacing is not finite, or on I/O errors.
+/// describes, replacing an existing file only with the complete new one. Fails when a dimension
+/// exceeds 32767 (NIfTI-1's i16 dims), when the samples do not match the dims, when the affine or
+/// spacing is not finite, or on I/O errors.
 pub fn write_nifti1(volume: &Volume, path: &Path, gzip: bool) -> Result<(), NiftiError> {
+    let file = encode_nifti1(volume, gzip)?;
+    // Atomically (files::write): a failed write leaves any previous file whole.
+    crate::files::write::write_file(path, &file).map_err(|e| io_error(path, e))
+}
+
+/// [`write_nifti1`] that never replaces an existing file, not even one created while the volume
+/// was being encoded (a scan is precious: the no-clobber check happens at the rename).
+pub fn write_new_nifti1(volume: &Volume, path: &Path, gzip: bool) -> Result<(), NiftiError> {
+    let file = encode_nifti1(volume, gzip)?;
+    crate::files::write::write_new_file(path, &file).map_err(|e| io_error(path, e))
+}
+
+fn io_error(path: &Path, e: crate::files::write::OutputError) -> NiftiError {
+    NiftiError::Io {
+        action: "write",
+        path: path.to_path_buf(),
+        source: e.into_io_error(),
+    }
+}
+
+/// The bytes of a NIfTI-1 file of `volume` (gzip-compressed when `gzip`).
+fn encode_nifti1(volume: &Volume, gzip: bool) -> Result<Vec<u8>, NiftiError> {
     let unwritable = |why: String| NiftiError::Unwritable {
         what: format!("volume {:?}", volume.name),
         why,
@@ -184,11 +207,5 @@ pub fn write_nifti1(volume: &Volume, path: &Path, gzip: bool) -> Result<(), Nift
         })?;
     file.extend_from_slice(&header);
     file.extend_from_slice(data);
-    let file = if gzip { gzip_compress(&file)? } else { file };
-    // Atomically (files::write): a failed write leaves any previous file whole.
-    crate::files::write::write_file(path, &file).map_err(|e| NiftiError::Io {
-        action: "write",
-        path: path.to_path_buf(),
-        source: e.into_io_error(),
-    })
+    if gzip { gzip_compress(&file) } else { Ok(file) }
 }
