@@ -748,3 +748,141 @@ fn peaks_json_reports_no_range_and_no_peak_for_a_volume_without_finite_voxels() 
         assert!(json["peaks"][tissue].is_null(), "{tissue}: {json}");
     }
 }
+
+/// A float32 NIfTI of `dims` (1 mm, identity affine) with `value(x, y, z)`.
+fn float_volume(
+    name: &str,
+    dims: [usize; 3],
+    value: impl Fn(usize, usize, usize) -> f32,
+) -> PathBuf {
+    let mut values = Vec::with_capacity(dims.iter().product());
+    for z in 0..dims[2] {
+        for y in 0..dims[1] {
+            for x in 0..dims[0] {
+                values.push(value(x, y, z));
+            }
+        }
+    }
+    let volume = morphray::volume::Volume::from_voxels(
+        name,
+        dims,
+        morphray::volume::Samples::from_f32(&values),
+        [
+            [1.0, 0.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0, 0.0],
+            [0.0, 0.0, 1.0, 0.0],
+            [0.0, 0.0, 0.0, 1.0],
+        ],
+        morphray::volume::LinearMap::IDENTITY,
+    )
+    .unwrap();
+    let path = temp(&format!("{name}.nii"));
+    write_nifti1(&volume, &path, false).unwrap();
+    path
+}
+
+fn lit_pixels(png: &std::path::Path) -> usize {
+    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(png).unwrap()));
+    let mut reader = decoder.read_info().unwrap();
+    let mut rgba = vec![0; reader.output_buffer_size().unwrap()];
+    reader.next_frame(&mut rgba).unwrap();
+    rgba.chunks_exact(4)
+        .filter(|p| p[..3].iter().any(|&c| c > 1))
+        .count()
+}
+
+#[test]
+fn an_empty_image_is_never_silent_and_says_what_to_try() {
+    let constant = float_volume("constant", [12, 11, 10], |_, _, _| 7.0);
+    let ramp = float_volume("ramp", [24, 23, 22], |x, _, _| x as f32);
+    let out = temp("empty.png");
+    let cases: [(&[&str], &str); 4] = [
+        (&[constant.to_str().unwrap()], "the volume is constant"),
+        (
+            &[ramp.to_str().unwrap()],
+            "no histogram peak was found for csf, gm, wm",
+        ),
+        (
+            &["--tissues", "pathology", "--opacity", "pathology=0"],
+            "every visible tissue (pathology) has opacity 0",
+        ),
+        (
+            &["--tissues", "wm", "--window", "wm=0.99:1.0"],
+            "no sample along any ray fell inside a visible tissue window",
+        ),
+    ];
+    for (args, reason) in cases {
+        let mut all = vec!["render", "-o", out.to_str().unwrap(), "--size", "40x40"];
+        all.extend_from_slice(args);
+        let o = morphray(&all);
+        assert!(o.status.success(), "{all:?}: {}", stderr(&o));
+        let err = stderr(&o);
+        let line = err
+            .lines()
+            .find(|l| l.starts_with("morphray: the image shows only the background: "))
+            .unwrap_or_else(|| panic!("{all:?}: no empty-image line in\n{err}"));
+        assert!(
+            line.contains(reason) && line.contains("; "),
+            "{all:?}: {line}"
+        );
+        assert_eq!(lit_pixels(&out), 0, "{all:?}");
+    }
+}
+
+#[test]
+fn windows_opacities_and_colours_are_set_by_hand_and_recorded() {
+    // The ramp has no tissue peaks: only a window set by hand shows it.
+    let ramp = float_volume("ramp-manual", [24, 23, 22], |x, _, _| x as f32);
+    let out = temp("manual.png");
+    let o = morphray(&[
+        "render",
+        ramp.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--size",
+        "40x40",
+        "--tissues",
+        "wm",
+        "--window",
+        "wm=0.2:0.8",
+        "--opacity",
+        "wm=1",
+        "--color",
+        "wm=#ff0000",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        !stderr(&o).contains("only the background"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(lit_pixels(&out) > 100, "the manual window shows the ramp");
+    let chunks = morphray::cli::png::read_text_chunks(&out).unwrap();
+    let parameters = &chunks
+        .iter()
+        .find(|(k, _)| k.contains("parameters"))
+        .expect("a parameters chunk")
+        .1;
+    let json: serde_json::Value = serde_json::from_str(parameters).unwrap();
+    let wm = &json["scene"]["classification"]["tissues"][2];
+    assert_eq!(wm["window"]["lo"], 0.2, "{wm}");
+    assert_eq!(wm["window"]["hi"], 0.8, "{wm}");
+    assert_eq!(wm["opacity"], 1.0);
+    assert_eq!(wm["colour"][0], 1.0);
+    assert_eq!(
+        json["arguments"]["window"][0][0], "wm",
+        "{}",
+        json["arguments"]
+    );
+    // Bad values are usage errors naming the flag.
+    for bad in [
+        ["--window", "wm=0.9:0.2"],
+        ["--window", "bone=0.1:0.2"],
+        ["--opacity", "wm=NaN"],
+        ["--color", "gm=#12"],
+    ] {
+        let o = morphray(&["render", "-o", out.to_str().unwrap(), bad[0], bad[1]]);
+        assert_eq!(o.status.code(), Some(2), "{bad:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(bad[0]), "{bad:?}: {}", stderr(&o));
+    }
+}

@@ -422,7 +422,7 @@ fn bad_specs_are_typed_errors() {
     };
     let e = generate(&absurd).unwrap_err();
     let text = e.to_string();
-    let needed = 3 * (planes as u64) << 20;
+    let needed = (3 * (planes as u64)) << 20;
     assert!(
         text.contains(&format!("needs {needed} bytes")) && text.contains("available"),
         "{text}"

@@ -505,3 +505,50 @@ fn an_interactive_window_shows_a_load_error_and_keeps_running() {
     let png = Png::read(&shot);
     assert_eq!((png.width, png.height), (480, 360));
 }
+
+#[test]
+fn a_view_that_can_only_show_the_background_says_why_over_the_image() {
+    // A float ramp has no tissue peaks, hence no window: the view says so (and the log with
+    // it); a window set by hand makes the message go away.
+    let dir = temp_dir("empty-view");
+    let values: Vec<f32> = (0..24 * 23 * 22).map(|i| (i % 24) as f32).collect();
+    let volume = morphray::volume::Volume::from_voxels(
+        "ramp",
+        [24, 23, 22],
+        morphray::volume::Samples::from_f32(&values),
+        [
+            [1.0, 0.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0, 0.0],
+            [0.0, 0.0, 1.0, 0.0],
+            [0.0, 0.0, 0.0, 1.0],
+        ],
+        morphray::volume::LinearMap::IDENTITY,
+    )
+    .unwrap();
+    let path = dir.join("ramp.nii");
+    write_nifti1(&volume, &path, false).unwrap();
+    let script = dir.join("window.txt");
+    std::fs::write(&script, "wait 2\nset window wm 0.2 0.8\nwait 2\n").unwrap();
+    let o = view_within(
+        &[
+            path.to_str().unwrap(),
+            "--size",
+            "480x360",
+            "--frames",
+            "6",
+            "--script",
+            script.to_str().unwrap(),
+            "--offscreen",
+        ],
+        false,
+        std::time::Duration::from_secs(120),
+    );
+    assert_ok(&o);
+    let log = stdout(&o);
+    let said: Vec<&str> = log.lines().filter(|l| l.contains("empty view:")).collect();
+    assert_eq!(said.len(), 1, "said once, when it appeared:\n{log}");
+    assert!(
+        said[0].contains("Nothing to show: no histogram peak was found for csf, gm, wm"),
+        "{log}"
+    );
+}

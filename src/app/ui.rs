@@ -19,7 +19,8 @@ use super::histogram;
 use super::script::Preset;
 use super::status::Status;
 use crate::analysis::TissueReport;
-use crate::scene::{Classification, RenderMode, Scene, TissueClass, Window};
+use crate::scene::visibility::{EmptyScene, predict_empty};
+use crate::scene::{Classification, RenderMode, Scene, TissueClass};
 use egui::{Color32, Pos2, Rect, RichText, Ui, vec2};
 use std::path::PathBuf;
 
@@ -130,9 +131,7 @@ impl Controls {
 
     /// Sets a tissue's window bounds (keeping its edge softness).
     pub fn set_window(&mut self, tissue: TissueClass, lo: f64, hi: f64) {
-        let style = self.scene.classification.style_mut(tissue);
-        let edge = style.window.map(|w| w.edge).unwrap_or(0.01);
-        style.window = Some(Window { lo, hi, edge });
+        self.scene.classification.set_window(tissue, lo, hi);
         self.windows = WindowSource::Custom;
     }
 
@@ -205,6 +204,22 @@ pub struct Shown<'a> {
     pub status: &'a Status,
     /// True once a volume is on screen.
     pub has_volume: bool,
+    /// The volume on screen has a single intensity (its normalization is constant).
+    pub constant_volume: bool,
+}
+
+/// The message drawn over a view that can only show the background (never a silent empty
+/// image), with what to try in this interface; None when something can show.
+pub fn empty_view_message(scene: &Scene, constant_volume: bool) -> Option<String> {
+    let why = predict_empty(scene, constant_volume)?;
+    let hint = match &why {
+        EmptyScene::ConstantVolume => "Open another file",
+        EmptyScene::AllHidden => "Switch a tissue on in the panel",
+        EmptyScene::NoWindow(_) => "Drag a band in the histogram, or press Paper",
+        EmptyScene::ZeroOpacity(_) => "Raise an opacity in the panel",
+        EmptyScene::NothingSampled => "Move a band in the histogram",
+    };
+    Some(format!("Nothing to show: {}. {hint}.", why.reason()))
 }
 
 /// Draws the whole interface for one frame.
@@ -591,6 +606,19 @@ pub fn letter_positions(rect: Rect) -> [(Pos2, egui::Align2); 4] {
 
 fn view_overlays(ui: &mut Ui, rect: Rect, controls: &Controls, shown: &Shown) {
     let painter = ui.painter_at(rect);
+    if shown.has_volume
+        && let Some(message) = empty_view_message(&controls.scene, shown.constant_volume)
+    {
+        // Wrapped to the view, centred: the reason is a sentence, longer than a narrow view.
+        let colour = Color32::from_rgb(255, 220, 0);
+        let galley = painter.layout(
+            message,
+            egui::FontId::proportional(15.0),
+            colour,
+            (rect.width() - 24.0).max(40.0),
+        );
+        painter.galley(rect.center() - galley.size() / 2.0, galley, colour);
+    }
     if shown.has_volume {
         let labels = edge_labels(&controls.scene.camera);
         let texts = [labels.left, labels.right, labels.top, labels.bottom];
@@ -637,7 +665,7 @@ fn view_overlays(ui: &mut Ui, rect: Rect, controls: &Controls, shown: &Shown) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::Camera;
+    use crate::scene::{Camera, Window};
 
     fn controls() -> Controls {
         let w = |lo, hi| Some(Window { lo, hi, edge: 0.01 });
@@ -654,6 +682,7 @@ mod tests {
         let shown = Shown {
             status: &status,
             has_volume: true,
+            constant_volume: false,
         };
         let input = egui::RawInput {
             screen_rect: Some(Rect::from_min_size(Pos2::ZERO, vec2(900.0, 600.0))),
@@ -752,6 +781,7 @@ mod tests {
         let shown = Shown {
             status: &status,
             has_volume: true,
+            constant_volume: false,
         };
         let input = egui::RawInput {
             screen_rect: Some(Rect::from_min_size(Pos2::ZERO, vec2(900.0, 600.0))),

@@ -176,6 +176,8 @@ pub struct Viewer {
     fatal: Option<String>,
     /// No window: frames go to an offscreen image.
     offscreen: bool,
+    /// The "nothing to show" message over the view, if any (logged when it changes).
+    empty_message: Option<String>,
     inject_device_lost: bool,
     /// Frames left of a scripted `idle` (raymarch only on change, as interactively).
     idle_frames: u32,
@@ -256,6 +258,7 @@ impl Viewer {
             exit: false,
             fatal: None,
             offscreen: false,
+            empty_message: None,
             inject_device_lost: false,
             unapplied: Default::default(),
             watch_drag: None,
@@ -712,10 +715,26 @@ impl Viewer {
 
         // The interface.
         let before_ui = self.rendered_scene();
+        let constant_volume = self
+            .current
+            .as_ref()
+            .is_some_and(|c| c.loaded.prepared.normalization.constant);
         let shown = ui::Shown {
             status: &self.status,
             has_volume: self.current.is_some(),
+            constant_volume,
         };
+        // The empty-view message, logged when it changes (scripted runs and tests read it).
+        let empty = self
+            .current
+            .as_ref()
+            .and_then(|_| ui::empty_view_message(&self.controls.scene, constant_volume));
+        if empty != self.empty_message {
+            if let Some(message) = &empty {
+                self.log.say(&format!("empty view: {message}"));
+            }
+            self.empty_message = empty;
+        }
         let mut outcome: Option<ui::Outcome> = None;
         let controls = &mut self.controls;
         let full = self.ctx.run_ui(input, |ui| {

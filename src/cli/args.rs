@@ -3,6 +3,7 @@
 //! Decision: every scene option of `render` lives in [`SceneArgs`], flattened into each command
 //! that renders or plans, so `render`, `view`, `bench` and `plan` accept the same spelling.
 
+use crate::scene::TissueClass;
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use std::path::PathBuf;
 
@@ -266,6 +267,67 @@ pub struct SceneArgs {
     /// Disable the per-pixel jitter of ray starts (shows wood-grain banding; for comparisons).
     #[arg(long)]
     pub no_jitter: bool,
+    /// A tissue's window by hand, in I_norm units (0..1; `morphray peaks` shows where the modes
+    /// are): TISSUE=LO:HI, repeatable (`--window wm=0.7:0.95 --window gm=0.5:0.7`). Replaces
+    /// the adaptive or paper window of that tissue; the viewer's bands do the same.
+    #[arg(long = "window", value_name = "TISSUE=LO:HI", value_parser = parse_window)]
+    pub window: Vec<(TissueClass, f64, f64)>,
+    /// A tissue's opacity per mm of ray, 0..1: TISSUE=X, repeatable (`--opacity csf=0.1`).
+    #[arg(long = "opacity", value_name = "TISSUE=X", value_parser = parse_opacity)]
+    pub opacity: Vec<(TissueClass, f32)>,
+    /// A tissue's colour: TISSUE=#RRGGBB or TISSUE=R,G,B (0..255), repeatable
+    /// (`--color wm=#f0f0e0`).
+    #[arg(long = "color", value_name = "TISSUE=#RRGGBB", value_parser = parse_tissue_colour)]
+    pub color: Vec<(TissueClass, [f32; 3])>,
+}
+
+/// `TISSUE=REST` split, with the tissue named as on the command line.
+fn tissue_and(text: &str) -> Result<(TissueClass, &str), String> {
+    let (name, rest) = text
+        .split_once('=')
+        .ok_or_else(|| format!("`{text}`: expected TISSUE=VALUE, e.g. wm=0.7:0.95"))?;
+    let tissue = TissueClass::parse(name)
+        .ok_or_else(|| format!("unknown tissue `{name}`; use csf, gm, wm or pathology"))?;
+    Ok((tissue, rest))
+}
+
+fn parse_window(text: &str) -> Result<(TissueClass, f64, f64), String> {
+    let (tissue, rest) = tissue_and(text)?;
+    let (lo, hi) = rest
+        .split_once(':')
+        .ok_or_else(|| format!("`{rest}`: expected LO:HI in I_norm units, e.g. 0.7:0.95"))?;
+    let number = |v: &str| {
+        v.trim()
+            .parse::<f64>()
+            .ok()
+            .filter(|x| x.is_finite())
+            .ok_or_else(|| format!("`{v}` is not a finite number"))
+    };
+    let (lo, hi) = (number(lo)?, number(hi)?);
+    if !((0.0..=1.0).contains(&lo) && lo < hi && hi <= 1.5) {
+        return Err(format!(
+            "window {lo}:{hi}: needs 0 <= LO < HI (I_norm runs from 0 to 1; HI may pass 1 to \
+             include the brightest voxels)"
+        ));
+    }
+    Ok((tissue, lo, hi))
+}
+
+fn parse_opacity(text: &str) -> Result<(TissueClass, f32), String> {
+    let (tissue, rest) = tissue_and(text)?;
+    let x: f32 = rest
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{rest}` is not a number"))?;
+    if !(0.0..=1.0).contains(&x) {
+        return Err(format!("opacity {x} must lie in 0..1"));
+    }
+    Ok((tissue, x))
+}
+
+fn parse_tissue_colour(text: &str) -> Result<(TissueClass, [f32; 3]), String> {
+    let (tissue, rest) = tissue_and(text)?;
+    Ok((tissue, parse_colour(rest)?))
 }
 
 /// Options of `render`.

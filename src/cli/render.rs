@@ -17,6 +17,7 @@ use super::session;
 use crate::analysis::TissueReport;
 use crate::error::Error;
 use crate::files::write::{OutputKind, check_output};
+use crate::scene::visibility::{EmptyScene, pixels_off_background, predict_empty};
 use crate::scene::{
     Camera, Classification, DerivedPrecision, GradientSource, Projection, RenderMode, Scene,
     TissueClass,
@@ -44,6 +45,16 @@ pub fn scene_from_args(args: &SceneArgs, report: &TissueReport) -> Result<Scene,
         visible.push(tissue);
     }
     classification.show_only(&visible);
+    // Appearance by hand, in the viewer's vocabulary; later flags win over earlier ones.
+    for &(tissue, lo, hi) in &args.window {
+        classification.set_window(tissue, lo, hi);
+    }
+    for &(tissue, opacity) in &args.opacity {
+        classification.style_mut(tissue).opacity = opacity;
+    }
+    for &(tissue, colour) in &args.color {
+        classification.style_mut(tissue).colour = colour;
+    }
     let mut scene = Scene::new(classification);
     scene.camera = Camera {
         azimuth_deg: args.azimuth,
@@ -102,6 +113,30 @@ pub fn missing_tissues(scene: &Scene) -> Vec<&'static str> {
         .collect()
 }
 
+/// What to try on the command line for an empty image.
+fn what_to_try(why: &EmptyScene, scene: &Scene) -> String {
+    match why {
+        EmptyScene::ConstantVolume => {
+            "check the input (`morphray info FILE` shows its intensity range)".into()
+        }
+        EmptyScene::AllHidden => "show tissues with --tissues csf,gm,wm".into(),
+        EmptyScene::NoWindow(_) => "try --windows paper, or set a window by hand with \
+             --window TISSUE=LO:HI (I_norm units; `morphray peaks FILE` shows the histogram's \
+             modes), or --mode mip"
+            .into(),
+        EmptyScene::ZeroOpacity(ts) => format!(
+            "raise it with --opacity {}=0.5",
+            ts.first().map_or("wm", |t| t.name())
+        ),
+        EmptyScene::NothingSampled if scene.effects.mode == RenderMode::Dvr => {
+            "try other windows (--window TISSUE=LO:HI; `morphray peaks FILE` shows where the \
+             modes are) or --mode mip"
+                .into()
+        }
+        EmptyScene::NothingSampled => "try --mode dvr, or check the camera (--zoom, --pan)".into(),
+    }
+}
+
 fn frame_path(output: &Path, index: u32) -> PathBuf {
     let stem = output
         .file_stem()
@@ -150,6 +185,7 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
         .engine
         .render_target(width, height, vk::Format::R8G8B8A8_UNORM)?;
     let command = std::env::args().collect::<Vec<_>>().join(" ");
+    let mut said_empty = false;
     for (index, path) in (0..frames).zip(&paths) {
         let mut scene = base;
         if args.turntable.is_some() {
@@ -183,6 +219,17 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
             warnings: opened.source.volume.warnings.clone(),
         };
         write_rgba8(path, frame.width, frame.height, &frame.rgba8, &provenance)?;
+        if !said_empty && pixels_off_background(&frame.rgba8, scene.background) == 0 {
+            // Never a silent empty image (the exit status stays 0: the scene may mean it).
+            let constant = opened.twin.prepared.normalization.constant;
+            let why = predict_empty(&scene, constant).unwrap_or(EmptyScene::NothingSampled);
+            eprintln!(
+                "morphray: the image shows only the background: {}; {}",
+                why.reason(),
+                what_to_try(&why, &scene)
+            );
+            said_empty = true;
+        }
         let gpu_ms: f64 = frame.gpu_timings.iter().map(|p| p.gpu_ms).sum();
         print_line(&format!(
             "wrote {} ({}x{}, raymarch {:.3} ms GPU)",

@@ -56,6 +56,9 @@ impl TissueClass {
 use crate::analysis::TissueWindows;
 pub use crate::analysis::Window;
 
+/// Edge half-width of a window set by hand for a tissue that had none (I_norm units).
+pub const MANUAL_EDGE: f64 = 0.01;
+
 /// Smallest edge half-width the renderer uses: GLSL's smoothstep is undefined for
 /// edge0 >= edge1, so a window with a (nearly) hard edge is drawn with this one.
 pub const MIN_EDGE: f64 = 1e-4;
@@ -124,6 +127,14 @@ impl Classification {
     /// The style of one tissue.
     pub fn style(&self, tissue: TissueClass) -> &TissueStyle {
         &self.tissues[tissue as usize]
+    }
+
+    /// Sets a tissue's window by hand (the CLI's `--window`, the viewer's bands), keeping its
+    /// edge width, or [`MANUAL_EDGE`] when the tissue had no window.
+    pub fn set_window(&mut self, tissue: TissueClass, lo: f64, hi: f64) {
+        let style = self.style_mut(tissue);
+        let edge = style.window.map_or(MANUAL_EDGE, |w| w.edge);
+        style.window = Some(Window { lo, hi, edge });
     }
 
     /// Mutable style of one tissue.

@@ -11,6 +11,7 @@ pub mod geometry;
 pub mod occupancy;
 pub mod plan;
 pub mod uniforms;
+pub mod visibility;
 
 pub use camera::{Camera, Projection};
 pub use classification::{Classification, TissueClass, TissueStyle, Window};
