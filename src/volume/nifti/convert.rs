@@ -166,6 +166,9 @@ pub fn convert_frame(
         Datatype::Uint64 => integers(src, |b: [u8; 8]| i128::from(read_u64(b, big)))?,
         _ => floats(src, big)?,
     };
+    if datatype == Datatype::Float64 {
+        precision_warning(src, &out, big, &mut warnings);
+    }
     let conversion = LinearMap {
         slope: scale,
         intercept: offset,
@@ -296,6 +299,47 @@ fn integers<const N: usize>(
     Ok((out, offset as f64, 1.0, reach))
 }
 
+/// Says so when storing float64 as f32 lost distinctions the data had: neighbouring voxels (in
+/// file order) with different finite float64 values whose f32 values are equal. Either f32's
+/// 24-bit rounding at the data's reach, or underflow of small values once data reaching 1e308
+/// is scaled into f32's range; both lose less than 2^-23 of the range, below I_norm's 1/65536,
+/// so the warning says the image is unaffected and the exact values are not kept.
+fn precision_warning(src: &[u8], out: &[u8], big: bool, warnings: &mut Vec<String>) {
+    let read = |b: [u8; 8]| {
+        if big {
+            f64::from_be_bytes(b)
+        } else {
+            f64::from_le_bytes(b)
+        }
+    };
+    let originals = arrays::<8>(src).map(read);
+    let stored = arrays::<4>(out).map(f32::from_le_bytes);
+    let mut previous: Option<(f64, f32)> = None;
+    let (mut merged, mut reach) = (0usize, 0.0f64);
+    for (x, y) in originals.zip(stored) {
+        if !x.is_finite() {
+            previous = None;
+            continue;
+        }
+        reach = reach.max(x.abs());
+        if let Some((px, py)) = previous
+            && px != x
+            && py == y
+        {
+            merged += 1;
+        }
+        previous = Some((x, y));
+    }
+    if merged > 0 {
+        warnings.push(format!(
+            "float64 voxels are stored as float32: {merged} pairs of neighbouring voxels with \
+             different values became equal (the data reaches {reach:e}); the differences lost \
+             are below 1/65536 of the intensity range, so I_norm and the image do not change, \
+             but the float64 values are not kept exactly"
+        ));
+    }
+}
+
 /// float64 to f32 with the offset/scale rule of the module doc. Returns (bytes, offset, scale,
 /// largest |stored|).
 fn floats(src: &[u8], big: bool) -> Result<(Vec<u8>, f64, f64, f64), NiftiError> {
@@ -343,4 +387,43 @@ fn floats(src: &[u8], big: bool) -> Result<(Vec<u8>, f64, f64, f64), NiftiError>
         out.extend_from_slice(&stored.to_le_bytes());
     }
     Ok((out, offset, scale, stored_reach))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn convert_f64(values: &[f64]) -> Converted {
+        let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
+        let len = bytes.len();
+        convert_frame(
+            bytes,
+            0,
+            len,
+            Datatype::Float64,
+            ByteOrder::LittleEndian,
+            0.0,
+            0.0,
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn float64_next_to_the_f64_limit_says_which_distinctions_float32_lost() {
+        // Ordinary intensities beside +-1.7e308: scaled into f32's range, they underflow to 0.
+        let c = convert_f64(&[1.7e308, 1.0, 2.0, 3.0, -1.7e308]);
+        let warning = c
+            .warnings
+            .iter()
+            .find(|w| w.contains("stored as float32"))
+            .unwrap_or_else(|| panic!("{:?}", c.warnings));
+        assert!(warning.contains("2 pairs"), "{warning}");
+        assert!(warning.contains("do not change"), "{warning}");
+        for i in 0..5 {
+            assert!(c.to_physical.apply(c.samples.get(i)).is_finite());
+        }
+        // An ordinary float64 volume keeps every distinction: no warning.
+        let c = convert_f64(&[1.0, 2.0, 3.5, -7.25, 1e6]);
+        assert!(c.warnings.is_empty(), "{:?}", c.warnings);
+    }
 }
