@@ -11,6 +11,7 @@
 //! volume              NIfTI reader, samples, statistics, the built-in phantom
 //! analysis            histogram peaks, tissue windows, the paper's Table-1 row (CPU)
 //! reference           f64 CPU twins of every GPU kernel, for tests and accuracy studies
+//! files               reading user-named files safely (regular files only, with a cap)
 //! ```
 //!
 //! Library code never panics on input data or Vulkan results: every failure is a typed error
@@ -26,6 +27,7 @@ pub mod app;
 pub mod cli;
 pub mod engine;
 pub mod error;
+pub mod files;
 pub mod gpu;
 pub mod passes;
 pub mod reference;
