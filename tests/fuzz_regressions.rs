@@ -365,6 +365,14 @@ fn input_path_seeds_load_as_crafted() {
             seeds.push((format!("{name}-{layout}"), data));
         }
     }
+    // A small bomb: a whole file, then 70,000 zeros (past the 64 KiB slack), as `.nii.gz`.
+    let mut file = nifti(Version::Nifti1, ByteOrder::LittleEndian, 4, 16, 1);
+    file.extend(vec![0u8; 70_000]);
+    let mut bomb = gzip(&file);
+    bomb.push(0);
+    let e = invariants::run_input_path(&dir, &bomb).unwrap_err();
+    assert!(matches!(e, NiftiError::GzipTooLarge { .. }), "{e}");
+    seeds.push(("bomb-niigz".into(), bomb));
     std::fs::remove_dir_all(&dir).unwrap();
     write_seeds(
         "input_path",
