@@ -23,8 +23,9 @@ use super::layout::declared_len;
 /// four extender bytes.
 pub const PEEK_LEN: usize = NIFTI2_HEADER_LEN + 4;
 
-/// Most bytes a `.hdr` (pair magic) may inflate to: the header plus 16 MiB of extensions, far
-/// more than any extension seen in practice (AFNI's XML, CIFTI's are kilobytes to a few MB).
+/// Most bytes a `.hdr` (pair magic) may inflate to: the header plus 16 MiB of extensions. A
+/// `.hdr` declares no size of its own, so this is a fixed, generous cap: extensions are
+/// metadata, and a header file inflating past it is refused rather than trusted.
 pub const HEADER_FILE_LIMIT: usize = NIFTI2_HEADER_LEN + 4 + (16 << 20);
 
 /// The limit for a stream that starts with the header `decoded`.
