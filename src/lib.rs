@@ -11,7 +11,8 @@
 //! volume              NIfTI reader, samples, statistics, the built-in phantom
 //! analysis            histogram peaks, tissue windows, the paper's Table-1 row (CPU)
 //! reference           f64 CPU twins of every GPU kernel, for tests and accuracy studies
-//! files               writing outputs atomically, checking output paths before the work
+//! files               reading user-named files safely (regular files only, with a cap),
+//!                     writing outputs atomically, checking output paths before the work
 //! ```
 //!
 //! Library code never panics on input data or Vulkan results: every failure is a typed error

@@ -13,9 +13,10 @@
 #[path = "../tools/fuzz/src/lib.rs"]
 mod invariants;
 
+use morphray::volume::nifti::gzip::inflate_within;
 use morphray::volume::nifti::orientation::{OrientationFields, resolve};
 use morphray::volume::nifti::{
-    ByteOrder, LoadOptions, NiftiError, RawHeader, Version, inflate_if_gzip, parse, parse_pair,
+    ByteOrder, LoadOptions, NiftiError, RawHeader, Version, parse, parse_pair,
 };
 use std::path::PathBuf;
 
@@ -168,7 +169,7 @@ fn header_seeds() -> Vec<(&'static str, Vec<u8>, bool)> {
     ]
 }
 
-/// Seeds for `gzip`, each with whether `inflate_if_gzip` must accept it.
+/// Seeds for `gzip`, each with whether `inflate_within` (with the target's limit) must accept it.
 fn gzip_seeds() -> Vec<(&'static str, Vec<u8>, bool)> {
     let file = nifti(Version::Nifti1, ByteOrder::LittleEndian, 4, 16, 2);
     let one = gzip(&file);
@@ -319,7 +320,7 @@ fn header_seeds_load_or_fail_as_crafted() {
 fn gzip_seeds_inflate_or_fail_as_crafted() {
     let seeds = gzip_seeds();
     for (name, bytes, inflates) in &seeds {
-        match inflate_if_gzip(bytes.clone()) {
+        match inflate_within(bytes.clone(), invariants::gzip_limit(bytes)) {
             Ok((out, members)) => {
                 assert!(*inflates, "{name} inflated to {} bytes", out.len());
                 assert!(members >= 1, "{name}");
@@ -331,6 +332,52 @@ fn gzip_seeds_inflate_or_fail_as_crafted() {
         }
     }
     write_seeds("gzip", seeds.iter().map(|(n, b, _)| (*n, b.as_slice())));
+}
+
+/// Seeds for `input_path`: every header seed with a last byte appended that picks each layout
+/// (`.nii`, `.nii.gz`, pair by `.hdr`, pair by `.IMG`; `invariants::input_files`), run through
+/// the target's body. Single files load as single files, pairs as pairs.
+#[test]
+fn input_path_seeds_load_as_crafted() {
+    let dir = std::env::temp_dir().join(format!("morphray-fuzz-seeds-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut seeds = Vec::new();
+    for (name, bytes, single) in header_seeds() {
+        for (layout, last) in [("nii", 0u8), ("niigz", 4), ("hdr", 8), ("img", 12)] {
+            let mut data = bytes.clone();
+            data.push(last);
+            let gz = bytes.starts_with(&[0x1f, 0x8b]);
+            let result = invariants::run_input_path(&dir, &data);
+            // A pair split of a gzip'd single file, or a single file holding a pair, cannot
+            // load; the gzip seeds with a non-zero byte appended have trailing garbage.
+            let pair = last >= 8;
+            let expect = if gz {
+                last == 0 && !pair
+            } else {
+                single != pair
+            };
+            assert_eq!(
+                result.is_ok(),
+                expect,
+                "{name}/{layout}: {:?}",
+                result.err()
+            );
+            seeds.push((format!("{name}-{layout}"), data));
+        }
+    }
+    // A small bomb: a whole file, then 70,000 zeros (past the 64 KiB slack), as `.nii.gz`.
+    let mut file = nifti(Version::Nifti1, ByteOrder::LittleEndian, 4, 16, 1);
+    file.extend(vec![0u8; 70_000]);
+    let mut bomb = gzip(&file);
+    bomb.push(0);
+    let e = invariants::run_input_path(&dir, &bomb).unwrap_err();
+    assert!(matches!(e, NiftiError::GzipTooLarge { .. }), "{e}");
+    seeds.push(("bomb-niigz".into(), bomb));
+    std::fs::remove_dir_all(&dir).unwrap();
+    write_seeds(
+        "input_path",
+        seeds.iter().map(|(n, b)| (n.as_str(), b.as_slice())),
+    );
 }
 
 #[test]
@@ -395,7 +442,7 @@ fn tiny_f64_pixdim_gives_an_invertible_fallback() {
 fn gzip_member_with_a_wrong_header_crc16_is_accepted() {
     let bytes = include_bytes!("data/fuzz/gzip-bad-header-crc16.gz").to_vec();
     assert_eq!(bytes[3] & 0x02, 0x02, "FHCRC is set");
-    let (out, members) = inflate_if_gzip(bytes).unwrap();
+    let (out, members) = inflate_within(bytes.clone(), invariants::gzip_limit(&bytes)).unwrap();
     assert_eq!(members, 1);
     assert!(!out.is_empty());
 }

@@ -180,3 +180,53 @@ fn in_memory_and_off_caches_touch_no_disk() {
         PipelineCacheConfig::InMemory
     );
 }
+
+/// Before: the cache file was read with `std::fs::read` after a metadata length check, so a FIFO
+/// in its place blocked every engine forever and a link to `/dev/zero` (length 0) was read until
+/// memory ran out. Now both are rejected with a note at once, the run renders, and the next
+/// save replaces the link or FIFO itself (never writing through it).
+#[test]
+fn a_fifo_or_a_device_link_in_place_of_the_cache_is_ignored_at_once() {
+    let dir = temp_dir("special");
+    let config = PipelineCacheConfig::Directory(dir.clone());
+    let path = cache_file(&engine(PipelineCacheConfig::Off), &dir);
+    for what in ["fifo", "link to /dev/zero"] {
+        let _ = std::fs::remove_file(&path);
+        if what == "fifo" {
+            let made = std::process::Command::new("mkfifo")
+                .arg(&path)
+                .status()
+                .unwrap();
+            assert!(made.success());
+            // If opening blocked (the old behaviour), a writer arriving after 5 s unblocks it,
+            // so the test fails on the time below instead of hanging.
+            let late = path.clone();
+            std::thread::spawn(move || {
+                std::thread::sleep(std::time::Duration::from_secs(5));
+                let _ = std::fs::OpenOptions::new().write(true).open(late);
+            });
+        } else {
+            std::os::unix::fs::symlink("/dev/zero", &path).unwrap();
+        }
+        let start = std::time::Instant::now();
+        let mut engine = engine(config.clone());
+        let load = engine.pipeline_cache().load().clone();
+        assert!(
+            load.ms < 1000.0 && start.elapsed().as_secs() < 5,
+            "{what}: {load:?}"
+        );
+        assert_eq!(load.loaded_bytes, 0, "{what}");
+        let reason = load.rejected.unwrap_or_default();
+        assert!(reason.contains("not a regular file"), "{what}: {reason}");
+        render_once(&mut engine);
+        assert!(matches!(
+            engine.persist_pipeline_cache().unwrap(),
+            PersistOutcome::Written { .. }
+        ));
+        assert!(
+            std::fs::symlink_metadata(&path).unwrap().is_file(),
+            "{what}"
+        );
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -1,11 +1,15 @@
 //! The input of a command: a NIfTI file or the built-in phantom, loaded with per-phase timings.
 //!
-//! Decision: reading, inflating and converting are separate phases (timed separately, and run
-//! on a worker thread by the commands that also create a GPU device, so the two overlap).
+//! Decisions:
+//! - Reading, inflating and converting are separate phases (timed separately, and run on a
+//!   worker thread by the commands that also create a GPU device, so the two overlap).
+//! - The sequence itself is the library's [`nifti::load_file_timed`] (also what the
+//!   `input_path` fuzz target runs); this file only adds the phantom, the hash and the error
+//!   context (the file's name, unless the error names the path itself).
 
 use crate::error::Error;
 use crate::volume::Volume;
-use crate::volume::nifti::{self, HeaderSummary, LoadOptions};
+use crate::volume::nifti::{self, HeaderSummary, LoadOptions, NiftiError};
 use crate::volume::phantom::{self, PhantomSpec};
 use std::path::Path;
 use std::time::Instant;
@@ -53,37 +57,37 @@ pub fn load(file: Option<&Path>, frame: usize, want_hash: bool) -> Result<Source
             timings,
         });
     };
-    let start = Instant::now();
-    let bytes = nifti::read_file(path)?;
-    timings.read_ms = start.elapsed().as_secs_f64() * 1e3;
-    let sha256 = want_hash.then(|| super::png::sha256_hex(&bytes));
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| path.display().to_string());
-    let in_file = |source| Error::Input {
-        file: name.clone(),
-        source,
-    };
-    let start = Instant::now();
-    let (bytes, members) = nifti::inflate_if_gzip(bytes).map_err(in_file)?;
-    timings.inflate_ms = start.elapsed().as_secs_f64() * 1e3;
-    let start = Instant::now();
-    let loaded = match nifti::parse(bytes, &name, &LoadOptions { frame }) {
-        Err(nifti::NiftiError::SeparateImageFile { .. }) => {
-            nifti::load_path(path, &LoadOptions { frame }).map_err(in_file)?
+    let mut sha256 = None;
+    let mut hash = |bytes: &[u8]| {
+        if want_hash {
+            sha256 = Some(super::png::sha256_hex(bytes));
         }
-        other => other.map_err(in_file)?,
     };
-    timings.convert_ms = start.elapsed().as_secs_f64() * 1e3;
-    let mut header = loaded.header;
-    if members > 0 {
-        header.set_gzip_members(members);
-    }
+    let (loaded, times) =
+        nifti::load_file_timed(path, &LoadOptions { frame }, &mut hash).map_err(|source| {
+            match source {
+                // These name the path themselves.
+                NiftiError::Io { .. }
+                | NiftiError::File(_)
+                | NiftiError::MissingCompanion { .. }
+                | NiftiError::BadNifti1Magic { .. } => Error::Nifti(source),
+                source => Error::Input {
+                    file: name.clone(),
+                    source,
+                },
+            }
+        })?;
+    timings.read_ms = times.read_ms;
+    timings.inflate_ms = times.inflate_ms;
+    timings.convert_ms = times.convert_ms;
     Ok(Source {
         label: name,
         volume: loaded.volume,
-        header: Some(header),
+        header: Some(loaded.header),
         sha256,
         timings,
     })

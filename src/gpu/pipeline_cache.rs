@@ -10,8 +10,11 @@
 //!   version and the driver's pipeline-cache UUID ([`file_name`]), so two GPUs or a driver update
 //!   never read each other's data.
 //! - A cache file can never fail a run. Whatever is wrong with it (unreadable, too large, not ours,
-//!   truncated, corrupted, another device's or driver's) is a [`CacheRejection`] with a reason the
-//!   caller may log, and the cache starts empty.
+//!   truncated, corrupted, another device's or driver's, not a regular file) is a
+//!   [`CacheRejection`] with a reason the caller may log, and the cache starts empty. It is read
+//!   through `files::read` (opened without blocking, regular files only, capped at
+//!   [`MAX_FILE_BYTES`] on the opened handle), so a FIFO or a link to `/dev/zero` in its place
+//!   cannot hang or exhaust a run.
 //! - The file wraps the driver's data in a small envelope of our own (magic, format version,
 //!   payload length, SHA-256 of the payload). The Vulkan specification only makes drivers check
 //!   the payload's `VkPipelineCacheHeaderVersionOne` (header length, version, vendor and device
@@ -25,6 +28,7 @@
 use super::adapter::AdapterInfo;
 use super::device::{Device, DeviceShared};
 use super::error::{GpuError, GpuResult, vk_err};
+use crate::files::read::{ReadError, read_regular};
 use ash::vk;
 use sha2::{Digest, Sha256};
 use std::path::{Path, PathBuf};
@@ -88,6 +92,9 @@ pub enum CacheRejection {
     /// The file could not be read.
     #[error("cannot read it: {0}")]
     Unreadable(String),
+    /// Not a regular file (a FIFO, a device, a directory, or a link to one).
+    #[error("it {0}, not a regular file")]
+    NotAFile(&'static str),
     /// Larger than [`MAX_FILE_BYTES`].
     #[error("it has {0} bytes, more than a pipeline cache can sensibly hold")]
     TooLarge(u64),
@@ -294,18 +301,17 @@ pub fn check_vk_header(payload: &[u8], key: &CacheKey) -> Result<(), CacheReject
     Ok(())
 }
 
-/// Reads and checks the file at `path`: Ok(None) when there is none yet.
+/// Reads and checks the file at `path`: Ok(None) when there is none yet. Only a regular file is
+/// read (opened without blocking, so a FIFO or a link to a device in its place is refused at
+/// once), and never more than [`MAX_FILE_BYTES`] (checked on the opened handle before reading).
 fn read_checked(path: &Path, key: &CacheKey) -> Result<Option<Vec<u8>>, CacheRejection> {
-    let size = match std::fs::metadata(path) {
-        Ok(m) => m.len(),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+    let bytes = match read_regular(path, MAX_FILE_BYTES) {
+        Ok(bytes) => bytes,
+        Err(e) if e.is_not_found() => return Ok(None),
+        Err(ReadError::TooLarge { len, .. }) => return Err(CacheRejection::TooLarge(len)),
+        Err(ReadError::NotRegular { kind, .. }) => return Err(CacheRejection::NotAFile(kind)),
         Err(e) => return Err(CacheRejection::Unreadable(e.to_string())),
     };
-    // Checked before reading, so a huge file is never loaded into memory.
-    if size > MAX_FILE_BYTES {
-        return Err(CacheRejection::TooLarge(size));
-    }
-    let bytes = std::fs::read(path).map_err(|e| CacheRejection::Unreadable(e.to_string()))?;
     let payload = decode_file(&bytes, key)?;
     Ok(Some(payload.to_vec()))
 }
@@ -568,6 +574,31 @@ mod tests {
             Err(CacheRejection::TooLarge(_))
         ));
         assert_eq!(read_checked(&dir.join("missing.bin"), &key()), Ok(None));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn fifos_and_links_to_devices_are_rejected_without_blocking() {
+        let dir = std::env::temp_dir().join(format!("morphray-pc-special-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let fifo = dir.join("fifo.bin");
+        let made = std::process::Command::new("mkfifo")
+            .arg(&fifo)
+            .status()
+            .unwrap();
+        assert!(made.success());
+        let zero = dir.join("zero.bin");
+        std::os::unix::fs::symlink("/dev/zero", &zero).unwrap();
+        let start = std::time::Instant::now();
+        assert_eq!(
+            read_checked(&fifo, &key()),
+            Err(CacheRejection::NotAFile("is a FIFO (named pipe)"))
+        );
+        assert_eq!(
+            read_checked(&zero, &key()),
+            Err(CacheRejection::NotAFile("is a character device"))
+        );
+        assert!(start.elapsed() < std::time::Duration::from_secs(1));
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -71,8 +71,15 @@ impl DeviceProfile {
                 "unknown profile `{name}`: use `gen12`, or the path of a .toml profile file"
             )));
         }
-        let text = std::fs::read_to_string(path).map_err(|e| {
-            GpuError::InvalidRequest(format!("cannot read profile {}: {e}", path.display()))
+        // A regular file of at most 1 MiB (profiles are a few hundred bytes): a FIFO or a
+        // device named as the profile is refused at once instead of blocking or filling memory.
+        let bytes = crate::files::read::read_regular(path, 1 << 20)
+            .map_err(|e| GpuError::InvalidRequest(format!("cannot read profile: {e}")))?;
+        let text = String::from_utf8(bytes).map_err(|_| {
+            GpuError::InvalidRequest(format!(
+                "cannot read profile {}: it is not UTF-8 text",
+                path.display()
+            ))
         })?;
         Self::parse(&text, &path.display().to_string())
     }
@@ -341,6 +348,24 @@ pub fn parse_bytes(text: &str) -> Result<u64, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Before: `read_to_string` on a FIFO named `x.toml` blocked forever.
+    #[test]
+    fn a_fifo_named_as_the_profile_is_refused_at_once() {
+        let dir = std::env::temp_dir().join(format!("morphray-profile-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let fifo = dir.join("pipe.toml");
+        let made = std::process::Command::new("mkfifo")
+            .arg(&fifo)
+            .status()
+            .unwrap();
+        assert!(made.success());
+        let start = std::time::Instant::now();
+        let e = DeviceProfile::load(fifo.to_str().unwrap()).unwrap_err();
+        assert!(start.elapsed() < std::time::Duration::from_secs(1));
+        assert!(e.to_string().contains("FIFO"), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 
     #[test]
     fn the_gen12_profile_parses_with_the_documented_limits() {

@@ -7,6 +7,7 @@
 //!   expected, so a person can tell a truncated download from a wrong file type without a debugger.
 //! - Repairs that still let the file load are not errors: they are warnings on the `Volume`.
 
+use crate::files::read::ReadError;
 use std::path::PathBuf;
 
 /// A NIfTI / ANALYZE file could not be loaded (or written).
@@ -21,6 +22,26 @@ pub enum NiftiError {
         path: PathBuf,
         /// What the operating system said.
         source: std::io::Error,
+    },
+
+    /// The path is not a regular file, is larger than accepted, or changed while read.
+    #[error(transparent)]
+    File(ReadError),
+
+    /// The gzip data inflates to more bytes than the header declares (a damaged file, or a
+    /// "zip bomb"): inflation stops at the limit instead of filling memory.
+    #[error(
+        "the gzip data inflates past {limit} bytes, more than the {declared} bytes {what} (plus {slack} bytes of slack for trailing data): the file is damaged, or its header does not describe its contents"
+    )]
+    GzipTooLarge {
+        /// Bytes accepted (the declared size plus the slack).
+        limit: usize,
+        /// Bytes the header declares.
+        declared: usize,
+        /// Slack accepted after the declared size.
+        slack: usize,
+        /// Whose declaration: `its header declares`, `the .hdr declares for the image`, ...
+        what: &'static str,
     },
 
     /// A gzip member could not be inflated (bad deflate data, checksum or length mismatch, or the
@@ -149,6 +170,16 @@ pub enum NiftiError {
         value: f64,
     },
 
+    /// `vox_offset` is a whole number, but larger than any file can be (2^63 bytes).
+    #[error(
+        "vox_offset {} is beyond any file (file sizes end before 2^63 bytes): the header is damaged",
+        shortest(*value)
+    )]
+    VoxOffsetBeyondAnyFile {
+        /// The value read.
+        value: f64,
+    },
+
     /// The voxel data does not fit in the file.
     #[error(
         "{file} ends at byte {len}, but the header promises {needed} bytes of voxels starting at byte {offset}"
@@ -191,6 +222,20 @@ pub enum NiftiError {
         wanted: &'static str,
     },
 
+    /// A 348-byte header whose magic is neither NIfTI-1's nor empty, with no `.img` next to it:
+    /// damaged NIfTI-1 rather than ANALYZE 7.5 (which would need the `.img`).
+    #[error(
+        "{path}: the 348-byte header's magic is {found:?}, not NIfTI-1's \"n+1\" (single file) or \"ni1\" (pair){detail}, and there is no .img file next to it: the header is damaged (or it is an ANALYZE 7.5 header whose .img is missing)"
+    )]
+    BadNifti1Magic {
+        /// The file given.
+        path: PathBuf,
+        /// The magic bytes found, lossily decoded, up to the first NUL.
+        found: String,
+        /// A hint for a recognisable mistake (for example NIfTI-2's magic), or empty.
+        detail: &'static str,
+    },
+
     /// The writer was given a volume NIfTI-1 cannot describe.
     #[error("cannot write {what} as NIfTI-1: {why}")]
     Unwritable {
@@ -199,4 +244,30 @@ pub enum NiftiError {
         /// Why it does not fit NIfTI-1.
         why: String,
     },
+}
+
+impl From<ReadError> for NiftiError {
+    /// Operating-system failures keep the [`NiftiError::Io`] shape (action `read`); refusals
+    /// (not a regular file, too large, grew while read) are [`NiftiError::File`].
+    fn from(e: ReadError) -> Self {
+        match e {
+            ReadError::Io { path, source } => NiftiError::Io {
+                action: "read",
+                path,
+                source,
+            },
+            other => NiftiError::File(other),
+        }
+    }
+}
+
+/// `value` in scientific notation with the fewest digits that identify it: as an f32 when it is
+/// one (NIfTI-1 stores f32, so its 1e20 prints as `1e20`, not `1.0000000200408773e20`).
+fn shortest(value: f64) -> String {
+    let narrow = value as f32;
+    if f64::from(narrow) == value {
+        format!("{narrow:e}")
+    } else {
+        format!("{value:e}")
+    }
 }

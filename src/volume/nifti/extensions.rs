@@ -9,6 +9,9 @@
 //!   are more misleading than none, and no extension changes how voxels are read.
 //! - All-zero bytes after the last extension are padding (writers round vox_offset up), not
 //!   an error.
+//! - The flag set with no room for even one extension (fewer than 16 bytes, all zero, between
+//!   the extender and the voxels or the end of the `.hdr`) is a warning: the flag says
+//!   something the file does not hold.
 //! - Only codes and sizes are kept (the summary lists them); the payloads are not interpreted.
 
 use super::header::ByteOrder;
@@ -32,6 +35,15 @@ pub fn parse(region: &[u8], order: ByteOrder) -> (Vec<Extension>, Option<String>
             ByteOrder::BigEndian => i32::from_be_bytes(b),
         })
     };
+    if region.len() < 16 && region.iter().all(|&b| b == 0) {
+        return (
+            Vec::new(),
+            Some(format!(
+                "the header's extension flag is set, but there is no room for an extension: {} bytes follow the extender where an extension needs at least 16; the flag is ignored",
+                region.len()
+            )),
+        );
+    }
     let mut out = Vec::new();
     let mut at = 0usize;
     while at < region.len() {

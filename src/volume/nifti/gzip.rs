@@ -1,20 +1,25 @@
-//! gzip detection, inflation of every member, and compression for the writer.
+//! gzip detection, bounded inflation of every member, and compression for the writer.
 //!
 //! Decisions:
 //! - gzip is recognised by its magic bytes `1f 8b` alone, never by the file name: `.nii` files
 //!   that are really compressed, and `.nii.gz` files that are not, both exist. A NIfTI/ANALYZE
 //!   header can never start with `1f 8b` (its first field is 348 or 540).
 //! - libdeflate inflates (FACTS.md: about 3x faster than flate2's default miniz_oxide). It needs
-//!   the output size up front, and its safe wrapper does not say where a member ends, so this
+//!   the output buffer up front, and its safe wrapper does not say where a member ends, so this
 //!   module calls `libdeflate_gzip_decompress_ex` through `libdeflate-sys` to learn each
 //!   member's compressed length; that is what makes multi-member files (concatenated `.gz`,
 //!   bgzip, pigz `--independent`) load whole.
-//! - Allocation is bounded by the input, never by a header: a DEFLATE stream expands at most
-//!   about 1032:1, so a member's output buffer never grows beyond `1032 * remaining input + 1 KiB`.
-//!   The first guess is the ISIZE trailer (the last four bytes: the last member's size mod 2^32,
-//!   exact for the usual single-member file); when a guess is too small it is doubled (each retry
-//!   re-inflates that member; libdeflate has no resumable state). Allocation failures are typed
-//!   errors (`try_reserve`), not aborts.
+//! - Inflation is bounded by what the header declares, never by the input alone: the caller
+//!   passes a [`Limit`] (the header's size, extensions and all frames' voxels, plus
+//!   [`TRAILING_SLACK`] bytes for trailing data some writers leave), and [`inflate_within`]
+//!   reserves exactly that (or DEFLATE's 1032:1 maximum expansion of the input, when smaller)
+//!   and inflates every member into it in one pass. Output past the limit is
+//!   [`NiftiError::GzipTooLarge`]; no retry, no doubling, so a 2 MB file that inflates to 2 GB
+//!   costs the limit, not 2 GB. Allocation failures are typed errors (`try_reserve`).
+//! - The header must be known before the limit: [`peek`] inflates only the first bytes of the
+//!   stream (enough for a NIfTI-2 header) with a streaming decoder (flate2's raw DEFLATE,
+//!   miniz_oxide; libdeflate cannot stop early), framing members itself like libdeflate (the
+//!   optional header CRC16 is skipped, not checked). The voxels are then inflated by libdeflate.
 //! - After the last member, zero bytes are accepted as padding (as gzip(1) and Python do); any
 //!   other trailing byte is an error, because silently ignoring data hides truncated uploads.
 //! - Truncated and corrupt members cannot be told apart reliably from libdeflate's result, so
@@ -30,9 +35,41 @@ pub const GZIP_MAGIC: [u8; 2] = [0x1f, 0x8b];
 const MIN_MEMBER: usize = 18;
 
 /// Upper bound on DEFLATE's expansion: 258 bytes per length/distance code of at least 2 bits
-/// gives 1032:1. Used as a hard cap, with 1 KiB of slack for tiny inputs.
+/// gives 1032:1. Caps the buffer when the input could not fill the declared size anyway, with
+/// 1 KiB of slack for tiny inputs.
 const MAX_RATIO: usize = 1032;
-const SLACK: usize = 1024;
+const RATIO_SLACK: usize = 1024;
+
+/// Bytes accepted after the size a header declares: room for the trailing bytes some writers
+/// leave (block padding), small enough that a damaged file fails fast.
+pub const TRAILING_SLACK: usize = 64 * 1024;
+
+/// How many inflated bytes a caller accepts, and whose declaration that is (for the message).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Limit {
+    /// Bytes declared.
+    pub declared: usize,
+    /// Bytes accepted after `declared`.
+    pub slack: usize,
+    /// Whose declaration, completing "more than the N bytes ...": `its header declares`.
+    pub what: &'static str,
+}
+
+impl Limit {
+    /// `declared` bytes plus [`TRAILING_SLACK`].
+    pub fn declared(declared: usize, what: &'static str) -> Limit {
+        Limit {
+            declared,
+            slack: TRAILING_SLACK,
+            what,
+        }
+    }
+
+    /// Total bytes accepted.
+    pub fn bytes(&self) -> usize {
+        self.declared.saturating_add(self.slack)
+    }
+}
 
 /// True when `bytes` starts with the gzip magic.
 pub fn is_gzip(bytes: &[u8]) -> bool {
@@ -110,35 +147,30 @@ impl Drop for Decompressor {
     }
 }
 
-/// Makes sure `out` has at least `extra` bytes of spare capacity.
-fn reserve(out: &mut Vec<u8>, extra: usize) -> Result<(), NiftiError> {
-    out.try_reserve_exact(extra)
-        .map_err(|_| NiftiError::OutOfMemory {
-            bytes: out.len().saturating_add(extra),
-            what: "the inflated gzip data",
-        })
-}
-
-/// Inflates `bytes` if they start with the gzip magic; otherwise returns them untouched.
+/// Inflates `bytes` if they start with the gzip magic, into at most `limit.bytes()` bytes;
+/// otherwise returns them untouched.
 ///
 /// Returns the inflated bytes and the number of gzip members read (0 when the input was not
-/// gzip). All members are inflated and concatenated, in order.
-pub fn inflate_if_gzip(bytes: Vec<u8>) -> Result<(Vec<u8>, usize), NiftiError> {
+/// gzip). All members are inflated and concatenated, in order. More output than the limit is
+/// [`NiftiError::GzipTooLarge`].
+pub fn inflate_within(bytes: Vec<u8>, limit: Limit) -> Result<(Vec<u8>, usize), NiftiError> {
     if !is_gzip(&bytes) {
         return Ok((bytes, 0));
     }
+    let ratio_cap = bytes
+        .len()
+        .saturating_mul(MAX_RATIO)
+        .saturating_add(RATIO_SLACK);
+    let capacity = limit.bytes().min(ratio_cap);
     let mut decompressor = Decompressor::new()?;
     let mut out: Vec<u8> = Vec::new();
+    out.try_reserve_exact(capacity)
+        .map_err(|_| NiftiError::OutOfMemory {
+            bytes: capacity,
+            what: "the inflated gzip data",
+        })?;
     let mut pos = 0usize;
     let mut members = 0usize;
-    // ISIZE of the last member: exact for single-member files (below 4 GiB).
-    let trailer_isize = bytes
-        .len()
-        .checked_sub(4)
-        .and_then(|at| bytes.get(at..))
-        .and_then(|s| <[u8; 4]>::try_from(s).ok())
-        .map_or(0, |b| u32::from_le_bytes(b) as usize);
-
     while pos < bytes.len() {
         let rest = bytes.get(pos..).unwrap_or_default();
         if !is_gzip(rest) {
@@ -151,53 +183,111 @@ pub fn inflate_if_gzip(bytes: Vec<u8>) -> Result<(Vec<u8>, usize), NiftiError> {
             });
         }
         members += 1;
-        if rest.len() < MIN_MEMBER {
-            return Err(NiftiError::GzipCorrupt {
-                member: members,
-                offset: pos,
-            });
-        }
-        let bound = rest.len().saturating_mul(MAX_RATIO).saturating_add(SLACK);
-        // First member: trust ISIZE as a hint (capped by the bound). Later members: a guess
-        // proportional to their compressed size; doubling fixes an underestimate.
-        let mut guess = if members == 1 && trailer_isize > 0 {
-            trailer_isize.min(bound)
-        } else {
-            rest.len().saturating_mul(4).max(64 * 1024).min(bound)
+        let corrupt = NiftiError::GzipCorrupt {
+            member: members,
+            offset: pos,
         };
-        loop {
-            reserve(&mut out, guess)?;
-            match decompressor.inflate_member(rest, &mut out) {
-                MemberResult::Done { consumed } => {
-                    if consumed == 0 {
-                        // Cannot happen for a successful member (>= 18 bytes); guards the loop.
-                        return Err(NiftiError::GzipCorrupt {
-                            member: members,
-                            offset: pos,
-                        });
-                    }
-                    pos = pos.saturating_add(consumed);
-                    break;
-                }
-                MemberResult::NeedsMoreSpace if guess < bound => {
-                    // `reserve` may have given more than asked; grow from what is available.
-                    let available = out.capacity() - out.len();
-                    guess = available.max(guess).saturating_mul(2).min(bound);
-                }
-                MemberResult::NeedsMoreSpace | MemberResult::Bad => {
-                    return Err(NiftiError::GzipCorrupt {
-                        member: members,
-                        offset: pos,
-                    });
-                }
+        if rest.len() < MIN_MEMBER {
+            return Err(corrupt);
+        }
+        match decompressor.inflate_member(rest, &mut out) {
+            // `consumed == 0` cannot happen for a successful member (>= 18 bytes); guards the loop.
+            MemberResult::Done { consumed } if consumed > 0 => pos = pos.saturating_add(consumed),
+            // Out of room: past the declared size, unless the ratio cap was the smaller one (then
+            // the input cannot really expand this far, and the data is corrupt).
+            MemberResult::NeedsMoreSpace if capacity == limit.bytes() => {
+                return Err(NiftiError::GzipTooLarge {
+                    limit: limit.bytes(),
+                    declared: limit.declared,
+                    slack: limit.slack,
+                    what: limit.what,
+                });
             }
+            _ => return Err(corrupt),
         }
     }
-    // Release a large over-estimate (for example a wrong ISIZE hint); small slack is kept.
+    // Release a large over-estimate (a header declaring more than the file holds); the parser
+    // then reports the truncation. Small slack is kept.
     if out.capacity() - out.len() > out.len() / 8 + 4096 {
         out.shrink_to_fit();
     }
     Ok((out, members))
+}
+
+/// Skips a gzip member's header (RFC 1952: magic, CM = 8, flags, MTIME, XFL, OS, then the
+/// optional FEXTRA, FNAME, FCOMMENT and FHCRC fields); returns where its DEFLATE data starts.
+/// Like libdeflate, reserved flag bits are an error and the header CRC16 is skipped, not checked.
+fn member_data_start(member: &[u8]) -> Option<usize> {
+    const FHCRC: u8 = 0x02;
+    const FEXTRA: u8 = 0x04;
+    const FNAME: u8 = 0x08;
+    const FCOMMENT: u8 = 0x10;
+    const FRESERVED: u8 = 0xe0;
+    let head = member.get(..10)?;
+    let flags = head[3];
+    if head[..3] != [0x1f, 0x8b, 8] || flags & FRESERVED != 0 {
+        return None;
+    }
+    let mut at = 10usize;
+    if flags & FEXTRA != 0 {
+        let len = u16::from_le_bytes([*member.get(at)?, *member.get(at + 1)?]);
+        at = at.checked_add(2 + usize::from(len))?;
+    }
+    for flag in [FNAME, FCOMMENT] {
+        if flags & flag != 0 {
+            let nul = member.get(at..)?.iter().position(|&b| b == 0)?;
+            at = at.checked_add(nul + 1)?;
+        }
+    }
+    if flags & FHCRC != 0 {
+        at = at.checked_add(2)?;
+    }
+    (at <= member.len()).then_some(at)
+}
+
+/// The first `want` bytes the gzip stream `bytes` inflates to (fewer when the stream holds
+/// fewer), inflating no more than that: a streaming decoder stops as soon as it has them.
+/// Non-gzip input is returned cut to `want`. Bytes after the last member are not judged here
+/// (the full inflation does that); a member that fails to decode before `want` bytes is
+/// [`NiftiError::GzipCorrupt`]. Trailers are skipped unchecked (the full inflation checks them).
+pub fn peek(bytes: &[u8], want: usize) -> Result<Vec<u8>, NiftiError> {
+    use std::io::Read;
+    if !is_gzip(bytes) {
+        return Ok(bytes.get(..want).unwrap_or(bytes).to_vec());
+    }
+    let mut out = Vec::with_capacity(want);
+    let mut pos = 0usize;
+    let mut members = 0usize;
+    while out.len() < want {
+        let rest = bytes.get(pos..).unwrap_or_default();
+        if !is_gzip(rest) {
+            break;
+        }
+        members += 1;
+        let corrupt = |offset| NiftiError::GzipCorrupt {
+            member: members,
+            offset,
+        };
+        let data = member_data_start(rest)
+            .and_then(|at| rest.get(at..))
+            .ok_or(corrupt(pos))?;
+        let need = want - out.len();
+        let mut decoder = flate2::bufread::DeflateDecoder::new(data);
+        let got = (&mut decoder)
+            .take(need as u64)
+            .read_to_end(&mut out)
+            .map_err(|_| corrupt(pos))?;
+        if got >= need {
+            break;
+        }
+        // The member's DEFLATE stream ended: skip its 8-byte trailer (CRC-32, ISIZE).
+        let after = decoder.into_inner();
+        if after.len() < 8 {
+            return Err(corrupt(pos));
+        }
+        pos = bytes.len() - after.len() + 8;
+    }
+    Ok(out)
 }
 
 /// Compresses `data` as one gzip member (libdeflate, level 6: the usual speed/size balance).

@@ -2,9 +2,11 @@
 //! contract: every odd file gets a documented outcome, nothing a user feeds it can panic.
 //!
 //! Decisions:
-//! - Three phases the engine can time and schedule separately: [`read_file`] (I/O),
-//!   [`inflate_if_gzip`] (CPU, on a worker thread), [`parse`] (header, validation, conversion of
-//!   one frame). [`load_path`] runs all three and also handles `.hdr`/`.img` pairs.
+//! - Three phases the engine can time and schedule separately: [`read_file`] (I/O, regular
+//!   files only: a FIFO or a device is refused at once), [`inflate_if_gzip`] (CPU, bounded by the
+//!   size the header declares), [`parse`] (header, validation, conversion of one frame).
+//!   [`load_file_timed`] runs all three the way the command line does, timing each, and handles
+//!   `.hdr`/`.img` pairs given by either file; [`load_path`] is the same without timings.
 //! - [`parse`] takes the buffer by value, so the voxels of the native kinds are moved to the
 //!   front of that same allocation and the volume owns it: the voxel bytes are copied at most
 //!   once after inflation (zero times for a pair whose `.img` starts at byte 0).
@@ -12,8 +14,10 @@
 //!   (complex and float128 are named errors), dims >= 1 with checked size arithmetic, vox_offset
 //!   (finite, whole, >= 0; a single file's offset below 352 (NIfTI-1) or 544 (NIfTI-2) is raised
 //!   to that minimum with a warning, as the standard says), then offset + all frames' bytes must
-//!   fit in the data. Only then is memory for samples allocated, so no header can make the loader
-//!   allocate more than the file could hold.
+//!   fit in the data (layout.rs). Only then is memory for samples allocated, so no header can
+//!   make the loader allocate more than the file could hold; and gzip data is inflated only
+//!   after the header it starts with was validated, into at most the size it declares
+//!   (bounded.rs), so no file can make the loader inflate more than its header admits.
 //! - Dims above `dim[0]` are ignored; missing spatial dims (1-D / 2-D images) are 1; dims 4..7
 //!   multiply into frames; one frame is loaded ([`LoadOptions::frame`], default 0) with a
 //!   warning when there are several.
@@ -22,26 +26,29 @@
 //! - Every repair is a sentence in `Volume::warnings`; [`HeaderSummary`] reports the fields as
 //!   read (JSON via serde), so a user can see both what the file says and what was shown.
 
+pub mod bounded;
 mod convert;
 pub mod datatype;
 mod error;
 pub mod extensions;
 pub mod gzip;
 pub mod header;
+mod layout;
+mod load;
 pub mod orientation;
 mod writer;
 
+pub use bounded::inflate_if_gzip;
 pub use datatype::Datatype;
 pub use error::NiftiError;
 pub use extensions::Extension;
-pub use gzip::inflate_if_gzip;
 pub use header::{ByteOrder, RawHeader, Storage, Version};
+pub use load::{PhaseTimes, load_file_timed, load_path, read_file};
 pub use orientation::{OrientationFields, ResolvedGeometry};
 pub use writer::{write_new_nifti1, write_nifti1};
 
 use crate::volume::Volume;
 use header::Decoded;
-use std::path::{Path, PathBuf};
 
 /// Choices the caller makes when loading.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -111,19 +118,11 @@ impl HeaderSummary {
     }
 }
 
-/// Phase 1: reads a whole file. Errors name the path.
-pub fn read_file(path: &Path) -> Result<Vec<u8>, NiftiError> {
-    std::fs::read(path).map_err(|source| NiftiError::Io {
-        action: "read",
-        path: path.to_path_buf(),
-        source,
-    })
-}
-
 /// Phase 3: decodes a single-file NIfTI (`n+1` / `n+2`) from its (inflated) bytes and converts
-/// the selected frame. Bytes that are still gzip-compressed are inflated first (and counted in
-/// `header.gzip_members`); after a separate [`inflate_if_gzip`], record the member count with
-/// [`HeaderSummary::set_gzip_members`]. `name` becomes `Volume::name`.
+/// the selected frame. Bytes that are still gzip-compressed are inflated first, bounded by the
+/// size the header declares (and counted in `header.gzip_members`); after a separate
+/// [`inflate_if_gzip`], record the member count with [`HeaderSummary::set_gzip_members`].
+/// `name` becomes `Volume::name`.
 ///
 /// A header whose voxels live in a separate `.img` (magic `ni1`/`ni2`, or ANALYZE) gives
 /// [`NiftiError::SeparateImageFile`]: use [`parse_pair`] or [`load_path`].
@@ -138,6 +137,39 @@ pub fn parse(bytes: Vec<u8>, name: &str, opts: &LoadOptions) -> Result<LoadedNif
         };
         return Err(NiftiError::SeparateImageFile { version });
     }
+    build_single(decoded, bytes, name, opts, members)
+}
+
+/// Phase 3 for a `.hdr`/`.img` pair: `header` holds the `.hdr` bytes, `image` the `.img` bytes
+/// (either may still be gzip-compressed; the image is inflated within the size the header
+/// declares for it). `vox_offset` counts from the start of `image`.
+pub fn parse_pair(
+    header: &[u8],
+    image: Vec<u8>,
+    name: &str,
+    opts: &LoadOptions,
+) -> Result<LoadedNifti, NiftiError> {
+    let (header, header_members) = inflate_if_gzip(header.to_vec())?;
+    let decoded = header::decode(&header)?;
+    let (image, image_members) = bounded::inflate_image(image, &decoded)?;
+    build_pair(
+        decoded,
+        &header,
+        image,
+        name,
+        opts,
+        header_members + image_members,
+    )
+}
+
+/// The last step of [`parse`] on a decoded single-file header and its (inflated) bytes.
+pub(crate) fn build_single(
+    decoded: Decoded,
+    bytes: Vec<u8>,
+    name: &str,
+    opts: &LoadOptions,
+    members: usize,
+) -> Result<LoadedNifti, NiftiError> {
     let ext_start = decoded.version.header_len() + 4;
     build(
         decoded,
@@ -149,27 +181,16 @@ pub fn parse(bytes: Vec<u8>, name: &str, opts: &LoadOptions) -> Result<LoadedNif
     )
 }
 
-/// Phase 3 for a `.hdr`/`.img` pair: `header` holds the `.hdr` bytes, `image` the `.img` bytes
-/// (either may still be gzip-compressed). `vox_offset` counts from the start of `image`.
-pub fn parse_pair(
+/// The last step of [`parse_pair`]: a decoded `.hdr` (its inflated bytes in `header`) and the
+/// inflated `.img`.
+pub(crate) fn build_pair(
+    mut decoded: Decoded,
     header: &[u8],
     image: Vec<u8>,
     name: &str,
     opts: &LoadOptions,
+    members: usize,
 ) -> Result<LoadedNifti, NiftiError> {
-    let inflated_header;
-    let mut members = 0;
-    let header: &[u8] = if gzip::is_gzip(header) {
-        let (bytes, m) = inflate_if_gzip(header.to_vec())?;
-        members += m;
-        inflated_header = bytes;
-        &inflated_header
-    } else {
-        header
-    };
-    let (image, image_members) = inflate_if_gzip(image)?;
-    members += image_members;
-    let mut decoded = header::decode(header)?;
     if decoded.storage == Storage::SingleFile {
         decoded.warnings.push(format!(
             "the {} header has the single-file magic, but it came with a separate image file; the voxels are read from the image file",
@@ -194,104 +215,6 @@ enum ExtensionArea<'a> {
     HeaderFile(&'a [u8]),
 }
 
-/// Validated sizes.
-struct Layout {
-    dims: Vec<usize>,
-    dims3: [usize; 3],
-    frames: usize,
-    frame_bytes: usize,
-    offset: usize,
-}
-
-fn layout(
-    decoded: &Decoded,
-    datatype: Datatype,
-    bytes_per_voxel: usize,
-    data_len: usize,
-    pair: bool,
-    warnings: &mut Vec<String>,
-) -> Result<Layout, NiftiError> {
-    let h = &decoded.header;
-    let dim0 = usize::try_from(h.dim[0]).unwrap_or(0).min(7);
-    let mut dims = Vec::with_capacity(dim0);
-    for axis in 1..=dim0 {
-        let value = h.dim.get(axis).copied().unwrap_or(0);
-        if value < 1 {
-            return Err(NiftiError::BadDim { axis, value });
-        }
-        dims.push(value);
-    }
-    let overflow = || NiftiError::SizeOverflow {
-        dims: dims.clone(),
-        bytes_per_voxel,
-    };
-    let as_usize: Vec<usize> = dims
-        .iter()
-        .map(|&d| usize::try_from(d))
-        .collect::<Result<_, _>>()
-        .map_err(|_| overflow())?;
-    let dims3 = [
-        as_usize.first().copied().unwrap_or(1),
-        as_usize.get(1).copied().unwrap_or(1),
-        as_usize.get(2).copied().unwrap_or(1),
-    ];
-    let product = |v: &[usize]| v.iter().try_fold(1usize, |acc, &d| acc.checked_mul(d));
-    let voxels = product(&dims3).ok_or_else(overflow)?;
-    let frames = product(as_usize.get(3..).unwrap_or_default()).ok_or_else(overflow)?;
-    let frame_bytes = voxels.checked_mul(bytes_per_voxel).ok_or_else(overflow)?;
-    let total = frame_bytes.checked_mul(frames).ok_or_else(overflow)?;
-
-    if h.bitpix != datatype.bitpix() {
-        warnings.push(format!(
-            "bitpix is {} but datatype {} has {} bits per voxel; the datatype is trusted",
-            h.bitpix,
-            datatype.name(),
-            datatype.bitpix()
-        ));
-    }
-
-    let raw = h.vox_offset;
-    if !raw.is_finite() || raw.fract() != 0.0 || raw < 0.0 {
-        return Err(NiftiError::BadVoxOffset { value: raw });
-    }
-    let minimum = if pair {
-        0
-    } else {
-        decoded.version.header_len() + 4
-    };
-    // Offsets beyond 2^63 cannot fit any file; saturate and let the length check report it.
-    let read = if raw >= 9.2e18 {
-        usize::MAX
-    } else {
-        usize::try_from(raw as u64).unwrap_or(usize::MAX)
-    };
-    let offset = if read < minimum {
-        warnings.push(format!(
-            "vox_offset {raw} is below {minimum}, the first byte after a {} header and its extender; the voxels are read from byte {minimum}",
-            decoded.version.label()
-        ));
-        minimum
-    } else {
-        read
-    };
-    let end = offset.checked_add(total);
-    if end.is_none_or(|end| end > data_len) {
-        return Err(NiftiError::TruncatedData {
-            file: if pair { "image file" } else { "file" },
-            len: data_len,
-            needed: total,
-            offset,
-        });
-    }
-    Ok(Layout {
-        dims: as_usize,
-        dims3,
-        frames,
-        frame_bytes,
-        offset,
-    })
-}
-
 /// Shared tail of [`parse`] and [`parse_pair`]: validation, extensions, conversion, geometry.
 fn build(
     decoded: Decoded,
@@ -303,23 +226,17 @@ fn build(
 ) -> Result<LoadedNifti, NiftiError> {
     let h = &decoded.header;
     let mut warnings = decoded.warnings.clone();
-    let datatype =
-        Datatype::from_code(h.datatype).ok_or(NiftiError::UnknownDatatype { code: h.datatype })?;
-    let bytes_per_voxel = datatype
-        .bytes_per_voxel()
-        .ok_or(NiftiError::UnsupportedDatatype {
-            name: datatype.name(),
-            code: h.datatype,
-        })?;
+    let (datatype, bytes_per_voxel) = layout::datatype_of(&decoded)?;
     let pair = matches!(extensions, ExtensionArea::HeaderFile(_));
-    let lay = layout(
-        &decoded,
-        datatype,
-        bytes_per_voxel,
-        data.len(),
-        pair,
-        &mut warnings,
-    )?;
+    let lay = layout::plan(&decoded, datatype, bytes_per_voxel, pair, &mut warnings)?;
+    if lay.end > data.len() {
+        return Err(NiftiError::TruncatedData {
+            file: if pair { "image file" } else { "file" },
+            len: data.len(),
+            needed: lay.total,
+            offset: lay.offset,
+        });
+    }
 
     if opts.frame >= lay.frames {
         return Err(NiftiError::FrameOutOfRange {
@@ -442,88 +359,4 @@ fn spatial_pixdim(h: &RawHeader, used_dims: usize) -> [f64; 4] {
             p
         }
     })
-}
-
-/// The file name without directories, for `Volume::name`.
-fn file_name(path: &Path) -> String {
-    path.file_name().map_or_else(
-        || path.display().to_string(),
-        |n| n.to_string_lossy().into_owned(),
-    )
-}
-
-/// Strips `.gz` and one more extension, case-insensitively: `a/b.hdr.gz` -> `a/b`.
-fn stem_path(path: &Path) -> (PathBuf, bool) {
-    let name = file_name(path);
-    let lower = name.to_ascii_lowercase();
-    let gz = lower.ends_with(".gz");
-    let base = if gz {
-        name.get(..name.len() - 3).unwrap_or(&name)
-    } else {
-        &name
-    };
-    let base = match base.rfind('.') {
-        Some(dot) if dot > 0 => base.get(..dot).unwrap_or(base),
-        _ => base,
-    };
-    let upper = name
-        .chars()
-        .rev()
-        .find(|c| c.is_ascii_alphabetic())
-        .is_some_and(|c| c.is_ascii_uppercase());
-    (path.with_file_name(base), upper)
-}
-
-/// Finds the other file of a pair next to `path`: `.img` for a header, `.hdr` for an image,
-/// with or without `.gz`, matching the case of the given extension first.
-fn companion(path: &Path, want_image: bool) -> Result<PathBuf, NiftiError> {
-    let (stem, upper) = stem_path(path);
-    let ext = if want_image { "img" } else { "hdr" };
-    let exts = if upper {
-        [ext.to_ascii_uppercase(), ext.to_string()]
-    } else {
-        [ext.to_string(), ext.to_ascii_uppercase()]
-    };
-    let stem_text = stem.as_os_str().to_owned();
-    for e in &exts {
-        for gz in ["", ".gz"] {
-            let mut candidate = stem_text.clone();
-            candidate.push(format!(".{e}{gz}"));
-            let candidate = PathBuf::from(candidate);
-            if candidate.is_file() {
-                return Ok(candidate);
-            }
-        }
-    }
-    Err(NiftiError::MissingCompanion {
-        path: path.to_path_buf(),
-        wanted: if want_image { ".img" } else { ".hdr" },
-    })
-}
-
-/// All three phases for a file on disk: `.nii`, `.nii.gz`, or either file of a `.hdr`/`.img`
-/// pair (gzip is detected by content, never by name). `Volume::name` is the given file's name.
-pub fn load_path(path: &Path, opts: &LoadOptions) -> Result<LoadedNifti, NiftiError> {
-    let name = file_name(path);
-    let lower = name.to_ascii_lowercase();
-    let (header_path, image_path) = if lower.ends_with(".img") || lower.ends_with(".img.gz") {
-        (companion(path, false)?, Some(path.to_path_buf()))
-    } else {
-        (path.to_path_buf(), None)
-    };
-    let (bytes, members) = inflate_if_gzip(read_file(&header_path)?)?;
-    let decoded = header::decode(&bytes)?;
-    if decoded.storage == Storage::SingleFile && image_path.is_none() {
-        let mut loaded = parse(bytes, &name, opts)?;
-        loaded.header.set_gzip_members(members);
-        return Ok(loaded);
-    }
-    let image_path = match image_path {
-        Some(p) => p,
-        None => companion(path, true)?,
-    };
-    let (image, image_members) = inflate_if_gzip(read_file(&image_path)?)?;
-    let mut loaded = parse_pair(&bytes, image, &name, opts)?;
-    loaded.header.set_gzip_members(members + image_members);
-    Ok(loaded)
 }

@@ -1,12 +1,20 @@
-//! Arbitrary bytes into `inflate_if_gzip`, checked against an independent decoder (RFC 1952
-//! framing here, flate2's miniz_oxide for DEFLATE, the same member loop and padding rule). Seeds (see
-//! README.md) are small valid, multi-member, zero-padded, truncated and corrupted gzip files,
-//! so the fuzzer starts inside the multi-member loop and the error paths.
+//! Arbitrary bytes into `gzip::inflate_within` (with the limit `gzip_limit` picks) and into
+//! `gzip::peek`, checked against an independent decoder (RFC 1952 framing here, flate2's
+//! miniz_oxide for DEFLATE, the same member loop and padding rule). Seeds (see README.md) are
+//! small valid, multi-member, zero-padded, truncated and corrupted gzip files, so the fuzzer
+//! starts inside the multi-member loop and the error paths.
+//!
+//! The oracle for the limit: output never exceeds it; a stream the reference accepts whole
+//! within the limit gives the same bytes and member count; one whose reference output exceeds it
+//! is `GzipTooLarge`. (Before the limit existed, the oracle asserted the input-ratio bound
+//! 1032 x input, which let a small stream inflate far past what its header declares.)
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use morphray::volume::nifti::{NiftiError, inflate_if_gzip};
-use morphray_fuzz::check_error;
+use morphray::volume::nifti::NiftiError;
+use morphray::volume::nifti::bounded::PEEK_LEN;
+use morphray::volume::nifti::gzip::{inflate_within, peek};
+use morphray_fuzz::{check_error, gzip_limit};
 use std::io::Read;
 
 /// One gzip member decoded independently: RFC 1952 header parsed here, raw DEFLATE by flate2
@@ -73,38 +81,61 @@ fn reference(bytes: &[u8]) -> Option<(Vec<u8>, usize)> {
 }
 
 fuzz_target!(|data: &[u8]| {
-    let ours = inflate_if_gzip(data.to_vec());
+    let limit = gzip_limit(data);
+    let ours = inflate_within(data.to_vec(), limit);
     match &ours {
         Ok((out, 0)) => assert_eq!(out.as_slice(), data, "non-gzip input must pass through"),
-        Ok((out, members)) => {
-            // Allocation is bounded by the input (gzip.rs): DEFLATE expands at most 1032:1.
-            assert!(
-                out.len() <= data.len().saturating_mul(1032) + 1024 * members,
-                "{} bytes out of {} in",
-                out.len(),
-                data.len()
-            );
-        }
+        Ok((out, _)) => assert!(
+            out.len() <= limit.bytes(),
+            "{} bytes out, limit {}",
+            out.len(),
+            limit.bytes()
+        ),
         Err(e) => {
             check_error(e);
             assert!(
                 matches!(
                     e,
-                    NiftiError::GzipCorrupt { .. } | NiftiError::GzipTrailingGarbage { .. }
+                    NiftiError::GzipCorrupt { .. }
+                        | NiftiError::GzipTrailingGarbage { .. }
+                        | NiftiError::GzipTooLarge { .. }
                 ),
                 "unexpected error kind from inflation: {e}"
             );
         }
     }
-    // Differential check: both decoders accept the same streams and agree on the bytes.
+    // Differential check: both decoders accept the same streams and agree on the bytes; what
+    // the reference inflates past the limit, ours refuses as too large.
     let theirs = reference(data);
-    match (ours, theirs) {
+    match (&ours, &theirs) {
         (Ok(a), Some(b)) => assert!(
             a == b,
             "decoders disagree on the inflated bytes or member count"
         ),
+        (Err(NiftiError::GzipTooLarge { .. }), Some((out, _))) => assert!(
+            out.len() > limit.bytes(),
+            "GzipTooLarge for a stream of {} bytes, limit {}",
+            out.len(),
+            limit.bytes()
+        ),
         (Err(_), None) => {}
-        (Ok(_), None) => panic!("inflate_if_gzip accepted a stream that flate2 rejects"),
-        (Err(e), Some(_)) => panic!("inflate_if_gzip rejected a stream that flate2 accepts: {e}"),
+        (Ok(_), None) => panic!("inflate_within accepted a stream that flate2 rejects"),
+        (Err(e), Some(_)) => panic!("inflate_within rejected a stream that flate2 accepts: {e}"),
+    }
+    // The header peek: on every stream the reference accepts, exactly its first bytes.
+    for want in [
+        PEEK_LEN,
+        1 + usize::from(data.first().copied().unwrap_or(0)),
+    ] {
+        let prefix = peek(data, want);
+        if let Some((out, _)) = &theirs {
+            let expect = out.get(..want).unwrap_or(out);
+            match prefix {
+                Ok(p) => assert_eq!(p.as_slice(), expect, "peek({want}) differs"),
+                Err(e) => panic!("peek({want}) rejected a stream flate2 accepts: {e}"),
+            }
+        } else if let Err(e) = prefix {
+            check_error(&e);
+        }
     }
 });

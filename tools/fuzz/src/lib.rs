@@ -8,7 +8,10 @@
 
 use morphray::reference::derivatives::IndexToWorld;
 use morphray::reference::minmax::finite_min_max;
-use morphray::volume::nifti::{LoadedNifti, NiftiError, OrientationFields, ResolvedGeometry};
+use morphray::volume::nifti::gzip::Limit;
+use morphray::volume::nifti::{
+    LoadOptions, LoadedNifti, NiftiError, OrientationFields, ResolvedGeometry, load_file_timed,
+};
 use morphray::volume::stats::intensity_stats;
 use morphray::volume::{Orientation, Volume};
 
@@ -192,4 +195,80 @@ pub fn orientation_fields(data: &[u8]) -> OrientationFields {
         srow,
         xyzt_units,
     }
+}
+
+/// The inflation limit the `gzip` target uses for `data`: 16 MiB (more than any input the fuzzer
+/// makes can inflate to, so the differential check sees every stream whole) unless bit 4 of the
+/// last byte is set, when it is 64 << (last byte & 15) bytes (64 B .. 2 MiB), so the
+/// limit's own error path is explored too.
+pub fn gzip_limit(data: &[u8]) -> Limit {
+    let last = data.last().copied().unwrap_or(0);
+    let declared = if last & 0x10 == 0 {
+        16 << 20
+    } else {
+        64usize << (last & 15)
+    };
+    Limit {
+        declared,
+        slack: 0,
+        what: "the fuzz target allows",
+    }
+}
+
+/// How the `input_path` target lays out its input on disk: bits 2..3 of the last byte pick a
+/// single file (`scan.nii`, `scan.nii.gz`: the name does not decide gzip, the content does) or a
+/// pair split at [`split_point`] (which uses bits 0..1) and loaded by its `.hdr` or by its
+/// `.IMG` (upper case, so the case-matching lookup runs). Returns (file name, bytes) to write,
+/// and the name to load.
+pub fn input_files(data: &[u8]) -> (Vec<(&'static str, &[u8])>, &'static str) {
+    match (data.last().copied().unwrap_or(0) >> 2) & 3 {
+        0 => (vec![("scan.nii", data)], "scan.nii"),
+        1 => (vec![("scan.nii.gz", data)], "scan.nii.gz"),
+        pair => {
+            let (hdr, img) = data.split_at(split_point(data));
+            if pair == 2 {
+                (vec![("pair.hdr", hdr), ("pair.img", img)], "pair.hdr")
+            } else {
+                (vec![("PAIR.HDR", hdr), ("PAIR.IMG", img)], "PAIR.IMG")
+            }
+        }
+    }
+}
+
+/// The `input_path` target's body, shared with tests/fuzz_regressions.rs: writes `data` into
+/// `dir` as [`input_files`] says (removing what a previous input left), loads it with the
+/// command line's own function and checks the result. Returns the load's outcome.
+pub fn run_input_path(dir: &std::path::Path, data: &[u8]) -> Result<LoadedNifti, NiftiError> {
+    for stale in [
+        "scan.nii",
+        "scan.nii.gz",
+        "pair.hdr",
+        "pair.img",
+        "PAIR.HDR",
+        "PAIR.IMG",
+    ] {
+        let _ = std::fs::remove_file(dir.join(stale));
+    }
+    let (files, load) = input_files(data);
+    for (name, bytes) in files {
+        std::fs::write(dir.join(name), bytes).expect("writing the input");
+    }
+    let frame = usize::from(data.first().copied().unwrap_or(0) >> 7);
+    let mut seen = None;
+    let result = load_file_timed(&dir.join(load), &LoadOptions { frame }, &mut |b| {
+        seen = Some(b.len())
+    });
+    match &result {
+        Ok((loaded, times)) => {
+            check_loaded(loaded);
+            assert!(
+                seen.is_some_and(|n| n <= data.len()),
+                "on_read saw {seen:?}"
+            );
+            assert!(times.read_ms >= 0.0 && times.inflate_ms >= 0.0 && times.convert_ms >= 0.0);
+            assert_eq!(loaded.header.frame_loaded, frame);
+        }
+        Err(e) => check_error(e),
+    }
+    result.map(|(loaded, _)| loaded)
 }
