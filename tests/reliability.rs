@@ -1,8 +1,9 @@
 //! Issue 12's oracle: the quick bad-input probe (`tools/reliability/probe.py --quick`) run on the
 //! binary cargo built. It fails when any bad input makes morphray panic, hang, get killed (a
-//! signal, an allocation abort) or modify a file it must not touch (its own input, an existing
-//! scan, an existing PNG after a failed render, /dev/full); the probe's table and its list of
-//! runs that were not clean are printed on failure.
+//! signal, an allocation abort), hold more than 1 GiB of memory (an unbounded read that the
+//! probe's 4 GiB limit stopped short of the OOM killer) or modify a file it must not touch (its
+//! own input, an existing scan, an existing PNG after a failed render, /dev/full); the probe's
+//! table and its list of runs that were not clean are printed on failure.
 //!
 //! Decisions: the probe is the single description of the bad inputs (RELIABILITY.md's numbers
 //! come from its full run), so this test only runs it and reads its exit status rather than
@@ -13,7 +14,7 @@ use std::path::Path;
 use std::process::Command;
 
 #[test]
-fn quick_probe_finds_no_panic_hang_kill_or_destroyed_file() {
+fn quick_probe_finds_no_panic_hang_kill_memory_blowup_or_destroyed_file() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let output = Command::new("python3")
         .arg(root.join("tools/reliability/probe.py"))
@@ -32,7 +33,7 @@ fn quick_probe_finds_no_panic_hang_kill_or_destroyed_file() {
     );
     assert!(
         output.status.success(),
-        "bad input made morphray panic, hang, get killed or destroy a file \
+        "bad input made morphray panic, hang, get killed, take over 1 GiB or destroy a file \
          (exit {:?}):\n{stdout}\n{stderr}",
         output.status.code()
     );

@@ -51,6 +51,7 @@ def outputs(ws):
     full_link = ws.path("out-old/full.png")
     os.symlink("/dev/full", full_link)
     jpg = ws.path("out-jpg/out.jpg")
+    os.makedirs(os.path.dirname(jpg))
     new_nii = ws.path("out-full/new.nii")
     os.makedirs(os.path.dirname(new_nii))
     phantom = ["phantom", "--dims", PHANTOM_DIMS, "-o"]

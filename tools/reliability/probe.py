@@ -9,7 +9,8 @@ whole renders, bad arguments, the viewer), runs the binary on each, one at a tim
 wall-clock timeout and a 4 GiB address-space limit, and prints a markdown table (class, inputs
 tried, count per outcome) followed by every run that was not clean, with its command line.
 
-Exit status: 0 when no run panicked, hung, was killed or destroyed a file; 1 when one did;
+Exit status: 0 when no run panicked, hung, was killed, took more than 1 GiB of memory or
+destroyed a file; 1 when one did;
 3 when the binary is missing or finds no usable Vulkan device (GPU cases could not mean
 anything, so the probe refuses to report them as passing). Python 3.11 standard library only.
 
@@ -53,6 +54,7 @@ COLUMNS = (
     ("validation", "validation"),
     ("timeout", "timeout"),
     ("killed", "killed"),
+    ("memory", "peak RSS > 1 GiB"),
     ("panic", "panic"),
     ("destroyed", "destroyed"),
 )
@@ -206,10 +208,12 @@ def not_clean(results, ws):
 
 
 def _first_line(text):
-    for line in text.splitlines():
-        if line.strip() and not line.startswith(("morphray: warning:", "morphray: note:")):
-            return line.strip()[:300]
-    return "(no message)"
+    """The error line of stderr, else its first note or warning."""
+    lines = [line.strip() for line in text.splitlines() if line.strip()]
+    for line in lines:
+        if not line.startswith(("morphray: warning:", "morphray: note:")):
+            return line[:300]
+    return lines[0][:300] if lines else "(no message)"
 
 
 def fatal(results):
@@ -247,7 +251,8 @@ def main(argv=None):
             shutil.rmtree(root, ignore_errors=True)
     bad = fatal(results)
     if bad:
-        print(f"probe: {len(bad)} run(s) panicked, hung, were killed or destroyed a file",
+        print(f"probe: {len(bad)} run(s) panicked, hung, were killed, took over 1 GiB or"
+              " destroyed a file",
               file=sys.stderr)
         return 1
     return 0

@@ -8,7 +8,7 @@ Decisions:
 - stdout and stderr go to files, not pipes: a run that floods them cannot block or fill the
   probe's memory; only the first 64 KiB of each are read back.
 - One outcome per run, the most severe that applies: destroyed > panic > killed > timeout >
-  validation > what the exit status says. The other findings are kept as flags (a run can panic
+  memory (peak RSS over 1 GiB, read with os.wait4) > validation > what the exit status says. The other findings are kept as flags (a run can panic
   and also have destroyed a file). `FATAL` are the outcomes the probe exits non-zero on.
 - A clean error is exit 1 with exactly one `morphray: ...` line that is not a warning or note,
   and nothing else on stderr but warnings, notes and lavapipe's non-conformance banner.
@@ -27,7 +27,12 @@ import subprocess
 import time
 import zlib
 
-FATAL = ("destroyed", "panic", "killed", "timeout")
+FATAL = ("destroyed", "panic", "killed", "timeout", "memory")
+# Peak resident memory that counts as unbounded: every input is at most ~100 MB inflated, and a
+# render of the 256x256x192 phantom on lavapipe peaks far below this. Under the probe's 4 GiB
+# address-space limit an unbounded read ends in "out of memory" instead of the OOM killer;
+# this flag keeps that from passing as a clean error.
+MEMORY_KIB = 1 << 20
 OUTCOMES = (
     "clean-error",
     "usage",
@@ -38,6 +43,7 @@ OUTCOMES = (
     "validation",
     "timeout",
     "killed",
+    "memory",
     "panic",
     "destroyed",
 )
@@ -77,6 +83,7 @@ def execute(binary, case, work, timeout, address_space):
     if case.setup is not None:
         case.setup()
     before = {p: fingerprint(p) for p in case.protect + case.protect_on_failure + case.devices}
+    listings = {d: _listing(d) for d in {os.path.dirname(p) for p in case.absent_on_failure}}
     out_path = os.path.join(work, "last.stdout")
     err_path = os.path.join(work, "last.stderr")
     argv = [binary] + case.argv
@@ -95,13 +102,7 @@ def execute(binary, case, work, timeout, address_space):
             preexec_fn=_limits(address_space, case.fsize),
             start_new_session=True,
         )
-        timed_out = False
-        try:
-            code = proc.wait(timeout=timeout)
-        except subprocess.TimeoutExpired:
-            timed_out = True
-            os.killpg(proc.pid, signal.SIGKILL)
-            code = proc.wait()
+        code, timed_out, peak_rss = _wait(proc, timeout)
     wall = time.monotonic() - start
     stdout = _head(out_path)
     stderr = _head(err_path)
@@ -113,10 +114,17 @@ def execute(binary, case, work, timeout, address_space):
         "expect": case.expect,
         "exit": code,
         "wall_s": round(wall, 3),
+        "peak_rss_mib": round(peak_rss / 1024, 1),
         "stderr": stderr[-2000:],
         "stdout_head": stdout[:500],
     }
     flags = _flags(case, code, timed_out, stderr, before, after)
+    leftovers = _leftovers(listings) if code != 0 and not timed_out else []
+    if leftovers:
+        flags.add("partial-output")
+        result["leftovers"] = leftovers
+    if peak_rss > MEMORY_KIB:
+        flags.add("memory")
     result["changed"] = [p for p in before if before[p] != after[p]]
     if code == 0 and case.png and not flags & {"destroyed", "panic"}:
         _inspect_png(case, result, flags, stderr)
@@ -124,6 +132,41 @@ def execute(binary, case, work, timeout, address_space):
     result["outcome"] = _primary(flags)
     result["unexpected"] = _unexpected(case, result)
     return result
+
+
+def _wait(proc, timeout):
+    """(exit code, timed out, peak RSS in KiB) of `proc`, killing its group after `timeout` s.
+    os.wait4 gives this child's own rusage (RUSAGE_CHILDREN would be the maximum over every
+    child the probe has waited for)."""
+    deadline = time.monotonic() + timeout
+    timed_out = False
+    while True:
+        pid, status, usage = os.wait4(proc.pid, os.WNOHANG)
+        if pid:
+            break
+        if time.monotonic() > deadline:
+            timed_out = True
+            os.killpg(proc.pid, signal.SIGKILL)
+            pid, status, usage = os.wait4(proc.pid, 0)
+            break
+        time.sleep(0.02)
+    code = os.waitstatus_to_exitcode(status)
+    proc.returncode = code  # reaped here; keeps Popen from waiting again
+    return code, timed_out, usage.ru_maxrss
+
+
+def _listing(directory):
+    try:
+        return set(os.listdir(directory))
+    except OSError:
+        return set()
+
+
+def _leftovers(listings):
+    """Files that appeared next to an output of a failed run (a temporary file not removed)."""
+    return sorted(
+        os.path.join(d, name) for d, names in listings.items() for name in _listing(d) - names
+    )
 
 
 def _head(path):
@@ -147,10 +190,6 @@ def _flags(case, code, timed_out, stderr, before, after):
             flags.add("destroyed")
         elif code != 0:
             flags.add("destroyed")  # protect_on_failure: only a success may replace it
-    if code not in (0, None) and not timed_out:
-        for p in case.absent_on_failure:
-            if os.path.lexists(p):
-                flags.add("partial-output")
     flags.add(_by_exit(code, stderr) if not timed_out and code >= 0 else "abnormal")
     return flags
 
@@ -179,7 +218,7 @@ def _one_error_line(stderr):
 
 
 def _primary(flags):
-    for outcome in ("destroyed", "panic", "killed", "timeout", "validation"):
+    for outcome in ("destroyed", "panic", "killed", "timeout", "memory", "validation"):
         if outcome in flags:
             return outcome
     for outcome in ("ok-blank-silent", "ok-blank-noted", "ok", "usage", "clean-error"):
