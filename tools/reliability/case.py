@@ -42,6 +42,10 @@ class Case:
     setup: Optional[Callable] = None
     cwd: Optional[str] = None
     same_image_as: Optional[str] = None
+    # Regular expressions (case-insensitive) over stdout + stderr: what the output must say (a
+    # repair, a frame choice, the real cause) and must not say (a wrong cause, usize::MAX).
+    says: Optional[str] = None
+    never_says: Optional[str] = None
 
 
 class Workspace:

@@ -117,7 +117,9 @@ def vox_offset(ws):
         ("100", nf.nifti1(DIMS, vox_offset=100.0), "any"),
         ("353-padded", nf.nifti1(DIMS, vox_offset=353.0, extra=b"\0"), "ok"),
     ]
-    return [_header_case(ws, cls, n, d, e, quick=n in ("nan", "1e20")) for n, d, e in variants]
+    out = [_header_case(ws, cls, n, d, e, quick=n in ("nan", "1e20")) for n, d, e in variants]
+    out[4].never_says = "18446744073709551615"  # 1e20: the number as written, never usize::MAX
+    return out
 
 
 def magic(ws):
@@ -131,7 +133,10 @@ def magic(ws):
         ("analyze-zeros", nf.nifti1(DIMS, magic=b"\0\0\0\0"), "any"),
         ("nifti2-bad-eol", nf.nifti2(DIMS, magic=b"n+2\0\n\r\x1a\n"), "error"),
     ]
-    return [_header_case(ws, cls, n, d, e, quick=n == "n+2-in-348") for n, d, e in variants]
+    out = [_header_case(ws, cls, n, d, e, quick=n == "n+2-in-348") for n, d, e in variants]
+    for case in out[:3]:
+        case.says = "magic"  # not "no .img file was found"
+    return out
 
 
 def scaling(ws):
@@ -189,7 +194,10 @@ def orientation(ws):
         out.append(Case(cls, name, info(path), expect=expect, quick=name == "quat-nan"))
         if name in rendered:
             lit = expect == "ok"
-            out.append(render_case(ws, cls, f"render {name}", path, expect=expect, lit=lit))
+            # A repaired pixdim is a warning on every command that loads the volume.
+            says = "pixdim" if name == "pixdim-nan" else None
+            out.append(render_case(ws, cls, f"render {name}", path, expect=expect, lit=lit,
+                                   says=says))
     return out
 
 
@@ -202,7 +210,7 @@ def frames(ws):
     return [
         Case(cls, "4d info", info(four), expect="ok", quick=True),
         Case(cls, "4d info --frame 1000000", info(four, "--frame", "1000000"), expect="error"),
-        render_case(ws, cls, "4d render default frame", four, lit=True),
+        render_case(ws, cls, "4d render default frame", four, lit=True, says="frame"),
         render_case(ws, cls, "4d render --frame 2", four, "--frame", "2", lit=True),
         render_case(ws, cls, "4d render --frame 3", four, "--frame", "3", expect="error"),
         render_case(ws, cls, "3d render --frame 1", ws.write("frames/three.nii", nf.nifti1(DIMS)),
@@ -236,7 +244,9 @@ def extensions(ws):
         ("1000-valid", nf.nifti1(DIMS, extension=b"\x01\0\0\0", extra=many,
                                  vox_offset=352.0 + len(many)), "ok"),
     ]
-    return [_header_case(ws, cls, n, d, e, quick=n == "ext_noroom") for n, d, e in variants]
+    out = [_header_case(ws, cls, n, d, e, quick=n == "ext_noroom") for n, d, e in variants]
+    out[0].says = "extension"  # the flag says an extension follows; there is no room for one
+    return out
 
 
 def gzip_streams(ws):

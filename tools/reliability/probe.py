@@ -159,6 +159,17 @@ def relative(text, ws):
     return text.replace(ws.root, "$T")
 
 
+def _relative_all(value, ws):
+    """`value` with the temporary directory written as `$T` in every string inside it."""
+    if isinstance(value, str):
+        return relative(value, ws)
+    if isinstance(value, list):
+        return [_relative_all(v, ws) for v in value]
+    if isinstance(value, dict):
+        return {k: _relative_all(v, ws) for k, v in value.items()}
+    return value
+
+
 def command_line(result, ws):
     return relative(shlex.join(["morphray"] + result["argv"][1:]), ws)
 
@@ -272,11 +283,7 @@ def report(args, binary, ws, results, seconds, validation):
             "quick": args.quick,
             "validation": validation,
             "seconds": round(seconds, 1),
-            "results": [
-                {**r, "argv": [relative(a, ws) for a in r["argv"]],
-                 "stderr": relative(r.get("stderr", ""), ws)}
-                for r in results
-            ],
+            "results": [_relative_all(r, ws) for r in results],
         }
         with open(args.json, "w") as f:
             json.dump(doc, f, indent=1)

@@ -19,6 +19,7 @@ Decisions:
 
 import hashlib
 import os
+import re
 import resource
 import signal
 import stat
@@ -130,7 +131,7 @@ def execute(binary, case, work, timeout, address_space):
         _inspect_png(case, result, flags, stderr)
     result["flags"] = sorted(flags)
     result["outcome"] = _primary(flags)
-    result["unexpected"] = _unexpected(case, result)
+    result["unexpected"] = _unexpected(case, result) or _wording(case, stdout + stderr, work)
     return result
 
 
@@ -245,6 +246,23 @@ def _unexpected(case, result):
         return "exit 0 where a non-zero exit was due"
     if outcome == "ok-blank-noted" and case.lit:
         return "blank image for a volume that has visible content"
+    return None
+
+
+def _wording(case, text, work):
+    """Why the messages are wrong (a `says` pattern missing, a `never_says` one present). Paths
+    and file names of the case are removed first: `pixdim-nan.nii` must not count as saying
+    "pixdim"."""
+    for arg in case.argv:
+        if arg.startswith(work):
+            text = text.replace(arg, " ").replace(os.path.basename(arg), " ")
+    text = text.replace(work, " ")
+    if case.says and not re.search(case.says, text, re.IGNORECASE):
+        return f"the output does not say /{case.says}/"
+    if case.never_says:
+        found = re.search(case.never_says, text, re.IGNORECASE)
+        if found:
+            return f"the output says {found.group(0)!r}"
     return None
 
 
