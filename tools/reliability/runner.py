@@ -8,8 +8,9 @@ Decisions:
 - stdout and stderr go to files, not pipes: a run that floods them cannot block or fill the
   probe's memory; only the first 64 KiB of each are read back.
 - One outcome per run, the most severe that applies: destroyed > panic > killed > timeout >
-  memory (peak RSS over 1 GiB, read with os.wait4) > validation > what the exit status says. The other findings are kept as flags (a run can panic
-  and also have destroyed a file). `FATAL` are the outcomes the probe exits non-zero on.
+  memory (peak RSS over 1 GiB, read with os.wait4) > validation > what the exit status says.
+  The other findings are kept as flags (a run can panic and also have destroyed a file).
+  `FATAL` are the outcomes the probe exits non-zero on.
 - A clean error is exit 1 with exactly one `morphray: ...` line that is not a warning or note,
   and nothing else on stderr but warnings, notes and lavapipe's non-conformance banner.
 - A render that succeeds is decoded (PNG, RGBA8, stdlib zlib) and counted: pixels that differ
