@@ -819,7 +819,7 @@ fn an_empty_image_is_never_silent_and_says_what_to_try() {
         let err = stderr(&o);
         let line = err
             .lines()
-            .find(|l| l.starts_with("morphray: the image shows only the background: "))
+            .find(|l| l.starts_with("morphray: note: the image shows only the background: "))
             .unwrap_or_else(|| panic!("{all:?}: no empty-image line in\n{err}"));
         assert!(
             line.contains(reason) && line.contains("; "),

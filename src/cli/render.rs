@@ -224,7 +224,7 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
             let constant = opened.twin.prepared.normalization.constant;
             let why = predict_empty(&scene, constant).unwrap_or(EmptyScene::NothingSampled);
             eprintln!(
-                "morphray: the image shows only the background: {}; {}",
+                "morphray: note: the image shows only the background: {}; {}",
                 why.reason(),
                 what_to_try(&why, &scene)
             );
