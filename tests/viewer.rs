@@ -552,3 +552,28 @@ fn a_view_that_can_only_show_the_background_says_why_over_the_image() {
         "{log}"
     );
 }
+
+#[test]
+fn a_fifo_named_as_the_script_is_refused_at_once() {
+    let dir = temp_dir("script-fifo");
+    let fifo = dir.join("script.fifo");
+    let made = Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .expect("mkfifo runs");
+    assert!(made.success());
+    let o = view_within(
+        &[
+            "--offscreen",
+            "--frames",
+            "1",
+            "--script",
+            fifo.to_str().unwrap(),
+        ],
+        false,
+        std::time::Duration::from_secs(30),
+    );
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("is a FIFO"), "{stderr}");
+}

@@ -113,11 +113,17 @@ pub struct ScriptError {
 
 /// Reads and parses a script file.
 pub fn load(path: &Path) -> Result<Vec<Step>, ScriptError> {
-    let text = std::fs::read_to_string(path).map_err(|e| ScriptError {
+    // A regular file of at most 1 MiB: a FIFO or device named as the script must not block or
+    // fill memory (files::read).
+    let cannot = |message: String| ScriptError {
         file: path.display().to_string(),
         line: 0,
-        message: format!("cannot read: {e}"),
-    })?;
+        message,
+    };
+    let bytes = crate::files::read::read_regular(path, 1 << 20)
+        .map_err(|e| cannot(format!("cannot read: {e}")))?;
+    let text = String::from_utf8(bytes)
+        .map_err(|_| cannot("cannot read: the script is not UTF-8 text".into()))?;
     parse(&text, &path.display().to_string())
 }
 

@@ -104,11 +104,12 @@ fn encode(
 /// Reads the tEXt chunks of a PNG (for tests and for `render --from` style reuse).
 pub fn read_text_chunks(path: &Path) -> Result<Vec<(String, String)>, PngError> {
     let shown = path.display().to_string();
-    let file = std::fs::File::open(path).map_err(|source| PngError::Io {
+    // Regular files only, at most 1 GiB (a FIFO must not block, a device must not fill memory).
+    let bytes = crate::files::read::read_regular(path, 1 << 30).map_err(|e| PngError::Io {
         path: shown.clone(),
-        source,
+        source: std::io::Error::other(e.to_string()),
     })?;
-    let decoder = png::Decoder::new(std::io::BufReader::new(file));
+    let decoder = png::Decoder::new(std::io::Cursor::new(bytes));
     let reader = decoder.read_info().map_err(|e| PngError::Encode {
         path: shown.clone(),
         message: e.to_string(),
