@@ -425,12 +425,27 @@ fn create_raw(device: &DeviceShared, initial: &[u8]) -> GpuResult<vk::PipelineCa
 }
 
 /// Writes `bytes` to `path` atomically (`files::write`), creating its directory first.
+///
+/// The cache file is morphray's own, in its own directory: something that is not a regular file
+/// in its place (a FIFO, a link to a device, which the load ignored) is removed first, so the
+/// cache works again from the next run on. (User-named outputs are never treated this way:
+/// `files::write` refuses to replace anything but a regular file.)
 fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), PersistError> {
     let dir = path.parent().unwrap_or(Path::new("."));
     std::fs::create_dir_all(dir).map_err(|source| PersistError::Io {
         path: dir.to_path_buf(),
         source,
     })?;
+    // `metadata` follows links: a link to a regular file is kept (the write follows it).
+    if let Ok(meta) = std::fs::metadata(path)
+        && !meta.is_file()
+        && !meta.is_dir()
+    {
+        std::fs::remove_file(path).map_err(|source| PersistError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+    }
     crate::files::write::write_file(path, bytes).map_err(|e| PersistError::Io {
         path: path.to_path_buf(),
         source: e.into_io_error(),
