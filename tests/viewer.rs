@@ -9,6 +9,7 @@
 use morphray::app::histogram::BAR_COLOUR;
 use morphray::volume::nifti::write_nifti1;
 use morphray::volume::phantom::{PhantomSpec, generate};
+use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -42,24 +43,10 @@ fn xvfb_run() -> &'static str {
     "xvfb-run"
 }
 
-/// Runs `morphray view ARGS` under Xvfb (or offscreen without DISPLAY) with validation required.
+/// Runs `morphray view ARGS` under Xvfb (or offscreen without DISPLAY) with validation required,
+/// killed as hung after 10 minutes.
 fn view(args: &[&str], window: bool) -> Output {
-    let bin = env!("CARGO_BIN_EXE_morphray");
-    let mut command = if window {
-        let mut c = Command::new(xvfb_run());
-        c.args(["-a", "-s", "-screen 0 1280x1024x24", bin, "view"]);
-        c
-    } else {
-        let mut c = Command::new(bin);
-        c.env_remove("DISPLAY").env_remove("WAYLAND_DISPLAY");
-        c.arg("view");
-        c
-    };
-    let output = command
-        .args(args)
-        .env("MORPHRAY_VALIDATION", "required")
-        .output()
-        .expect("morphray runs");
+    let output = view_within(args, window, std::time::Duration::from_secs(600));
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert!(
         !stderr.contains("no Vulkan") && !stderr.contains("found no device"),
@@ -427,20 +414,39 @@ fn view_within(args: &[&str], window: bool, limit: std::time::Duration) -> Outpu
         .stderr(std::process::Stdio::piped())
         .spawn()
         .expect("morphray runs");
+    // Drained on threads while the child runs: a long log must not fill the pipe and stall it.
+    let drain = |pipe: Option<Box<dyn std::io::Read + Send>>| {
+        std::thread::spawn(move || {
+            let mut bytes = Vec::new();
+            if let Some(mut pipe) = pipe {
+                let _ = pipe.read_to_end(&mut bytes);
+            }
+            bytes
+        })
+    };
+    let out = drain(child.stdout.take().map(|p| Box::new(p) as _));
+    let err = drain(child.stderr.take().map(|p| Box::new(p) as _));
     let start = std::time::Instant::now();
-    while child.try_wait().expect("waits").is_none() {
+    let status = loop {
+        if let Some(status) = child.try_wait().expect("waits") {
+            break status;
+        }
         if start.elapsed() > limit {
             let _ = child.kill();
-            let o = child.wait_with_output().expect("killed");
+            let _ = child.wait();
+            let log = String::from_utf8_lossy(&out.join().unwrap_or_default()).into_owned();
             panic!(
-                "`view {}` still ran after {limit:?}\nstdout:\n{}",
-                args.join(" "),
-                stdout(&o)
+                "`view {}` still ran after {limit:?}\nstdout:\n{log}",
+                args.join(" ")
             );
         }
         std::thread::sleep(std::time::Duration::from_millis(100));
+    };
+    Output {
+        status,
+        stdout: out.join().expect("stdout drained"),
+        stderr: err.join().expect("stderr drained"),
     }
-    child.wait_with_output().expect("output")
 }
 
 #[test]
