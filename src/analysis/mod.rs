@@ -25,12 +25,14 @@ pub mod assign;
 pub mod background;
 pub mod params;
 pub mod peaks;
+pub mod range;
 pub mod smoothing;
 pub mod spikes;
 pub mod table1;
 pub mod windows;
 
 pub use params::AnalysisParams;
+pub use range::NormalizeMode;
 pub use table1::{
     InPaperWindow, ModeInfo, ModeRole, Peak, Peaks, SpikeInfo, Table1Row, TissueReport,
 };

@@ -14,7 +14,7 @@
 //! - Brick ranges for empty-space skipping are computed here right after preparing, so the
 //!   first frame already runs the raymarch alone.
 
-use crate::analysis::{TissueReport, analyze};
+use crate::analysis::TissueReport;
 use crate::cli::source;
 use crate::engine::{Derived, Engine, EngineConfig, PreparedVolume};
 use crate::gpu::{Device, GpuError, PassTiming};
@@ -332,17 +332,7 @@ impl Worker {
             .brick_ranges(&prepared)
             .map_err(|e| one_line(&e.to_string()))?;
         let occupancy_ms = before.elapsed().as_secs_f64() * 1e3;
-        let (imin, imax) = match (prepared.normalization.imin, prepared.normalization.imax) {
-            (Some(lo), Some(hi)) => (lo, hi),
-            _ => (0.0, 0.0),
-        };
-        let report = analyze(
-            &prepared.histogram,
-            imin,
-            imax,
-            prepared.voxel_count as usize,
-            prepared.nonfinite_voxels() as usize,
-        );
+        let report = engine.analyze(&prepared);
         let linear = prepared.linear_part;
         let spacing_mm =
             [0, 1, 2].map(|c| (0..3).map(|r| linear[r][c].powi(2)).sum::<f64>().sqrt());

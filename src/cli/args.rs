@@ -62,9 +62,34 @@ pub struct Cli {
     #[arg(long, global = true, value_name = "DIR|memory|off")]
     pub pipeline_cache: Option<String>,
 
+    /// Which intensity range becomes I_norm 0..1 (the scale the tissue windows are in):
+    /// `robust` = from percentiles of the finite voxels, so a few hot voxels (fat, vessels,
+    /// spikes) cannot squeeze every tissue into the darkest bins; values outside are clamped.
+    /// `minmax` = the paper's eq. 1, the finite minimum and maximum (paper-literal preset).
+    #[arg(long, global = true, value_enum, default_value_t = NormalizeArg::Minmax)]
+    pub normalize: NormalizeArg,
+
     /// What to do.
     #[command(subcommand)]
     pub command: Command,
+}
+
+/// `--normalize`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum NormalizeArg {
+    /// Percentiles of the finite voxels; values outside clamped.
+    Robust,
+    /// The paper's min/max (eq. 1).
+    Minmax,
+}
+
+impl From<NormalizeArg> for crate::analysis::NormalizeMode {
+    fn from(arg: NormalizeArg) -> Self {
+        match arg {
+            NormalizeArg::Robust => crate::analysis::NormalizeMode::Robust,
+            NormalizeArg::Minmax => crate::analysis::NormalizeMode::MinMax,
+        }
+    }
 }
 
 /// The commands.

@@ -72,6 +72,8 @@ pub struct GlobalOptions {
     pub tuning: crate::gpu::KernelTuning,
     /// Pipeline cache (the user's cache directory unless `--pipeline-cache` says otherwise).
     pub pipeline_cache: crate::gpu::PipelineCacheConfig,
+    /// Which range maps to I_norm 0..1.
+    pub normalize: crate::analysis::NormalizeMode,
 }
 
 impl GlobalOptions {
@@ -83,6 +85,7 @@ impl GlobalOptions {
         config.device.profile = self.profile.clone();
         config.device.tuning = self.tuning.clone();
         config.pipeline_cache = self.pipeline_cache.clone();
+        config.normalize = self.normalize;
         config
     }
 }
@@ -124,6 +127,7 @@ pub fn run(cli: &Cli) -> Result<(), Error> {
             .transpose()?,
         tuning,
         pipeline_cache: pipeline_cache_config(cli.pipeline_cache.as_deref()),
+        normalize: cli.normalize.into(),
     };
     let global = &global;
     match &cli.command {

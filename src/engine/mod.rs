@@ -64,6 +64,10 @@ pub struct EngineConfig {
     /// Pipeline cache: off, in memory (the default: no disk I/O unless asked for), or loaded
     /// from and saved into a directory ([`Engine::persist_pipeline_cache`] saves it).
     pub pipeline_cache: PipelineCacheConfig,
+    /// Which intensity range maps to I_norm 0..1 (robust percentiles or the paper's min/max).
+    pub normalize: crate::analysis::NormalizeMode,
+    /// Histogram analysis parameters (peaks, tissue assignment, windows).
+    pub analysis: crate::analysis::AnalysisParams,
 }
 
 impl Default for EngineConfig {
@@ -74,6 +78,8 @@ impl Default for EngineConfig {
             memory_budget: None,
             force_bricking: false,
             pipeline_cache: PipelineCacheConfig::InMemory,
+            normalize: crate::analysis::NormalizeMode::default(),
+            analysis: crate::analysis::AnalysisParams::default(),
         }
     }
 }

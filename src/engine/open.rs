@@ -16,7 +16,7 @@ use super::Engine;
 use super::bricked::HostPrepared;
 use super::prepare::{PrepareTimings, PreparedVolume};
 use super::twin::Twin;
-use crate::analysis::{TissueReport, analyze};
+use crate::analysis::{TissueReport, analyze, analyze_with};
 use crate::gpu::GpuError;
 use crate::scene::Scene;
 use crate::scene::plan::{DoesNotFit, Layout, Plan, STORAGE_BRICK, STORAGE_HALO};
@@ -101,7 +101,7 @@ impl Engine {
                 let prepared = self.prepare(volume)?;
                 timings.prepare = prepared.timings.clone();
                 let before_peaks = Instant::now();
-                let report = report_of(&prepared);
+                let report = self.analyze(&prepared);
                 let scene = make_scene(&report);
                 timings.peaks_ms = ms(before_peaks);
                 (prepared, report, scene, plan)
@@ -116,7 +116,7 @@ impl Engine {
                 let before_host = Instant::now();
                 let host = self.prepare_on_host(volume, vk::Format::R16_UNORM)?;
                 let before_peaks = Instant::now();
-                let report = report_of_host(&host);
+                let report = self.analyze_host(&host);
                 let scene = make_scene(&report);
                 timings.peaks_ms = ms(before_peaks);
                 let fraction = host
@@ -166,30 +166,45 @@ fn ms(since: Instant) -> f64 {
     since.elapsed().as_secs_f64() * 1e3
 }
 
-fn report_of(prepared: &PreparedVolume) -> TissueReport {
-    let (imin, imax) = match (prepared.normalization.imin, prepared.normalization.imax) {
-        (Some(lo), Some(hi)) => (lo, hi),
-        _ => (0.0, 0.0),
-    };
-    analyze(
-        &prepared.histogram,
-        imin,
-        imax,
-        prepared.voxel_count as usize,
-        prepared.nonfinite_voxels() as usize,
-    )
-}
+impl Engine {
+    /// The histogram analysis of a prepared volume (peaks, Table-1 row, windows) with the
+    /// engine's analysis parameters.
+    pub fn analyze(&self, prepared: &PreparedVolume) -> TissueReport {
+        self.analyze_histogram(
+            &prepared.histogram,
+            &prepared.normalization,
+            prepared.voxel_count,
+            prepared.nonfinite_voxels(),
+        )
+    }
 
-fn report_of_host(host: &HostPrepared) -> TissueReport {
-    let (imin, imax) = match (host.normalization.imin, host.normalization.imax) {
-        (Some(lo), Some(hi)) => (lo, hi),
-        _ => (0.0, 0.0),
-    };
-    analyze(
-        &host.histogram,
-        imin,
-        imax,
-        host.voxel_count as usize,
-        (host.voxel_count - host.finite_voxels) as usize,
-    )
+    fn analyze_host(&self, host: &HostPrepared) -> TissueReport {
+        self.analyze_histogram(
+            &host.histogram,
+            &host.normalization,
+            host.voxel_count,
+            host.voxel_count - host.finite_voxels,
+        )
+    }
+
+    fn analyze_histogram(
+        &self,
+        histogram: &[u32; crate::passes::histogram::BINS],
+        normalization: &crate::passes::normalize::Normalization,
+        voxel_count: u64,
+        nonfinite_voxels: u64,
+    ) -> TissueReport {
+        let (imin, imax) = match (normalization.imin, normalization.imax) {
+            (Some(lo), Some(hi)) => (lo, hi),
+            _ => (0.0, 0.0),
+        };
+        analyze_with(
+            histogram,
+            imin,
+            imax,
+            voxel_count as usize,
+            nonfinite_voxels as usize,
+            &self.config.analysis,
+        )
+    }
 }
