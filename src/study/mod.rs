@@ -6,5 +6,8 @@
 
 pub mod metrics;
 pub mod pareto;
+pub mod perturb;
+pub mod perturb_run;
+pub mod perturb_score;
 pub mod plot;
 pub mod stability;
