@@ -34,6 +34,8 @@ pub struct Row {
     pub score: Score,
     /// Every significant mode the analysis found, with its role (why a tissue is missing).
     pub modes: Vec<ModeInfo>,
+    /// The 256-bin histogram of I_norm the analysis saw.
+    pub histogram: Vec<u32>,
 }
 
 /// Totals of one mode.
@@ -89,6 +91,7 @@ pub fn run_study(
                 norm_peaks: peaks.map(|p| p.map(|p| p.norm)),
                 score: s,
                 modes: report.modes.clone(),
+                histogram: prepared.histogram.to_vec(),
             });
         }
         let t = Totals::of(&scores);
@@ -184,6 +187,7 @@ mod tests {
                 norm_peaks: [None, Some(0.5), Some(0.6)],
                 score,
                 modes: Vec::new(),
+                histogram: Vec::new(),
             }],
             totals: vec![ModeTotals {
                 mode: NormalizeMode::MinMax,
