@@ -47,6 +47,16 @@ pub struct AnalysisParams {
     /// range), about how well a valley between two modes is located. Capped per report at a
     /// quarter of the narrowest window.
     pub edge_bins: f64,
+    /// Smoothing width (bins) of the histogram whose slope is searched for shoulders, the
+    /// fallback when fewer than two tissue modes are local maxima (see `peaks::find_shoulders`).
+    /// 3 bins: the slope of a 1-bin-smoothed histogram is too noisy to locate a flattening.
+    pub shoulder_sigma_bins: f64,
+    /// A shoulder is a flattening of a flank whose slope falls to at most this fraction of the
+    /// steeper stretches on both sides of it. 0.75: the WM shoulder of the MNI152 template under
+    /// a +-15 % bias field and Rician noise flattens to 0.50, its CSF shoulder to 0.72 (ACCURACY.md,
+    /// "Peaks under scanner perturbations"); a single Gaussian or Rayleigh mode has no flattening
+    /// at all (its slope rises to the inflection point and falls once).
+    pub shoulder_max_slope_ratio: f64,
 }
 
 impl Default for AnalysisParams {
@@ -63,6 +73,8 @@ impl Default for AnalysisParams {
             gm_min_ratio: 0.5,
             wm_upper_sigmas: 3.0,
             edge_bins: 2.0,
+            shoulder_sigma_bins: 3.0,
+            shoulder_max_slope_ratio: 0.75,
         }
     }
 }

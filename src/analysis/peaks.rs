@@ -17,6 +17,13 @@
 //!   `min_relative_prominence` of the height. The first rejects noise wiggles whatever the voxel
 //!   count, the second rejects bumps that are statistically real but negligible (partial-volume
 //!   ripples on a large mode).
+//! - Shoulders ([`find_shoulders`]) are the fallback for a tissue that is not a local maximum
+//!   (GM and WM merged by a bias field, CSF on GM's rising flank): a flank of the histogram
+//!   whose slope flattens to at most `shoulder_max_slope_ratio` of its steeper stretches on both
+//!   sides, the dip being `noise_z` standard deviations of the slope's Poisson noise. They are
+//!   searched on a wider smoothing (`shoulder_sigma_bins`), because a slope is noisier than a
+//!   count, and reported as modes at the flattest bin with prominence 0 (a shoulder has no
+//!   topographic prominence), so a real mode always wins over one in the assignment.
 
 use super::params::AnalysisParams;
 use crate::reference::BINS;
@@ -123,6 +130,56 @@ pub fn is_significant(mode: &Mode, noise_factor: f64, params: &AnalysisParams) -
         && mode.prominence >= params.min_relative_prominence * mode.height
 }
 
+/// Shoulders of `wide` (the histogram smoothed with `shoulder_sigma_bins`) at bins above
+/// `from` (see the module doc), ascending; `heights` gives each one's height (the analysis'
+/// own smoothing), `slope_noise` is [`super::smoothing::slope_noise_factor`] of `wide`'s width.
+pub fn find_shoulders(
+    wide: &[f64; BINS],
+    heights: &[f64; BINS],
+    from: usize,
+    slope_noise: f64,
+    params: &AnalysisParams,
+) -> Vec<Mode> {
+    let mut d = [0.0; BINS];
+    for b in 1..BINS - 1 {
+        d[b] = 0.5 * (wide[b + 1] - wide[b - 1]);
+    }
+    let lo = from.max(1);
+    let mut out = Vec::new();
+    for b in lo + 1..BINS - 2 {
+        let (l, c, r) = (d[b - 1], d[b], d[b + 1]);
+        // The slope is least steep here (a local extremum of d of the flank's own sign).
+        let sign = if c > 0.0 && c <= l && c < r {
+            1.0
+        } else if c < 0.0 && c >= l && c > r {
+            -1.0
+        } else {
+            continue;
+        };
+        let steepest = |bins: &mut dyn Iterator<Item = usize>| {
+            bins.take_while(|&i| sign * d[i] > 0.0)
+                .map(|i| sign * d[i])
+                .fold(0.0, f64::max)
+        };
+        let steeper = steepest(&mut (lo..b).rev()).min(steepest(&mut (b + 1..BINS - 1)));
+        let flat = sign * c;
+        // The dip is a difference of two noisy slopes: sqrt(2) of one's deviation.
+        let noise = (2.0 * slope_noise * wide[b].max(1.0)).sqrt();
+        if flat <= params.shoulder_max_slope_ratio * steeper
+            && steeper - flat >= params.noise_z * noise
+        {
+            out.push(Mode {
+                first: b,
+                last: b,
+                position: b as f64 + 0.5,
+                height: heights[b],
+                prominence: 0.0,
+            });
+        }
+    }
+    out
+}
+
 /// Location (bins) of the lowest point strictly between bins `after` and `before`: the centre of
 /// the span of equal minima, or a parabola-refined single minimum. `None` when no bin lies
 /// between them.
@@ -227,6 +284,29 @@ mod tests {
         // Relative: 40 counts on 1e6 is many sigma of noise but only 0.004 % of the height.
         assert!(!is_significant(&mode(1e9, 4e4), 1e-9, &p));
         assert!(!is_significant(&mode(5.0, 0.0), 0.28, &p));
+    }
+
+    #[test]
+    fn a_flattening_flank_is_a_shoulder_and_a_single_bell_has_none() {
+        let p = AnalysisParams::default();
+        let bell = |x: f64, mu: f64, sd: f64| (-0.5 * ((x - mu) / sd).powi(2)).exp();
+        let mut merged = [0.0; BINS];
+        let mut single = [0.0; BINS];
+        for (b, (m, s)) in merged.iter_mut().zip(single.iter_mut()).enumerate() {
+            let x = b as f64 + 0.5;
+            *m = 1e5 * bell(x, 150.0, 12.0) + 0.5e5 * bell(x, 178.0, 10.0);
+            *s = 1e5 * bell(x, 150.0, 15.0);
+        }
+        let found = find_shoulders(&merged, &merged, 0, 0.005, &p);
+        assert_eq!(found.len(), 1, "{found:?}");
+        assert!((165.0..178.0).contains(&found[0].position), "{found:?}");
+        assert_eq!(found[0].prominence, 0.0);
+        assert!(
+            find_modes(&merged).len() == 1,
+            "merged into one local maximum"
+        );
+        assert!(find_shoulders(&single, &single, 0, 0.005, &p).is_empty());
+        assert!(find_shoulders(&[0.0; BINS], &[0.0; BINS], 0, 0.005, &p).is_empty());
     }
 
     #[test]
