@@ -32,7 +32,7 @@ pub mod table1;
 pub mod windows;
 
 pub use params::AnalysisParams;
-pub use range::NormalizeMode;
+pub use range::{NormalizeMode, RangeChoice, RobustRange};
 pub use table1::{
     InPaperWindow, ModeInfo, ModeRole, Peak, Peaks, SpikeInfo, Table1Row, TissueReport,
 };
@@ -155,5 +155,6 @@ pub fn analyze_with(
         spikes: spike_info,
         smoothing_sigma_bins: sigma,
         params: *params,
+        range: RangeChoice::default(),
     }
 }
