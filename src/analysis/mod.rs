@@ -34,7 +34,7 @@ pub mod table1;
 pub mod windows;
 
 pub use params::AnalysisParams;
-pub use range::NormalizeMode;
+pub use range::{NormalizeMode, RangeChoice, RobustRange};
 pub use table1::{
     InPaperWindow, ModeInfo, ModeRole, Peak, Peaks, SpikeInfo, Table1Row, TissueReport,
 };
@@ -194,6 +194,7 @@ pub fn analyze_with(
         spikes: spike_info,
         smoothing_sigma_bins: sigma,
         params: *params,
+        range: RangeChoice::default(),
     }
 }
 

@@ -12,6 +12,7 @@
 //!   see why a tissue is missing.
 
 use super::params::AnalysisParams;
+use super::range::RangeChoice;
 use super::windows::TissueWindows;
 
 /// A tissue mode's location.
@@ -133,6 +134,9 @@ pub struct TissueReport {
     pub smoothing_sigma_bins: f64,
     /// Parameters used.
     pub params: AnalysisParams,
+    /// How `imin..imax` was chosen: the mode, eq. 1's data min/max, the robust range (filled in
+    /// by the engine, which knows the data; the default says min/max with no data).
+    pub range: RangeChoice,
 }
 
 /// One row of the paper's Table 1, flat (one column per field, for CSV or JSON lines).
@@ -144,11 +148,23 @@ pub struct Table1Row {
     pub used_voxels: u64,
     /// NaN or infinite voxels.
     pub nonfinite_voxels: usize,
-    /// Physical minimum.
-    pub imin: f64,
-    /// Physical maximum.
-    pub imax: f64,
-    /// CSF peak in `I_norm`.
+    /// Eq. 1's Imin: the smallest finite physical intensity (the paper's column).
+    pub imin: Option<f64>,
+    /// Eq. 1's Imax: the largest finite physical intensity (the paper's column).
+    pub imax: Option<f64>,
+    /// `robust` or `minmax`: how the range mapped to `I_norm` 0..1 was chosen.
+    pub normalize: &'static str,
+    /// Physical intensity mapped to `I_norm = 0` (the robust range's low end, or Imin).
+    pub range_lo: f64,
+    /// Physical intensity mapped to `I_norm = 1` (the robust range's high end, or Imax).
+    pub range_hi: f64,
+    /// CSF peak in eq. 1's `I_norm` (the paper's column).
+    pub csf_norm_eq1: Option<f64>,
+    /// GM peak in eq. 1's `I_norm`.
+    pub gm_norm_eq1: Option<f64>,
+    /// WM peak in eq. 1's `I_norm`.
+    pub wm_norm_eq1: Option<f64>,
+    /// CSF peak in the rendered `I_norm` (`range_lo..range_hi`, what the windows are in).
     pub csf_norm: Option<f64>,
     /// GM peak in `I_norm`.
     pub gm_norm: Option<f64>,
@@ -165,6 +181,15 @@ pub struct Table1Row {
 }
 
 impl TissueReport {
+    /// A peak in eq. 1's `I_norm` (`(raw - Imin) / (Imax - Imin)` over the data's finite range),
+    /// what the paper's Table 1 and fixed windows are in. None without the peak or the range.
+    pub fn eq1_norm(&self, peak: Option<Peak>) -> Option<f64> {
+        let (lo, hi) = (self.range.data_min?, self.range.data_max?);
+        let half = crate::reference::normalize::half_difference(hi, lo);
+        let x = crate::reference::normalize::half_difference(peak?.raw, lo) / half;
+        x.is_finite().then_some(x)
+    }
+
     /// The flat Table-1 row.
     pub fn table1(&self) -> Table1Row {
         let p = &self.peaks;
@@ -172,8 +197,14 @@ impl TissueReport {
             total_voxels: self.total_voxels,
             used_voxels: self.used_voxels,
             nonfinite_voxels: self.nonfinite_voxels,
-            imin: self.imin,
-            imax: self.imax,
+            imin: self.range.data_min,
+            imax: self.range.data_max,
+            normalize: self.range.mode.name(),
+            range_lo: self.imin,
+            range_hi: self.imax,
+            csf_norm_eq1: self.eq1_norm(p.csf),
+            gm_norm_eq1: self.eq1_norm(p.gm),
+            wm_norm_eq1: self.eq1_norm(p.wm),
             csf_norm: p.csf.map(|x| x.norm),
             gm_norm: p.gm.map(|x| x.norm),
             wm_norm: p.wm.map(|x| x.norm),

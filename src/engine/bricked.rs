@@ -43,6 +43,8 @@ pub struct HostPrepared {
     pub stored_range: Option<(f64, f64)>,
     /// Physical range (and the GPU normalization's parameters, for reports).
     pub normalization: Normalization,
+    /// How the range was chosen (mode, data min/max, robust range).
+    pub range: crate::analysis::RangeChoice,
     /// 256-bin histogram of the quantized I_norm over finite voxels.
     pub histogram: [u32; BINS],
     /// Voxels in the volume.
@@ -136,7 +138,9 @@ impl Engine {
             ));
         }
         let stored_range = reference::minmax::finite_min_max(&volume.samples);
-        let normalization = normalize::plan(dims, stored_range, volume.to_physical);
+        let minmax = normalize::plan(dims, stored_range, volume.to_physical);
+        let (normalization, range) =
+            super::robust::host_normalization(volume, minmax, self.config.normalize);
         let (imin, imax) = (
             normalization.imin.unwrap_or(0.0),
             normalization.imax.unwrap_or(0.0),
@@ -185,6 +189,7 @@ impl Engine {
             kind: volume.samples.kind(),
             stored_range,
             normalization,
+            range,
             histogram,
             voxel_count: n as u64,
             finite_voxels,
@@ -386,6 +391,7 @@ impl Engine {
             layout,
             stored_range: host.stored_range,
             normalization: host.normalization,
+            range: host.range,
             histogram: host.histogram,
             voxel_count: host.voxel_count,
             finite_voxels: host.finite_voxels,

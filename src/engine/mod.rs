@@ -22,6 +22,7 @@ mod prepare;
 mod probe;
 pub mod readback;
 mod render;
+mod robust;
 mod twin;
 pub mod upload;
 
@@ -39,6 +40,7 @@ use crate::gpu::{
     PersistOutcome, PipelineCache, PipelineCacheConfig, Recording, Sampler,
 };
 use crate::passes::derivatives::{DerivativeOutputs, DerivativePass};
+use crate::passes::fine_histogram::FineHistogramPass;
 use crate::passes::histogram::HistogramPass;
 use crate::passes::minmax::MinMaxPass;
 use crate::passes::normalize::NormalizePass;
@@ -89,6 +91,7 @@ pub(crate) struct KindPasses {
     minmax: MinMaxPass,
     normalize: NormalizePass,
     histogram: HistogramPass,
+    fine_histogram: FineHistogramPass,
 }
 
 /// 1-texel stand-ins bound where a shader variant declares an input it does not read.

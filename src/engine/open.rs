@@ -173,6 +173,7 @@ impl Engine {
         self.analyze_histogram(
             &prepared.histogram,
             &prepared.normalization,
+            prepared.range,
             prepared.voxel_count,
             prepared.nonfinite_voxels(),
         )
@@ -182,6 +183,7 @@ impl Engine {
         self.analyze_histogram(
             &host.histogram,
             &host.normalization,
+            host.range,
             host.voxel_count,
             host.voxel_count - host.finite_voxels,
         )
@@ -191,6 +193,7 @@ impl Engine {
         &self,
         histogram: &[u32; crate::passes::histogram::BINS],
         normalization: &crate::passes::normalize::Normalization,
+        range: crate::analysis::RangeChoice,
         voxel_count: u64,
         nonfinite_voxels: u64,
     ) -> TissueReport {
@@ -198,13 +201,15 @@ impl Engine {
             (Some(lo), Some(hi)) => (lo, hi),
             _ => (0.0, 0.0),
         };
-        analyze_with(
+        let mut report = analyze_with(
             histogram,
             imin,
             imax,
             voxel_count as usize,
             nonfinite_voxels as usize,
             &self.config.analysis,
-        )
+        );
+        report.range = range;
+        report
     }
 }

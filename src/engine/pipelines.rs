@@ -27,6 +27,7 @@
 use super::{Engine, KindPasses};
 use crate::gpu::{Device, GpuError, GpuResult, PipelineCache};
 use crate::passes::derivatives::{DerivativeOutputs, DerivativePass};
+use crate::passes::fine_histogram::FineHistogramPass;
 use crate::passes::histogram::HistogramPass;
 use crate::passes::minmax::MinMaxPass;
 use crate::passes::normalize::NormalizePass;
@@ -102,24 +103,28 @@ fn build(
             minmax: MinMaxPass::new(device, kind, raw)?,
             normalize: NormalizePass::new(device, kind, raw)?,
             histogram: HistogramPass::new(device, kind, raw)?,
+            fine_histogram: FineHistogramPass::new(device, kind, raw)?,
         }),
         PipelineKey::Kind(kind) => {
-            // Three compiles, three threads (each joined before returning).
-            let (minmax, normalize, histogram) = std::thread::scope(|scope| {
+            // Four compiles, four threads (each joined before returning).
+            let (minmax, normalize, histogram, fine_histogram) = std::thread::scope(|scope| {
                 let minmax = scope.spawn(|| MinMaxPass::new(device, kind, raw));
                 let normalize = scope.spawn(|| NormalizePass::new(device, kind, raw));
+                let fine = scope.spawn(|| FineHistogramPass::new(device, kind, raw));
                 let histogram = HistogramPass::new(device, kind, raw);
                 let stopped = || GpuError::InvalidRequest("a pipeline thread stopped".into());
                 (
                     minmax.join().map_err(|_| stopped()).and_then(|r| r),
                     normalize.join().map_err(|_| stopped()).and_then(|r| r),
                     histogram,
+                    fine.join().map_err(|_| stopped()).and_then(|r| r),
                 )
             });
             Built::Kind(KindPasses {
                 minmax: minmax?,
                 normalize: normalize?,
                 histogram: histogram?,
+                fine_histogram: fine_histogram?,
             })
         }
         PipelineKey::Derivative(outputs) => {

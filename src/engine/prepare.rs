@@ -26,6 +26,8 @@ pub struct PrepareTimings {
     pub upload_ms: f64,
     /// Recording, submitting and waiting for the min/max submission, and reading its result.
     pub minmax_ms: f64,
+    /// The robust range's fine-histogram passes (0 in min/max mode).
+    pub range_ms: f64,
     /// Allocating I_norm, recording, submitting and waiting for the normalization.
     pub normalize_ms: f64,
     /// Waiting for the histogram (submitted right behind the normalization) and reading its bins.
@@ -50,6 +52,8 @@ pub struct PreparedVolume {
     pub stored_range: Option<(f64, f64)>,
     /// Physical range and shader parameters.
     pub normalization: Normalization,
+    /// How the range was chosen (mode, data min/max, robust range).
+    pub range: crate::analysis::RangeChoice,
     /// 256-bin histogram of I_norm over finite voxels.
     pub histogram: [u32; BINS],
     /// Voxels in the volume.
@@ -195,8 +199,13 @@ impl Engine {
         let min_key = u32::from_le_bytes([words[0], words[1], words[2], words[3]]);
         let max_key = u32::from_le_bytes([words[4], words[5], words[6], words[7]]);
         let stored_range = decode_result(min_key, max_key);
-        let normalization = normalize::plan(dims, stored_range, volume.to_physical);
+        let minmax_plan = normalize::plan(dims, stored_range, volume.to_physical);
         let minmax_ms = ms(before_minmax);
+        let before_range = Instant::now();
+        let (normalization, range) =
+            self.choose_normalization(volume, &samples, minmax_plan, &mut gpu_timings)?;
+        let range_ms = ms(before_range);
+        let passes = self.kind_passes(kind)?;
 
         // Submissions 2 and 3: normalize, then histogram of what was written. Two submissions,
         // so the host sees when each pass ends (their walls are measured separately). The
@@ -256,6 +265,7 @@ impl Engine {
             layout: VolumeLayout::Whole,
             stored_range,
             normalization,
+            range,
             histogram,
             voxel_count,
             finite_voxels,
@@ -268,6 +278,7 @@ impl Engine {
                 upload_write_ms,
                 upload_ms,
                 minmax_ms,
+                range_ms,
                 normalize_ms,
                 histogram_ms,
                 wall_ms: ms(start),

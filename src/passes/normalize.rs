@@ -101,6 +101,57 @@ pub fn plan(
     }
 }
 
+/// Computes the normalization in f64 for a physical range `[lo, hi]` inside the data (the
+/// robust range): values outside it are clamped by the shader. The pre-scale comes from the
+/// range's own stored ends, so samples far outside (hot voxels) may scale past f32's range:
+/// they become +-inf there, and the clamp still sends them to 1 or 0. `lo`'s pre-scaled stored
+/// value is rounded to f32 for the shader, and the reported `imin` is the physical value of
+/// that rounding, so the mapping the shader applies is exactly the one reported.
+pub fn plan_physical(dims: [u32; 3], lo: f64, hi: f64, to_physical: LinearMap) -> Normalization {
+    let slope = to_physical.slope;
+    let constant = Normalization {
+        imin: Some(lo),
+        imax: Some(hi),
+        constant: true,
+        params: NormalizeParams {
+            dims,
+            pre_exponent: 0,
+            offset: 0.0,
+            scale: 0.0,
+        },
+    };
+    if !(hi > lo && lo.is_finite() && hi.is_finite() && slope != 0.0 && slope.is_finite()) {
+        return constant;
+    }
+    let stored = |phys: f64| (phys - to_physical.intercept) / slope;
+    let (s_lo, s_hi) = (stored(lo), stored(hi));
+    let largest = s_lo.abs().max(s_hi.abs());
+    let e = if largest > 0.0 && largest.is_finite() {
+        -(largest.log2().floor() as i32 + 1)
+    } else {
+        0
+    }
+    .clamp(-149, 149);
+    let offset = (s_lo * 2f64.powi(e)) as f32;
+    let lo_effective = to_physical.apply(offset as f64 * 2f64.powi(-e));
+    let half_range = crate::reference::normalize::half_difference(hi, lo_effective);
+    if !(half_range > 0.0 && half_range.is_finite()) {
+        return constant;
+    }
+    let scale = (slope / half_range) * 2f64.powi(-e - 1);
+    Normalization {
+        imin: Some(lo_effective),
+        imax: Some(hi),
+        constant: false,
+        params: NormalizeParams {
+            dims,
+            pre_exponent: e,
+            offset,
+            scale: scale as f32,
+        },
+    }
+}
+
 /// The normalization pass for one sample kind.
 pub struct NormalizePass {
     pipeline: Arc<ComputePipeline>,
@@ -235,5 +286,29 @@ mod tests {
         assert!(apply(&n.params, lo).abs() < 1e-6);
         assert!((apply(&n.params, hi) - 1.0).abs() < 1e-5);
         assert!((apply(&n.params, 0.0) - 0.5).abs() < 1e-5);
+    }
+
+    #[test]
+    fn a_physical_range_inside_the_data_maps_to_the_unit_interval_and_clamps_outside() {
+        let map = LinearMap {
+            slope: 0.5,
+            intercept: -100.0,
+        };
+        // Physical 0..400 = stored 200..1000; a hot voxel at stored 40 000.
+        let n = plan_physical([1, 1, 1], 0.0, 400.0, map);
+        assert!(!n.constant);
+        assert!(apply(&n.params, 200.0).abs() < 1e-6);
+        assert!((apply(&n.params, 600.0) - 0.5).abs() < 1e-6);
+        assert_eq!(apply(&n.params, 40_000.0), 1.0);
+        assert_eq!(apply(&n.params, -5.0), 0.0);
+        let flipped = LinearMap {
+            slope: -0.5,
+            intercept: 0.0,
+        };
+        let n = plan_physical([1, 1, 1], -400.0, 0.0, flipped);
+        assert!(apply(&n.params, 800.0).abs() < 1e-6, "physical -400 -> 0");
+        assert!((apply(&n.params, 0.0) - 1.0).abs() < 1e-6);
+        assert!(plan_physical([1, 1, 1], 5.0, 5.0, map).constant);
+        assert!(plan_physical([1, 1, 1], 0.0, f64::INFINITY, map).constant);
     }
 }
