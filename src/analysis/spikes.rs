@@ -10,6 +10,19 @@
 //! - Spikes are taken out before smoothing (replaced by the mean of their immediate neighbours),
 //!   because a Gaussian would smear a 6.8 M-voxel spike over the 2 k-voxel tissue bins next to
 //!   it. Spikes below the darkest tissue mode are background; others are only listed.
+//! - Quantization outliers ([`find_quantization_outliers`]): single bins far below (or above)
+//!   BOTH neighbours, by more than `quantization_z` Poisson deviations of the nearer one. A
+//!   tissue density is smooth over many bins, so such a bin is an artefact of binning integer
+//!   (or few-valued) data whose value step does not divide the bin width: u8 data over a robust
+//!   range of 234 values leaves every 11th bin empty, a mean of three u8 slices (values in thirds)
+//!   puts 2 instead of 3 values in every 5th bin. Each such bin becomes a deep, "significant"
+//!   dip that splits a tissue mode in two; it is replaced by the mean of its neighbours, like a
+//!   spike. Only as a pattern (5 or more such bins: a single one is a real sharp valley) and
+//!   only for dense histograms (quantization gap 1): a comb of gap 2 or more is the
+//!   smoothing's job (`smoothing`), and its empty bins are not outliers.
+//! - The top bin holds every voxel at or above the range's top when the range is robust (the
+//!   clamped bright tail: 0.5 % of the foreground, piled into one bin), so it is capped at its
+//!   neighbour's count ([`cap_top_bin`]): a pile-up there is not a mode.
 
 use crate::reference::BINS;
 
@@ -51,6 +64,48 @@ pub fn remove_spikes(hist: &[f64; BINS], spikes: &[usize]) -> [f64; BINS] {
     out
 }
 
+/// A quantization dip is also below this fraction of its lower neighbour: a bin holding n
+/// instead of n + 1 stored values has at most 2/3 of its neighbours' counts (n = 2; 0 when an
+/// empty bin falls between two values), while the top of a large real mode stands out by many
+/// Poisson deviations but only a few percent.
+const QUANTIZATION_DIP: f64 = 0.85;
+
+/// ... and a quantization bump above this multiple of its higher neighbour (3 values among
+/// bins of 2: 1.5); a real Gaussian mode's top reaches 1.3 only below a width of 1.4 bins.
+const QUANTIZATION_BUMP: f64 = 1.3;
+
+/// Fewer outliers than this are not a binning pattern (see [`find_quantization_outliers`]).
+const QUANTIZATION_PATTERN: usize = 5;
+
+/// Interior bins (1..=254) that lie more than `z` Poisson deviations and 15 % below the lower,
+/// or `z` deviations and 30 % above the higher of their two neighbours (see the module doc),
+/// ascending; none unless there are at least 5 of them.
+pub fn find_quantization_outliers(hist: &[f64; BINS], z: f64) -> Vec<usize> {
+    let found: Vec<usize> = (1..BINS - 1)
+        .filter(|&b| {
+            let (l, c, r) = (hist[b - 1], hist[b], hist[b + 1]);
+            let (low, high) = (l.min(r), l.max(r));
+            let dip = c < low - z * low.sqrt() && c < QUANTIZATION_DIP * low;
+            let bump = c > high + z * high.max(1.0).sqrt() && c > QUANTIZATION_BUMP * high;
+            dip || bump
+        })
+        .collect();
+    // Binning artefacts repeat along the whole range; one or a few such bins are real sharp
+    // valleys (two steep modes meeting, as between air noise and a dark shell) and stay.
+    if found.len() >= QUANTIZATION_PATTERN {
+        found
+    } else {
+        Vec::new()
+    }
+}
+
+/// A copy of `hist` whose top bin holds at most its neighbour's count.
+pub fn cap_top_bin(hist: &[f64; BINS]) -> [f64; BINS] {
+    let mut out = *hist;
+    out[BINS - 1] = out[BINS - 1].min(out[BINS - 2]);
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -68,6 +123,50 @@ mod tests {
         let mut m = [10.0; BINS];
         m[50] = 1e6;
         assert_eq!(remove_spikes(&m, &find_spikes(&m, 1, 0.02, 5.0))[50], 10.0);
+    }
+
+    #[test]
+    fn quantization_dips_are_outliers_but_poisson_wiggles_are_not() {
+        // A u8 histogram over 234 values: every 11th bin empty.
+        let mut h = [0.0; BINS];
+        for (b, v) in h.iter_mut().enumerate().skip(30) {
+            *v = if b % 11 == 0 {
+                0.0
+            } else {
+                1000.0 + 10.0 * b as f64
+            };
+        }
+        let found = find_quantization_outliers(&h, 6.0);
+        assert_eq!(found, (33..255).step_by(11).collect::<Vec<_>>());
+        let filled = remove_spikes(&h, &found);
+        assert!((filled[44] - 1440.0).abs() < 1e-9, "{}", filled[44]);
+        // Every 5th bin holding 2 instead of 3 values: 2/3 of its neighbours.
+        let mut thirds = [6000.0; BINS];
+        for b in (3..250).step_by(5) {
+            thirds[b] = 4000.0;
+        }
+        assert_eq!(find_quantization_outliers(&thirds, 6.0).len(), 50);
+        // The top of a narrow real mode (sigma 2 bins, 1e5 voxels) is many deviations but only
+        // 13 % above its neighbours: not an outlier.
+        let mut narrow = [0.0; BINS];
+        for (b, v) in narrow.iter_mut().enumerate() {
+            *v = 1e5 * (-0.5 * ((b as f64 - 100.0) / 2.0).powi(2)).exp();
+        }
+        assert!(find_quantization_outliers(&narrow, 6.0).is_empty());
+        // A single sharp valley between two steep modes is real: not a pattern, left alone.
+        let mut valley = [0.0; BINS];
+        valley[10..15].copy_from_slice(&[2000.0, 1217.0, 950.0, 1428.0, 3000.0]);
+        assert!(find_quantization_outliers(&valley, 6.0).is_empty());
+        // Poisson-sized wiggles (2 deviations) and the start of the support are left alone.
+        let mut wiggle = [0.0; BINS];
+        for (b, v) in wiggle.iter_mut().enumerate().skip(30) {
+            *v = 10_000.0 + if b % 2 == 0 { 200.0 } else { -200.0 };
+        }
+        assert!(find_quantization_outliers(&wiggle, 6.0).is_empty());
+        // A bright tail clamped into the top bin is capped at its neighbour.
+        let mut top = [100.0; BINS];
+        top[255] = 5000.0;
+        assert_eq!(cap_top_bin(&top)[255], 100.0);
     }
 
     #[test]
