@@ -7,6 +7,7 @@
 pub mod metrics;
 pub mod pareto;
 pub mod perturb;
+pub mod perturb_geometry;
 pub mod perturb_run;
 pub mod perturb_score;
 pub mod plot;
