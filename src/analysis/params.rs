@@ -62,6 +62,17 @@ pub struct AnalysisParams {
     /// dense Poisson histogram of 256 bins has such a bin about once in 10^5 histograms, while
     /// the artefacts it removes are 8-100 deviations deep on the MNI152 template.
     pub quantization_z: f64,
+    /// When GM and WM are found but CSF is not a mode, CSF is the flattest flattening of the
+    /// flank below GM within the CSF ratio band whose slope falls to at most this fraction of
+    /// its steeper stretches (0.9) ...
+    pub faint_csf_max_slope_ratio: f64,
+    /// ... by at least this many Poisson deviations of the slope (2) ...
+    pub faint_csf_noise_z: f64,
+    /// ... at a height of at least this fraction of GM's (3 %). On the MNI152 template under a
+    /// +-15 % bias field and Rician noise the CSF flattening has a slope ratio of 0.69-0.83 and
+    /// 2.4-4.7 deviations over four noise seeds (ACCURACY.md), too faint for the general
+    /// shoulder test; with GM and WM already placed, only this band is searched.
+    pub faint_csf_min_height: f64,
 }
 
 impl Default for AnalysisParams {
@@ -81,6 +92,9 @@ impl Default for AnalysisParams {
             shoulder_sigma_bins: 3.0,
             shoulder_max_slope_ratio: 0.75,
             quantization_z: 6.0,
+            faint_csf_max_slope_ratio: 0.9,
+            faint_csf_noise_z: 2.0,
+            faint_csf_min_height: 0.03,
         }
     }
 }

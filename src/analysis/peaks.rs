@@ -130,6 +130,24 @@ pub fn is_significant(mode: &Mode, noise_factor: f64, params: &AnalysisParams) -
         && mode.prominence >= params.min_relative_prominence * mode.height
 }
 
+/// How flat and how significant a flattening must be to be a shoulder.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShoulderTest {
+    /// Largest slope at the flattening, as a fraction of the steeper stretches on both sides.
+    pub max_slope_ratio: f64,
+    /// Smallest dip (steeper stretch minus flattening), in Poisson deviations of the slope.
+    pub noise_z: f64,
+}
+
+/// A shoulder: the mode it is reported as, and how flat it is.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Shoulder {
+    /// At the flattest bin, prominence 0.
+    pub mode: Mode,
+    /// Its slope as a fraction of the steeper stretches on both sides (smaller = clearer).
+    pub slope_ratio: f64,
+}
+
 /// Shoulders of `wide` (the histogram smoothed with `shoulder_sigma_bins`) at bins above
 /// `from` (see the module doc), ascending; `heights` gives each one's height (the analysis'
 /// own smoothing), `slope_noise` is [`super::smoothing::slope_noise_factor`] of `wide`'s width.
@@ -138,8 +156,8 @@ pub fn find_shoulders(
     heights: &[f64; BINS],
     from: usize,
     slope_noise: f64,
-    params: &AnalysisParams,
-) -> Vec<Mode> {
+    test: ShoulderTest,
+) -> Vec<Shoulder> {
     let mut d = [0.0; BINS];
     for b in 1..BINS - 1 {
         d[b] = 0.5 * (wide[b + 1] - wide[b - 1]);
@@ -165,15 +183,16 @@ pub fn find_shoulders(
         let flat = sign * c;
         // The dip is a difference of two noisy slopes: sqrt(2) of one's deviation.
         let noise = (2.0 * slope_noise * wide[b].max(1.0)).sqrt();
-        if flat <= params.shoulder_max_slope_ratio * steeper
-            && steeper - flat >= params.noise_z * noise
-        {
-            out.push(Mode {
-                first: b,
-                last: b,
-                position: b as f64 + 0.5,
-                height: heights[b],
-                prominence: 0.0,
+        if flat <= test.max_slope_ratio * steeper && steeper - flat >= test.noise_z * noise {
+            out.push(Shoulder {
+                mode: Mode {
+                    first: b,
+                    last: b,
+                    position: b as f64 + 0.5,
+                    height: heights[b],
+                    prominence: 0.0,
+                },
+                slope_ratio: flat / steeper,
             });
         }
     }
@@ -297,16 +316,24 @@ mod tests {
             *m = 1e5 * bell(x, 150.0, 12.0) + 0.5e5 * bell(x, 178.0, 10.0);
             *s = 1e5 * bell(x, 150.0, 15.0);
         }
-        let found = find_shoulders(&merged, &merged, 0, 0.005, &p);
+        let test = ShoulderTest {
+            max_slope_ratio: p.shoulder_max_slope_ratio,
+            noise_z: p.noise_z,
+        };
+        let found = find_shoulders(&merged, &merged, 0, 0.005, test);
         assert_eq!(found.len(), 1, "{found:?}");
-        assert!((165.0..178.0).contains(&found[0].position), "{found:?}");
-        assert_eq!(found[0].prominence, 0.0);
+        assert!(
+            (165.0..178.0).contains(&found[0].mode.position),
+            "{found:?}"
+        );
+        assert_eq!(found[0].mode.prominence, 0.0);
+        assert!(found[0].slope_ratio < 0.2, "{found:?}");
         assert!(
             find_modes(&merged).len() == 1,
             "merged into one local maximum"
         );
-        assert!(find_shoulders(&single, &single, 0, 0.005, &p).is_empty());
-        assert!(find_shoulders(&[0.0; BINS], &[0.0; BINS], 0, 0.005, &p).is_empty());
+        assert!(find_shoulders(&single, &single, 0, 0.005, test).is_empty());
+        assert!(find_shoulders(&[0.0; BINS], &[0.0; BINS], 0, 0.005, test).is_empty());
     }
 
     #[test]
