@@ -65,8 +65,9 @@ pub struct Cli {
     /// Which intensity range becomes I_norm 0..1 (the scale the tissue windows are in):
     /// `robust` = from percentiles of the finite voxels, so a few hot voxels (fat, vessels,
     /// spikes) cannot squeeze every tissue into the darkest bins; values outside are clamped.
-    /// `minmax` = the paper's eq. 1, the finite minimum and maximum (paper-literal preset).
-    #[arg(long, global = true, value_enum, default_value_t = NormalizeArg::Minmax)]
+    /// `minmax` = the paper's eq. 1, the finite minimum and maximum (paper-literal preset;
+    /// `morphray peaks` reports both).
+    #[arg(long, global = true, value_enum, default_value_t = NormalizeArg::Robust)]
     pub normalize: NormalizeArg,
 
     /// What to do.

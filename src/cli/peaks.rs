@@ -18,6 +18,12 @@ struct PeaksReport<'a> {
     nonfinite_voxels: usize,
     imin: Option<f64>,
     imax: Option<f64>,
+    /// How the range mapped to I_norm 0..1 was chosen, and eq. 1's data range.
+    normalization: crate::analysis::RangeChoice,
+    /// The physical range mapped to I_norm 0..1 (the robust range, or imin..imax).
+    range: Option<[f64; 2]>,
+    /// The paper's Table-1 row: eq. 1's Imin/Imax and its I_norm peaks next to the rendered ones.
+    table1: crate::analysis::Table1Row,
     background_threshold: f64,
     peaks: BTreeMap<&'static str, Option<Peak>>,
     paper_windows: &'a TissueWindows,
@@ -27,6 +33,31 @@ struct PeaksReport<'a> {
     timings_ms: BTreeMap<String, f64>,
     /// The loader's repairs and warnings about the input.
     warnings: &'a [String],
+}
+
+/// One line saying which range became I_norm 0..1 and why.
+fn normalization_line(r: &crate::analysis::TissueReport) -> String {
+    match (r.range.mode, r.range.robust) {
+        (_, _) if r.finite_voxels == 0 => "I_norm: no finite voxel".into(),
+        (crate::analysis::NormalizeMode::MinMax, _) => {
+            "I_norm: eq. 1 (min/max; --normalize minmax, the paper-literal preset)".into()
+        }
+        (_, Some(robust)) if robust.fell_back => format!(
+            "I_norm: eq. 1 (min/max): the robust percentiles give no range here (the foreground \
+             is one value); background threshold {:.6}",
+            robust.background
+        ),
+        (_, Some(robust)) => format!(
+            "I_norm: robust range {} .. {} (P{} of the finite voxels .. P{} of the voxels above \
+             the background threshold {:.6}; values outside clamped)",
+            r.imin,
+            r.imax,
+            crate::analysis::range::LOW_PERCENTILE,
+            crate::analysis::range::HIGH_PERCENTILE,
+            robust.background
+        ),
+        (_, None) => "I_norm: eq. 1 (min/max)".into(),
+    }
 }
 
 /// Runs the command.
@@ -68,8 +99,11 @@ pub fn run(args: &PeaksArgs, global: &super::GlobalOptions) -> Result<(), Error>
         used_voxels_definition: "finite voxels whose I_norm bin is at or above the background threshold",
         nonfinite_voxels: r.nonfinite_voxels,
         // null without a finite voxel (the analysis' 0 would read as a real intensity).
-        imin: (r.finite_voxels > 0).then_some(r.imin),
-        imax: (r.finite_voxels > 0).then_some(r.imax),
+        imin: r.range.data_min,
+        imax: r.range.data_max,
+        normalization: r.range,
+        range: (r.finite_voxels > 0).then_some([r.imin, r.imax]),
+        table1: r.table1(),
         background_threshold: r.background_threshold,
         peaks: BTreeMap::from([("csf", r.peaks.csf), ("gm", r.peaks.gm), ("wm", r.peaks.wm)]),
         paper_windows: &r.paper_windows,
@@ -107,6 +141,7 @@ pub fn run(args: &PeaksArgs, global: &super::GlobalOptions) -> Result<(), Error>
         (Some(lo), Some(hi)) => print_line(&format!("Imin {lo}  Imax {hi}")),
         _ => print_line("Imin -  Imax -  (no finite voxel)"),
     }
+    print_line(&normalization_line(r));
     print_line("tissue  peak I_norm  peak raw      paper window   inside?");
     let paper = [("csf", "0.05-0.12"), ("gm", "0.12-0.18"), ("wm", "> 0.18")];
     for (name, window) in paper {

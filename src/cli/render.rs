@@ -209,6 +209,7 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
             "device": opened.engine.device().adapter().name,
             "layout": opened.plan.layout,
             "normalized_format": opened.plan.normalized_format,
+            "normalization": opened.report.table1(),
             "degradations": opened.plan.degradations,
         });
         let provenance = Provenance {
