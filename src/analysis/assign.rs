@@ -1,6 +1,7 @@
-//! Which tissue modes are CSF, GM and WM (adult T1 contrast: CSF < GM < WM).
+//! Which tissue modes are CSF, GM and WM, for the contrast `contrast` decided: adult T1 (CSF <
+//! GM < WM, [`assign`]) or T2 (WM < GM < CSF, [`assign_t2`]).
 //!
-//! Rules, applied to the significant modes above the background (the candidates):
+//! T1 rules, applied to the significant modes above the background (the candidates):
 //! 1. Fewer than two candidates: nothing is assigned. One mode alone has no intensity ratio to
 //!    classify it by (it could be any tissue, or noise), and a mode is never guessed.
 //! 2. WM is the brightest major candidate (height at least `major_fraction` of the tallest
@@ -19,12 +20,28 @@
 //!    merged into WM), one darker than that is neither.
 //! 4. Everything else stays unassigned ("other") and is still reported.
 //!
-//! Limits (documented, not solved): inverted contrast (T2, neonatal T1) is misread; a bright
-//! tail larger than `major_fraction` of the tallest tissue mode would be called WM; when GM and
-//! WM merge into one mode it is called WM.
+//! T2 rules ([`assign_t2`]), same candidates, fewer than two still assign nothing:
+//! 1. WM is the darkest major candidate: WM and GM are the two largest classes, and in T2 WM is
+//!    the darker; dark minor modes below it (bone, flow voids) are not tissue.
+//! 2. Candidates above WM are classified by their ratio to WM from the background zero, `r =
+//!    (p - zero) / (wm - zero)`, split at `T2_CSF_MIN_RATIO` (2.0):
+//!    - GM: `1 < r < 2`, the most prominent such candidate. T2 GM is 1.2-1.6 times WM (module
+//!      doc of `contrast`: 1.5 at TE 100 ms, 1.4 at TE 80 ms, 1.6 at TE 120 ms);
+//!    - CSF: `r >= 2`, the most prominent such candidate (usually the brightest mode; a smaller
+//!      mode above it, such as fat, stays "other"). T2 CSF is 2.7-4.7 times WM at TE 80-120 ms,
+//!      so 2.0 separates the two with room for bias fields and partial volume.
+//!
+//! Limits (documented, not solved): FLAIR and neonatal T1 are read as adult T1 (see
+//! `contrast`); a bright tail larger than `major_fraction` of the tallest tissue mode would be
+//! called WM in T1; when GM and WM merge into one mode it is called WM.
 
+use super::contrast::Contrast;
 use super::params::AnalysisParams;
 use super::peaks::Mode;
+
+/// In T2, candidates at least this many times WM's intensity (from zero) are CSF, those between
+/// WM and this are GM (module doc).
+pub const T2_CSF_MIN_RATIO: f64 = 2.0;
 
 /// Indices (into the candidate slice) of the assigned tissues.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -37,7 +54,66 @@ pub struct Assignment {
     pub wm: Option<usize>,
 }
 
-/// Assigns tissues among `candidates` (ascending significant modes above the background).
+/// Assigns tissues among `candidates` for `contrast`.
+pub fn assign_for(
+    contrast: Contrast,
+    candidates: &[Mode],
+    zero: f64,
+    params: &AnalysisParams,
+) -> Assignment {
+    match contrast {
+        Contrast::T1 => assign(candidates, zero, params),
+        Contrast::T2 => assign_t2(candidates, zero, params),
+    }
+}
+
+/// The most prominent of `indices`.
+fn most_prominent(candidates: &[Mode], indices: impl Iterator<Item = usize>) -> Option<usize> {
+    indices.max_by(|&a, &b| {
+        candidates[a]
+            .prominence
+            .total_cmp(&candidates[b].prominence)
+    })
+}
+
+/// Assigns tissues among `candidates` (ascending) for T2 contrast (module doc).
+pub fn assign_t2(candidates: &[Mode], zero: f64, params: &AnalysisParams) -> Assignment {
+    if candidates.len() < 2 {
+        return Assignment::default();
+    }
+    let tallest = candidates.iter().map(|m| m.height).fold(0.0, f64::max);
+    // Candidates are ascending: the first major one is the darkest.
+    let Some(wm) =
+        (0..candidates.len()).find(|&i| candidates[i].height >= params.major_fraction * tallest)
+    else {
+        return Assignment::default();
+    };
+    let span = candidates[wm].position - zero;
+    if span.is_nan() || span <= 0.0 {
+        return Assignment {
+            wm: Some(wm),
+            ..Assignment::default()
+        };
+    }
+    let ratio = |i: usize| (candidates[i].position - zero) / span;
+    let above = wm + 1..candidates.len();
+    let csf = most_prominent(
+        candidates,
+        above.clone().filter(|&i| ratio(i) >= T2_CSF_MIN_RATIO),
+    );
+    let gm = most_prominent(
+        candidates,
+        above.filter(|&i| csf.is_none_or(|c| i < c) && ratio(i) < T2_CSF_MIN_RATIO),
+    );
+    Assignment {
+        csf,
+        gm,
+        wm: Some(wm),
+    }
+}
+
+/// Assigns tissues among `candidates` (ascending significant modes above the background) for
+/// adult T1 contrast.
 pub fn assign(candidates: &[Mode], zero: f64, params: &AnalysisParams) -> Assignment {
     if candidates.len() < 2 {
         return Assignment::default();
@@ -176,5 +252,48 @@ mod tests {
             mode(100.0, 1000.0),
         ];
         assert_eq!(assign(&bump, 0.0, &p).csf, Some(0));
+    }
+
+    #[test]
+    fn t2_labels_wm_darkest_gm_next_csf_brightest() {
+        let p = AnalysisParams::default();
+        // WM 0.17, GM 0.25, CSF 0.60 of the range (the `contrast` doc's example), a dark bone
+        // mode below WM and a small fat mode above CSF.
+        let t2 = [
+            mode(10.0, 100.0),
+            mode(43.0, 1000.0),
+            mode(64.0, 900.0),
+            mode(154.0, 300.0),
+            mode(200.0, 30.0),
+        ];
+        let want = Assignment {
+            csf: Some(3),
+            gm: Some(2),
+            wm: Some(1),
+        };
+        assert_eq!(assign_t2(&t2, 0.0, &p), want);
+        assert_eq!(assign_for(Contrast::T2, &t2, 0.0, &p), want);
+        // The same modes read as T1 come out the other way round (why the contrast matters).
+        assert_ne!(assign_for(Contrast::T1, &t2, 0.0, &p).wm, Some(1));
+        // Ratios split at 2.0 of WM, measured from zero: 90 is 2.09 times 43 from 0 (CSF) but
+        // 1.89 times from -10 (GM).
+        let two = [mode(43.0, 1000.0), mode(90.0, 500.0)];
+        assert_eq!(
+            assign_t2(&two, 0.0, &p),
+            Assignment {
+                csf: Some(1),
+                gm: None,
+                wm: Some(0)
+            }
+        );
+        assert_eq!(
+            assign_t2(&two, -10.0, &p),
+            Assignment {
+                csf: None,
+                gm: Some(1),
+                wm: Some(0)
+            }
+        );
+        assert_eq!(assign_t2(&two[..1], 0.0, &p), Assignment::default());
     }
 }

@@ -11,6 +11,7 @@
 //! - The report also lists every significant mode with its role and every spike, so a reader can
 //!   see why a tissue is missing.
 
+use super::contrast::ContrastReport;
 use super::params::AnalysisParams;
 use super::windows::TissueWindows;
 
@@ -133,6 +134,8 @@ pub struct TissueReport {
     pub smoothing_sigma_bins: f64,
     /// Parameters used.
     pub params: AnalysisParams,
+    /// Contrast the tissues were labelled for, whether detected, assumed or forced, and why.
+    pub contrast: ContrastReport,
 }
 
 /// One row of the paper's Table 1, flat (one column per field, for CSV or JSON lines).
