@@ -98,6 +98,17 @@ pub enum ContrastBasis {
     Forced,
 }
 
+impl ContrastBasis {
+    /// Lowercase name, as in the JSON.
+    pub fn name(self) -> &'static str {
+        match self {
+            ContrastBasis::Detected => "detected",
+            ContrastBasis::Assumed => "assumed",
+            ContrastBasis::Forced => "forced",
+        }
+    }
+}
+
 /// The contrast used, how it was decided, and why (one line).
 #[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
 pub struct ContrastReport {
@@ -120,12 +131,12 @@ impl ContrastReport {
 
     /// One line for people: `T2 (detected): ...`.
     pub fn summary(&self) -> String {
-        let basis = match self.basis {
-            ContrastBasis::Detected => "detected",
-            ContrastBasis::Assumed => "assumed",
-            ContrastBasis::Forced => "forced",
-        };
-        format!("{} ({basis}): {}", self.contrast.name(), self.reason)
+        format!(
+            "{} ({}): {}",
+            self.contrast.name(),
+            self.basis.name(),
+            self.reason
+        )
     }
 }
 

@@ -69,6 +69,14 @@ pub struct Cli {
     #[arg(long, global = true, value_enum, default_value_t = NormalizeArg::Minmax)]
     pub normalize: NormalizeArg,
 
+    /// Which MR contrast the tissues are labelled for. `auto` = read it from the histogram: T2
+    /// when the largest tissue mode is dark and a large mode at least twice as bright exists
+    /// (WM < GM < CSF), T1 otherwise (CSF < GM < WM); when the histogram does not show it, T1
+    /// is assumed and `peaks` and `render` say so. `t1` / `t2` = take it as given (FLAIR reads as
+    /// T1 in a histogram). The paper's fixed windows (`--windows paper`) are T1 windows.
+    #[arg(long, global = true, value_enum, default_value_t = ContrastArg::Auto)]
+    pub contrast: ContrastArg,
+
     /// What to do.
     #[command(subcommand)]
     pub command: Command,
@@ -88,6 +96,27 @@ impl From<NormalizeArg> for crate::analysis::NormalizeMode {
         match arg {
             NormalizeArg::Robust => crate::analysis::NormalizeMode::Robust,
             NormalizeArg::Minmax => crate::analysis::NormalizeMode::MinMax,
+        }
+    }
+}
+
+/// `--contrast`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ContrastArg {
+    /// Detect from the histogram (T1 when it cannot tell).
+    Auto,
+    /// T1-weighted: CSF < GM < WM.
+    T1,
+    /// T2-weighted: WM < GM < CSF.
+    T2,
+}
+
+impl From<ContrastArg> for crate::analysis::ContrastChoice {
+    fn from(arg: ContrastArg) -> Self {
+        match arg {
+            ContrastArg::Auto => crate::analysis::ContrastChoice::Auto,
+            ContrastArg::T1 => crate::analysis::ContrastChoice::T1,
+            ContrastArg::T2 => crate::analysis::ContrastChoice::T2,
         }
     }
 }
@@ -181,7 +210,8 @@ pub enum ModeArg {
 pub enum WindowsArg {
     /// Placed around the CSF / GM / WM peaks found in this volume's histogram.
     Adaptive,
-    /// The paper's fixed constants (CSF 0.05-0.12, GM 0.12-0.18, WM > 0.18, pathology > 0.20).
+    /// The paper's fixed constants (CSF 0.05-0.12, GM 0.12-0.18, WM > 0.18, pathology > 0.20):
+    /// T1 windows, wrong for a T2 volume.
     Paper,
 }
 
