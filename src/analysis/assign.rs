@@ -21,8 +21,10 @@
 //! 4. Everything else stays unassigned ("other") and is still reported.
 //!
 //! T2 rules ([`assign_t2`]), same candidates, fewer than two still assign nothing:
-//! 1. WM is the darkest major candidate: WM and GM are the two largest classes, and in T2 WM is
-//!    the darker; dark minor modes below it (bone, flow voids) are not tissue.
+//! 1. WM is the darkest major candidate at least `TISSUE_MIN_RATIO` (0.15) of the brightest
+//!    major one's intensity: WM and GM are the two largest classes, and in T2 WM is the darker;
+//!    modes below it, however large (bone, muscle, the skull of an unmasked head), are not
+//!    tissue.
 //! 2. Candidates above WM are classified by their ratio to WM from the background zero, `r =
 //!    (p - zero) / (wm - zero)`, split at `T2_CSF_MIN_RATIO` (2.0):
 //!    - GM: `1 < r < 2`, the most prominent such candidate. T2 GM is 1.2-1.6 times WM (module
@@ -35,7 +37,7 @@
 //! `contrast`); a bright tail larger than `major_fraction` of the tallest tissue mode would be
 //! called WM in T1; when GM and WM merge into one mode it is called WM.
 
-use super::contrast::Contrast;
+use super::contrast::{Contrast, TISSUE_MIN_RATIO};
 use super::params::AnalysisParams;
 use super::peaks::Mode;
 
@@ -82,12 +84,18 @@ pub fn assign_t2(candidates: &[Mode], zero: f64, params: &AnalysisParams) -> Ass
         return Assignment::default();
     }
     let tallest = candidates.iter().map(|m| m.height).fold(0.0, f64::max);
-    // Candidates are ascending: the first major one is the darkest.
-    let Some(wm) =
-        (0..candidates.len()).find(|&i| candidates[i].height >= params.major_fraction * tallest)
-    else {
+    let major = |i: &usize| candidates[*i].height >= params.major_fraction * tallest;
+    let Some(brightest) = (0..candidates.len()).rev().find(major) else {
         return Assignment::default();
     };
+    // Candidates are ascending: the first major tissue mode is the darkest.
+    let tissue = |i: &usize| {
+        let r = (candidates[*i].position - zero) / (candidates[brightest].position - zero);
+        r >= TISSUE_MIN_RATIO
+    };
+    let wm = (0..brightest)
+        .find(|i| major(i) && tissue(i))
+        .unwrap_or(brightest);
     let span = candidates[wm].position - zero;
     if span.is_nan() || span <= 0.0 {
         return Assignment {
@@ -295,5 +303,20 @@ mod tests {
             }
         );
         assert_eq!(assign_t2(&two[..1], 0.0, &p), Assignment::default());
+        // A large dark shell (skull, 0.13 of CSF) below WM is not WM.
+        let shell = [
+            mode(20.0, 1400.0),
+            mode(43.0, 1100.0),
+            mode(64.0, 1250.0),
+            mode(154.0, 900.0),
+        ];
+        assert_eq!(
+            assign_t2(&shell, 0.0, &p),
+            Assignment {
+                csf: Some(3),
+                gm: Some(2),
+                wm: Some(1)
+            }
+        );
     }
 }

@@ -16,19 +16,21 @@
 //!   shape (small dark mode, two large bright ones), so FLAIR is read as T1 and its GM and WM are
 //!   swapped. This is a documented limit; `--contrast` cannot express FLAIR either.
 //!
-//! The rule (`T` = tallest candidate, `B` = brightest major candidate, height at least
-//! `major_fraction` of `T`, the same "major" as in `assign`; `r = (T - zero) / (B - zero)`):
+//! The rule (`B` = brightest major candidate, height at least `major_fraction` of the tallest
+//! candidate, the same "major" as in `assign`; tissue modes = candidates at least
+//! `TISSUE_MIN_RATIO` (0.15) of `B`'s intensity, darker ones are shells such as the skull of an
+//! unmasked head; `T` = tallest tissue mode; `r = (T - zero) / (B - zero)`):
 //! 1. Fewer than two candidates: no evidence. T1 is *assumed* (and said so).
 //! 2. `r < 0.5`: the bulk of the tissue is less than half as bright as a large bright mode, which
 //!    is T2 (T1 would need CSF to be the largest class). T2 is *detected* when the picture is
-//!    clean: at most three major modes (a head has at most three large tissue classes), and
+//!    clean: at most three major tissue modes (a head has at most three large tissue classes), and
 //!    every major mode between `T` and `B` lies nearer `T` than `B` (T2's GM sits next to WM; in
 //!    a T1 with a huge CSF mode, GM sits next to WM at the bright end). Otherwise the evidence
 //!    conflicts and T1 is *assumed*. Histograms of random counts have many major modes, so they
 //!    never pass as T2 (tests/peaks.rs's arbitrary-histogram property keeps the T1 order).
 //! 3. `r >= 0.5`: the T1 shape. T1 is *detected*, unless a separate candidate brighter than
 //!    every major mode, at least `BRIGHT_MODE_RATIO` (1.8) times `B` and at least
-//!    `BRIGHT_MODE_HEIGHT` (5 %) of `T` tall, exists: that is T2 whose CSF mode is small (GM
+//!    `BRIGHT_MODE_HEIGHT` (5 %) of the tallest candidate's height, exists: that is T2 whose CSF mode is small (GM
 //!    then is `B`, CSF is 2-3 times GM) or a T1 with a bright tail (fat, vessels, a lesion), and
 //!    the histogram cannot say which, so T1 is *assumed* and the reason names the mode. 1.8 lies
 //!    below T2's CSF/GM (1.96 at TE 80 ms, more at longer TE) and above the phantom's bright tail
@@ -49,8 +51,13 @@ pub const BRIGHT_MODE_RATIO: f64 = 1.8;
 /// 10-30 % of WM's height; the phantom's lesion and vessel voxels are far fewer).
 pub const BRIGHT_MODE_HEIGHT: f64 = 0.05;
 
-/// Most major modes a clean T2 histogram has (WM, GM, CSF).
+/// Most major tissue modes a clean T2 histogram has (WM, GM, CSF).
 const MAX_T2_MAJORS: usize = 3;
+
+/// Modes darker than this fraction of the brightest major mode's intensity (from zero) are not
+/// tissue in either contrast: dark shells (bone, muscle, the skull of an unmasked head). T1 CSF
+/// is at least 0.2 of WM, T2 WM at least 0.21 of CSF (TE 120 ms, module doc); 0.15 leaves room.
+pub const TISSUE_MIN_RATIO: f64 = 0.15;
 
 /// The contrast tissues are labelled for.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
@@ -180,22 +187,29 @@ fn detect(candidates: &[Mode], zero: f64, params: &AnalysisParams) -> ContrastRe
     }
     let tallest = candidates.iter().map(|m| m.height).fold(0.0, f64::max);
     let is_major = |m: &&Mode| m.height >= params.major_fraction * tallest;
-    let majors: Vec<&Mode> = candidates.iter().filter(is_major).collect();
-    let (Some(t), Some(b)) = (
-        candidates
-            .iter()
-            .max_by(|a, b| a.height.total_cmp(&b.height)),
-        majors
-            .iter()
-            .max_by(|a, b| a.position.total_cmp(&b.position)),
-    ) else {
+    let Some(b) = candidates
+        .iter()
+        .filter(is_major)
+        .max_by(|a, b| a.position.total_cmp(&b.position))
+    else {
         return assumed("no tissue mode with a height; T1 assumed".into());
     };
     let span = b.position - zero;
-    let r = (t.position - zero) / span;
-    if !(span > 0.0 && r.is_finite()) {
+    if !(span > 0.0 && span.is_finite()) {
         return assumed("the tissue modes sit at the background level; T1 assumed".into());
     }
+    // Tissue candidates: not darker than TISSUE_MIN_RATIO of `b` (dark shells are not tissue).
+    let tissue: Vec<&Mode> = candidates
+        .iter()
+        .filter(|m| (m.position - zero) / span >= TISSUE_MIN_RATIO)
+        .collect();
+    let majors: Vec<&Mode> = tissue.iter().copied().filter(is_major).collect();
+    let t = tissue
+        .iter()
+        .copied()
+        .max_by(|a, b| a.height.total_cmp(&b.height))
+        .unwrap_or(b);
+    let r = (t.position - zero) / span;
     if r < params.gm_min_ratio {
         return t2_or_conflict(t, b, &majors, r);
     }
@@ -241,7 +255,7 @@ fn t2_or_conflict(t: &Mode, b: &Mode, majors: &[&Mode], r: f64) -> ContrastRepor
                 "a large mode at I_norm {} sits nearer the bright one",
                 at(m)
             ),
-            None => format!("{} large modes, more than T2's three", majors.len()),
+            None => format!("{} large tissue modes, more than T2's three", majors.len()),
         };
         return ContrastReport::new(
             Contrast::T1,
@@ -319,6 +333,18 @@ mod tests {
             (Contrast::T2, ContrastBasis::Detected)
         );
         assert!(r.reason.contains("T2 shape"), "{}", r.reason);
+        // An unmasked head: a dark skull shell (0.13 of CSF) is the tallest mode, but no tissue
+        // (the 64^3 T2 phantom of tests/contrast.rs looks like this).
+        let r = auto(&[
+            mode(20.0, 1400.0),
+            mode(43.0, 1100.0),
+            mode(64.0, 1250.0),
+            mode(154.0, 900.0),
+        ]);
+        assert_eq!(
+            (r.contrast, r.basis),
+            (Contrast::T2, ContrastBasis::Detected)
+        );
         // GM merged into WM: one large dark mode and a bright major one.
         let r = auto(&[mode(50.0, 1000.0), mode(150.0, 400.0)]);
         assert_eq!(r.contrast, Contrast::T2);
