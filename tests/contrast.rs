@@ -238,6 +238,66 @@ fn random_histograms_are_never_taken_for_t2() {
 }
 
 // ---------------------------------------------------------------------------------------------
+// Real data: the MNI152 T1 template, and the same turned upside down (inverted contrast).
+
+/// The fixture of tests/peaks.rs (copied: each test file is its own crate).
+/// 256-bin histogram of `I_norm` of the MNI152 T1 2009a template (nilearn's
+/// `mni_icbm152_t1_tal_nlin_sym_09a_converted.nii.gz`, 197x233x189 uint8, sha256
+/// 421a10e872fd6cadae7f61d358dffbcc1795a497d61ee76c5dda2503e1a1e9e6), produced with nibabel 5.4.2
+/// and numpy 2.4.6 exactly as the engine does it: stored range [0, 255] (scl_slope NaN = identity),
+/// `I_norm = (I - 0) / (255 - 0)` in f64, rounded to f32, bin = `min(u32(clamp(v,0,1) * 256f32), 255)`.
+/// Sum = 8675289 voxels, all finite; bin 0 holds the 6788750 masked zeros.
+const MNI152_HIST: [u32; BINS] = [
+    6788750, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 4,
+    34, 32, 48, 102, 68, 122, 132, 148, 160, 164, 164, 188, 134, 189, 219, 236, 199, 201, 200, 156,
+    196, 199, 255, 246, 280, 242, 306, 375, 395, 442, 447, 534, 639, 769, 958, 1093, 1306, 1230,
+    1157, 1130, 1096, 1077, 1134, 1190, 1275, 1250, 1297, 1450, 1495, 1460, 1506, 1509, 1457, 1618,
+    1523, 1605, 1705, 1715, 1695, 1709, 1786, 1922, 1988, 2162, 2297, 2266, 2492, 2517, 2645, 2870,
+    2781, 3064, 3058, 3079, 3319, 3296, 3536, 3500, 3440, 3686, 3838, 3947, 3817, 3812, 3949, 4287,
+    4222, 4416, 4535, 4441, 4739, 4593, 4794, 5020, 5054, 5214, 5500, 5356, 5731, 5267, 5767, 5802,
+    5876, 6137, 6140, 6176, 6221, 6780, 6682, 6964, 7192, 7544, 7681, 8022, 8313, 8533, 8651, 9104,
+    9573, 9763, 10367, 10701, 11670, 12479, 13020, 14127, 15825, 16974, 17602, 18879, 19719, 20658,
+    20973, 21631, 21759, 22349, 22877, 23344, 23590, 24231, 24838, 25332, 25123, 24875, 25074,
+    25051, 24431, 23849, 23149, 22345, 22181, 21251, 20805, 20012, 19772, 19218, 18910, 18172,
+    18108, 18073, 17954, 17683, 17079, 16343, 16117, 15881, 15802, 15473, 15124, 14725, 14897,
+    14511, 14229, 14350, 14280, 14170, 14474, 14768, 14873, 15244, 15882, 16173, 16539, 17325,
+    17638, 18806, 20103, 21636, 23216, 24718, 25547, 25794, 25460, 24297, 22669, 20815, 18793,
+    16110, 13008, 9689, 7941, 6989, 5988, 5328, 4984, 4646, 3387, 1679, 693, 256, 53, 8, 5, 2, 4,
+    5, 2, 0, 2, 1, 0, 0, 1, 2, 0, 1, 1,
+];
+
+#[test]
+fn mni152_is_t1_and_its_inversion_is_labelled_the_t2_way() {
+    let n: u64 = MNI152_HIST.iter().map(|&c| c as u64).sum();
+    let r = analysis::analyze(&MNI152_HIST, 0.0, 255.0, n as usize, 0);
+    assert_eq!(
+        (r.contrast.contrast, r.contrast.basis),
+        (Contrast::T1, ContrastBasis::Detected)
+    );
+    // Inverted: WM darkest (1 - 0.861), GM (1 - 0.669), CSF brightest (1 - 0.259); the masked
+    // zeros become a spike at the top, which is not tissue.
+    let mut inverted = [0u32; BINS];
+    for (b, &c) in MNI152_HIST.iter().enumerate() {
+        inverted[BINS - 1 - b] = c;
+    }
+    let r = analysis::analyze(&inverted, 0.0, 255.0, n as usize, 0);
+    assert_eq!(
+        (r.contrast.contrast, r.contrast.basis),
+        (Contrast::T2, ContrastBasis::Detected),
+        "{}",
+        r.contrast.reason
+    );
+    let near = |p: Option<Peak>, want: f64| p.is_some_and(|p| (p.norm - want).abs() < 0.01);
+    assert!(
+        near(r.peaks.wm, 1.0 - 0.861)
+            && near(r.peaks.gm, 1.0 - 0.669)
+            && near(r.peaks.csf, 1.0 - 0.259),
+        "{:?}",
+        r.peaks
+    );
+}
+
+// ---------------------------------------------------------------------------------------------
 // The command line.
 
 fn morphray(args: &[&str]) -> Output {

@@ -26,12 +26,16 @@
 //!    modes below it, however large (bone, muscle, the skull of an unmasked head), are not
 //!    tissue.
 //! 2. Candidates above WM are classified by their ratio to WM from the background zero, `r =
-//!    (p - zero) / (wm - zero)`, split at `T2_CSF_MIN_RATIO` (2.0):
-//!    - GM: `1 < r < 2`, the most prominent such candidate. T2 GM is 1.2-1.6 times WM (module
-//!      doc of `contrast`: 1.5 at TE 100 ms, 1.4 at TE 80 ms, 1.6 at TE 120 ms);
-//!    - CSF: `r >= 2`, the most prominent such candidate (usually the brightest mode; a smaller
-//!      mode above it, such as fat, stays "other"). T2 CSF is 2.7-4.7 times WM at TE 80-120 ms,
-//!      so 2.0 separates the two with room for bias fields and partial volume.
+//!    (p - zero) / (wm - zero)`, split at `T2_CSF_MIN_RATIO` (2.0). T2 GM is 1.2-1.6 times WM,
+//!    CSF 2.7-4.7 times (module doc of `contrast`: TE 80-120 ms), so 2.0 separates the two with
+//!    room for bias fields and partial volume:
+//!    - CSF: the *brightest* candidate with `r >= 2`. Partial-volume bumps between GM and CSF
+//!      lie below the CSF mode, so the brightest one is CSF itself (a bright mode above CSF is
+//!      rare in T2; it would be taken for CSF);
+//!    - GM: the most prominent candidate between WM and CSF that is below `2 WM` or major. A
+//!      major mode is a tissue class, never a bump: an inverted T1 (the MNI152 template turned
+//!      upside down, in tests/contrast.rs) has GM at 2.4 times WM from the zero, because its
+//!      physical zero is at the wrong end.
 //!
 //! Limits (documented, not solved): FLAIR and neonatal T1 are read as adult T1 (see
 //! `contrast`); a bright tail larger than `major_fraction` of the tallest tissue mode would be
@@ -104,14 +108,13 @@ pub fn assign_t2(candidates: &[Mode], zero: f64, params: &AnalysisParams) -> Ass
         };
     }
     let ratio = |i: usize| (candidates[i].position - zero) / span;
-    let above = wm + 1..candidates.len();
-    let csf = most_prominent(
-        candidates,
-        above.clone().filter(|&i| ratio(i) >= T2_CSF_MIN_RATIO),
-    );
+    let csf = (wm + 1..candidates.len())
+        .rev()
+        .find(|&i| ratio(i) >= T2_CSF_MIN_RATIO);
     let gm = most_prominent(
         candidates,
-        above.filter(|&i| csf.is_none_or(|c| i < c) && ratio(i) < T2_CSF_MIN_RATIO),
+        (wm + 1..csf.unwrap_or(candidates.len()))
+            .filter(|&i| ratio(i) < T2_CSF_MIN_RATIO || major(&i)),
     );
     Assignment {
         csf,
@@ -266,16 +269,16 @@ mod tests {
     fn t2_labels_wm_darkest_gm_next_csf_brightest() {
         let p = AnalysisParams::default();
         // WM 0.17, GM 0.25, CSF 0.60 of the range (the `contrast` doc's example), a dark bone
-        // mode below WM and a small fat mode above CSF.
+        // mode below WM and a small partial-volume bump between GM and CSF.
         let t2 = [
             mode(10.0, 100.0),
             mode(43.0, 1000.0),
             mode(64.0, 900.0),
+            mode(110.0, 40.0),
             mode(154.0, 300.0),
-            mode(200.0, 30.0),
         ];
         let want = Assignment {
-            csf: Some(3),
+            csf: Some(4),
             gm: Some(2),
             wm: Some(1),
         };
@@ -303,6 +306,21 @@ mod tests {
             }
         );
         assert_eq!(assign_t2(&two[..1], 0.0, &p), Assignment::default());
+        // CSF is the brightest mode at 2x WM or more, however small; a major mode between is GM
+        // whatever its ratio (the inverted MNI152 template: WM, GM at 2.4x WM, small CSF).
+        let inverted = [
+            mode(36.0, 25487.0),
+            mode(85.0, 25090.0),
+            mode(190.0, 1216.0),
+        ];
+        assert_eq!(
+            assign_t2(&inverted, 0.0, &p),
+            Assignment {
+                csf: Some(2),
+                gm: Some(1),
+                wm: Some(0)
+            }
+        );
         // A large dark shell (skull, 0.13 of CSF) below WM is not WM.
         let shell = [
             mode(20.0, 1400.0),
