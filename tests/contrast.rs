@@ -34,6 +34,10 @@ fn t2_value(tissue: Tissue) -> f64 {
 /// Noise of each component of the complex signal (Rician magnitude), raw units.
 const SIGMA: f64 = 20.0;
 
+/// Relative spread of CSF intensities (pulsation, partial volume): CSF is the broad mode in a
+/// real histogram of either contrast, which `analysis::contrast` relies on.
+const CSF_SPREAD: f64 = 0.06;
+
 /// The phantom's labels remapped to T2 intensities with Rician noise (deterministic), and the
 /// labels.
 fn t2_phantom(n: usize) -> (Volume, Vec<u8>) {
@@ -47,7 +51,13 @@ fn t2_phantom(n: usize) -> (Volume, Vec<u8>) {
         .labels
         .iter()
         .map(|&l| {
-            let v = t2_value(Tissue::from_label(l).unwrap());
+            let tissue = Tissue::from_label(l).unwrap();
+            let spread = if tissue == Tissue::Csf {
+                1.0 + CSF_SPREAD * normal()
+            } else {
+                1.0
+            };
+            let v = t2_value(tissue) * spread;
             let (re, im) = (v + SIGMA * normal(), SIGMA * normal());
             (re * re + im * im).sqrt().round() as i16
         })
@@ -186,7 +196,8 @@ fn forced_t1_on_the_t2_phantom_is_obeyed_and_reported_as_forced() {
 #[test]
 fn t1_phantom_stays_t1_at_every_test_size() {
     let p = AnalysisParams::default();
-    for n in [32, 40, 48, 64] {
+    // 20^3 and 24^3 have CSF as their tallest mode (partial volume), told from T2 by its width.
+    for n in [20, 24, 32, 40, 48, 64] {
         let volume = generate(&PhantomSpec::cube(n)).unwrap().volume;
         let r = cpu_report(&volume, &p);
         assert_eq!(
@@ -197,6 +208,15 @@ fn t1_phantom_stays_t1_at_every_test_size() {
             r.modes
         );
     }
+    // 16^3: the tallest mode is air noise on the zero; no evidence, T1 assumed as before.
+    let volume = generate(&PhantomSpec::cube(16)).unwrap().volume;
+    let r = cpu_report(&volume, &p);
+    assert_eq!(
+        (r.contrast.contrast, r.contrast.basis),
+        (Contrast::T1, ContrastBasis::Assumed),
+        "{}",
+        r.contrast.reason
+    );
     // And on the GPU path.
     let volume = generate(&PhantomSpec::cube(40)).unwrap().volume;
     let r = gpu_report(&mut engine_with(ContrastChoice::Auto), &volume);

@@ -21,13 +21,22 @@
 //! `TISSUE_MIN_RATIO` (0.15) of `B`'s intensity, darker ones are shells such as the skull of an
 //! unmasked head; `T` = tallest tissue mode; `r = (T - zero) / (B - zero)`):
 //! 1. Fewer than two candidates: no evidence. T1 is *assumed* (and said so).
-//! 2. `r < 0.5`: the bulk of the tissue is less than half as bright as a large bright mode, which
-//!    is T2 (T1 would need CSF to be the largest class). T2 is *detected* when the picture is
-//!    clean: at most three major tissue modes (a head has at most three large tissue classes), and
-//!    every major mode between `T` and `B` lies nearer `T` than `B` (T2's GM sits next to WM; in
-//!    a T1 with a huge CSF mode, GM sits next to WM at the bright end). Otherwise the evidence
-//!    conflicts and T1 is *assumed*. Histograms of random counts have many major modes, so they
-//!    never pass as T2 (tests/peaks.rs's arbitrary-histogram property keeps the T1 order).
+//! 2. `r < 0.5`: the bulk of the tissue is less than half as bright as a large bright mode.
+//!    That is T2 (WM/GM dark, CSF bright), or a T1 with very much CSF (tiny or atrophic heads:
+//!    the phantom at 20^3 and 24^3 voxels has its CSF mode tallest, from partial volume). The
+//!    widths tell them apart: CSF is the broad mode in both contrasts (partial volume with every
+//!    tissue, pulsation) and WM the sharp one, so the outer half-widths at half maximum are
+//!    compared (`T`'s dark side, `B`'s bright side, the sides free of the other tissues):
+//!    - `T` at least as broad as `B`: T1 (CSF dark) *detected*;
+//!    - `T` sharper: T2 *detected* when the picture is clean: at most three major tissue modes
+//!      (a head has at most three large tissue classes) and every major mode between `T` and
+//!      `B` nearer `T` (T2's GM sits next to WM; T1's GM next to WM at the bright end);
+//!    - otherwise (more major modes, widths not measurable, `T` closer to the zero than two of
+//!      its half-widths, i.e. the noise floor of a tiny volume such as the 16^3 phantom, or a
+//!      middle mode placed as in T1)
+//!      the evidence conflicts and T1 is *assumed*. Histograms of random counts have many major
+//!      modes, so they never pass as T2 (tests/contrast.rs sweeps them; tests/peaks.rs's
+//!      arbitrary-histogram property relies on the T1 order).
 //! 3. `r >= 0.5`: the T1 shape. T1 is *detected*, unless a separate candidate brighter than
 //!    every major mode, at least `BRIGHT_MODE_RATIO` (1.8) times `B` and at least
 //!    `BRIGHT_MODE_HEIGHT` (5 %) of the tallest candidate's height, exists: that is T2 whose CSF mode is small (GM
@@ -40,7 +49,7 @@
 //! with the numbers it used, so a reader can check it.
 
 use super::params::AnalysisParams;
-use super::peaks::Mode;
+use super::peaks::{Mode, right_half_maximum};
 use crate::reference::BINS;
 
 /// A bright mode above every major one must be this many times the brightest major mode's
@@ -53,6 +62,10 @@ pub const BRIGHT_MODE_HEIGHT: f64 = 0.05;
 
 /// Most major tissue modes a clean T2 histogram has (WM, GM, CSF).
 const MAX_T2_MAJORS: usize = 3;
+
+/// A dark mode closer to the zero than this many of its half-widths is not resolved from it:
+/// the noise floor (air of a tiny volume), not WM (rule 2). 2 half-widths = 2.4 sd.
+const UNRESOLVED_HALF_WIDTHS: f64 = 2.0;
 
 /// Modes darker than this fraction of the brightest major mode's intensity (from zero) are not
 /// tissue in either contrast: dark shells (bone, muscle, the skull of an unmasked head). T1 CSF
@@ -150,6 +163,7 @@ impl ContrastReport {
 /// The contrast to label `candidates` (ascending significant modes above the background) for.
 pub fn decide(
     choice: ContrastChoice,
+    s: &[f64; BINS],
     candidates: &[Mode],
     zero: f64,
     params: &AnalysisParams,
@@ -165,7 +179,7 @@ pub fn decide(
             ContrastBasis::Forced,
             "--contrast t2 (tissues labelled WM < GM < CSF)".into(),
         ),
-        ContrastChoice::Auto => detect(candidates, zero, params),
+        ContrastChoice::Auto => detect(s, candidates, zero, params),
     }
 }
 
@@ -175,7 +189,12 @@ fn at(m: &Mode) -> String {
 }
 
 /// The rule of the module doc.
-fn detect(candidates: &[Mode], zero: f64, params: &AnalysisParams) -> ContrastReport {
+fn detect(
+    s: &[f64; BINS],
+    candidates: &[Mode],
+    zero: f64,
+    params: &AnalysisParams,
+) -> ContrastReport {
     let assumed =
         |reason: String| ContrastReport::new(Contrast::T1, ContrastBasis::Assumed, reason);
     if candidates.len() < 2 {
@@ -211,7 +230,7 @@ fn detect(candidates: &[Mode], zero: f64, params: &AnalysisParams) -> ContrastRe
         .unwrap_or(b);
     let r = (t.position - zero) / span;
     if r < params.gm_min_ratio {
-        return t2_or_conflict(t, b, &majors, r);
+        return dark_bulk(s, t, b, &majors, zero, r);
     }
     // The T1 shape; a large bright mode above every major one could still be T2's small CSF.
     let bright = candidates
@@ -241,178 +260,266 @@ fn detect(candidates: &[Mode], zero: f64, params: &AnalysisParams) -> ContrastRe
     )
 }
 
-/// Rule 2 of the module doc: the tallest mode `t` is dark next to a large bright mode `b`.
-fn t2_or_conflict(t: &Mode, b: &Mode, majors: &[&Mode], r: f64) -> ContrastReport {
-    let between = majors
-        .iter()
-        .filter(|m| m.position > t.position && m.position < b.position);
-    let far_middle = between
-        .clone()
-        .find(|m| m.position - t.position >= 0.5 * (b.position - t.position));
-    if majors.len() > MAX_T2_MAJORS || far_middle.is_some() {
-        let why = match far_middle {
-            Some(m) => format!(
-                "a large mode at I_norm {} sits nearer the bright one",
-                at(m)
-            ),
-            None => format!("{} large tissue modes, more than T2's three", majors.len()),
+/// Half-width at half maximum of `m` on its dark side, in bins (linear interpolation between
+/// bin centres); `None` when `s` never falls below half the height on that side.
+fn left_half_width(s: &[f64; BINS], m: &Mode) -> Option<f64> {
+    let half = 0.5 * m.height;
+    let b = (0..m.first).rev().find(|&b| s[b] < half)?;
+    // s[b] < half <= s[b + 1]: the crossing lies between centres b + 0.5 and b + 1.5.
+    let (lo, hi) = (s[b], s[b + 1]);
+    let t = if hi > lo {
+        (half - lo) / (hi - lo)
+    } else {
+        1.0
+    };
+    Some(m.position - (b as f64 + 0.5 + t))
+}
+
+/// Half-width at half maximum of `m` on its bright side, in bins.
+fn right_half_width(s: &[f64; BINS], m: &Mode) -> Option<f64> {
+    right_half_maximum(s, m).map(|x| x - m.position)
+}
+
+/// Rule 2 of the module doc: the tallest tissue mode `t` is dark next to a large bright mode
+/// `b`, at `r` of its intensity.
+fn dark_bulk(
+    s: &[f64; BINS],
+    t: &Mode,
+    b: &Mode,
+    majors: &[&Mode],
+    zero: f64,
+    r: f64,
+) -> ContrastReport {
+    let report = |contrast, basis, why: String| {
+        let hint = if basis == ContrastBasis::Assumed {
+            "; T1 assumed (use --contrast t2 if the scan is T2-weighted)"
+        } else {
+            ""
         };
-        return ContrastReport::new(
-            Contrast::T1,
-            ContrastBasis::Assumed,
+        ContrastReport::new(
+            contrast,
+            basis,
             format!(
-                "the largest mode (I_norm {}) is only {r:.2} of a large bright mode ({}), as in \
-                 T2, but {why}; T1 assumed (use --contrast t2 if the scan is T2-weighted)",
+                "the largest mode (I_norm {}) is only {r:.2} of the brightest large mode ({}); \
+                 {why}{hint}",
                 at(t),
                 at(b)
             ),
-        );
+        )
+    };
+    if majors.len() > MAX_T2_MAJORS {
+        let why = format!("{} large tissue modes, more than a head has", majors.len());
+        return report(Contrast::T1, ContrastBasis::Assumed, why);
     }
-    ContrastReport::new(
-        Contrast::T2,
-        ContrastBasis::Detected,
-        format!(
-            "the largest mode (I_norm {}) is only {r:.2} of the brightest large mode ({}): \
-             WM/GM at the dark end, CSF brightest (T2 shape)",
-            at(t),
-            at(b)
-        ),
-    )
+    let (Some(dark), Some(bright)) = (left_half_width(s, t), right_half_width(s, b)) else {
+        let why = "their widths cannot be measured".to_string();
+        return report(Contrast::T1, ContrastBasis::Assumed, why);
+    };
+    if t.position - zero < UNRESOLVED_HALF_WIDTHS * dark {
+        let why = format!(
+            "it lies within {UNRESOLVED_HALF_WIDTHS} of its half-widths ({dark:.1} bins) of the \
+             zero: the noise floor, not a tissue"
+        );
+        return report(Contrast::T1, ContrastBasis::Assumed, why);
+    }
+    let widths = format!("outer half-widths {dark:.1} and {bright:.1} bins");
+    if dark >= bright {
+        let why = format!(
+            "the dark mode is the broad one ({widths}): CSF dark, WM bright (T1 with much CSF)"
+        );
+        return report(Contrast::T1, ContrastBasis::Detected, why);
+    }
+    let far_middle = majors.iter().find(|m| {
+        m.position > t.position
+            && m.position < b.position
+            && m.position - t.position >= 0.5 * (b.position - t.position)
+    });
+    if let Some(m) = far_middle {
+        let why = format!(
+            "the bright mode is the broad one ({widths}), as in T2, but a large mode at I_norm {} \
+             sits nearer the bright one, as in T1",
+            at(m)
+        );
+        return report(Contrast::T1, ContrastBasis::Assumed, why);
+    }
+    let why = format!(
+        "the dark mode is sharp, the bright one broad ({widths}): WM/GM dark, CSF brightest (T2 \
+         shape)"
+    );
+    report(Contrast::T2, ContrastBasis::Detected, why)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::analysis::peaks::find_modes;
 
-    fn mode(position: f64, height: f64) -> Mode {
-        let b = position as usize;
-        Mode {
-            first: b,
-            last: b,
-            position,
-            height,
-            prominence: height,
+    /// A smoothed histogram made of Gaussians `(centre bin, height, sd in bins)`, and its modes.
+    fn histogram(parts: &[(f64, f64, f64)]) -> ([f64; BINS], Vec<Mode>) {
+        let mut s = [0.0; BINS];
+        for (b, v) in s.iter_mut().enumerate() {
+            let x = b as f64 + 0.5;
+            *v = parts
+                .iter()
+                .map(|&(c, h, sd)| h * (-0.5 * ((x - c) / sd).powi(2)).exp())
+                .sum();
         }
+        let modes = find_modes(&s);
+        assert_eq!(modes.len(), parts.len(), "{parts:?}: {modes:?}");
+        (s, modes)
     }
 
-    fn auto(candidates: &[Mode]) -> ContrastReport {
-        decide(
-            ContrastChoice::Auto,
-            candidates,
-            0.0,
-            &AnalysisParams::default(),
-        )
+    fn decide_on(choice: ContrastChoice, parts: &[(f64, f64, f64)]) -> ContrastReport {
+        let (s, modes) = histogram(parts);
+        decide(choice, &s, &modes, 0.0, &AnalysisParams::default())
     }
+
+    fn auto(parts: &[(f64, f64, f64)]) -> ContrastReport {
+        decide_on(ContrastChoice::Auto, parts)
+    }
+
+    fn outcome(r: &ContrastReport) -> (Contrast, ContrastBasis) {
+        (r.contrast, r.basis)
+    }
+
+    const DETECTED_T1: (Contrast, ContrastBasis) = (Contrast::T1, ContrastBasis::Detected);
+    const DETECTED_T2: (Contrast, ContrastBasis) = (Contrast::T2, ContrastBasis::Detected);
+    const ASSUMED_T1: (Contrast, ContrastBasis) = (Contrast::T1, ContrastBasis::Assumed);
 
     #[test]
     fn t1_shape_is_detected_as_t1() {
-        // MNI152-like: small CSF far below, GM and WM large at the bright end.
+        // MNI152-like: small broad CSF far below, GM and WM large at the bright end.
         let r = auto(&[
-            mode(66.0, 1000.0),
-            mode(171.0, 25000.0),
-            mode(220.0, 25800.0),
+            (66.0, 1000.0, 8.0),
+            (171.0, 25000.0, 10.0),
+            (220.0, 25800.0, 6.0),
         ]);
-        assert_eq!(
-            (r.contrast, r.basis),
-            (Contrast::T1, ContrastBasis::Detected)
-        );
+        assert_eq!(outcome(&r), DETECTED_T1, "{}", r.reason);
         // GM the tallest, at 0.5 of WM or more: still T1.
-        let r = auto(&[mode(60.0, 300.0), mode(120.0, 1000.0), mode(200.0, 600.0)]);
-        assert_eq!(
-            (r.contrast, r.basis),
-            (Contrast::T1, ContrastBasis::Detected)
-        );
+        let r = auto(&[
+            (60.0, 300.0, 8.0),
+            (120.0, 1000.0, 8.0),
+            (200.0, 600.0, 6.0),
+        ]);
+        assert_eq!(outcome(&r), DETECTED_T1, "{}", r.reason);
+        // CSF the tallest mode (tiny phantoms: much partial volume), but broad, WM sharp.
+        let r = auto(&[(40.0, 1000.0, 10.0), (100.0, 500.0, 4.0)]);
+        assert_eq!(outcome(&r), DETECTED_T1, "{}", r.reason);
+        assert!(r.reason.contains("much CSF"), "{}", r.reason);
     }
 
     #[test]
     fn t2_shape_is_detected_as_t2() {
-        // WM 0.17, GM 0.25, CSF 0.60 (module doc), CSF a third of WM's height but major.
-        let r = auto(&[mode(43.0, 1000.0), mode(64.0, 900.0), mode(154.0, 300.0)]);
-        assert_eq!(
-            (r.contrast, r.basis),
-            (Contrast::T2, ContrastBasis::Detected)
-        );
+        // WM 0.17, GM 0.25, CSF 0.60 (module doc): WM sharp, CSF broad and a third as tall.
+        let r = auto(&[
+            (43.0, 1000.0, 3.0),
+            (64.0, 900.0, 4.0),
+            (154.0, 300.0, 12.0),
+        ]);
+        assert_eq!(outcome(&r), DETECTED_T2, "{}", r.reason);
         assert!(r.reason.contains("T2 shape"), "{}", r.reason);
         // An unmasked head: a dark skull shell (0.13 of CSF) is the tallest mode, but no tissue
         // (the 64^3 T2 phantom of tests/contrast.rs looks like this).
         let r = auto(&[
-            mode(20.0, 1400.0),
-            mode(43.0, 1100.0),
-            mode(64.0, 1250.0),
-            mode(154.0, 900.0),
+            (20.0, 1400.0, 3.0),
+            (43.0, 1100.0, 3.0),
+            (64.0, 1250.0, 4.0),
+            (154.0, 900.0, 12.0),
         ]);
-        assert_eq!(
-            (r.contrast, r.basis),
-            (Contrast::T2, ContrastBasis::Detected)
-        );
-        // GM merged into WM: one large dark mode and a bright major one.
-        let r = auto(&[mode(50.0, 1000.0), mode(150.0, 400.0)]);
-        assert_eq!(r.contrast, Contrast::T2);
+        assert_eq!(outcome(&r), DETECTED_T2, "{}", r.reason);
+        // GM merged into WM: one large sharp dark mode and a broad bright one.
+        let r = auto(&[(50.0, 1000.0, 5.0), (150.0, 400.0, 12.0)]);
+        assert_eq!(outcome(&r), DETECTED_T2, "{}", r.reason);
     }
 
     #[test]
     fn conflicting_or_missing_evidence_assumes_t1_and_says_so() {
         // One mode: no evidence.
-        let r = auto(&[mode(100.0, 1000.0)]);
-        assert_eq!(
-            (r.contrast, r.basis),
-            (Contrast::T1, ContrastBasis::Assumed)
-        );
+        let r = auto(&[(100.0, 1000.0, 5.0)]);
+        assert_eq!(outcome(&r), ASSUMED_T1);
         assert!(r.reason.contains("too few"), "{}", r.reason);
-        assert_eq!(auto(&[]).basis, ContrastBasis::Assumed);
-        // A tall dark mode, but the middle large mode sits next to the bright one (a T1 with a
-        // huge CSF mode, hydrocephalus-like): conflicting, T1 assumed.
-        let r = auto(&[mode(50.0, 1000.0), mode(150.0, 500.0), mode(180.0, 400.0)]);
-        assert_eq!(
-            (r.contrast, r.basis),
-            (Contrast::T1, ContrastBasis::Assumed)
+        let none = decide(
+            ContrastChoice::Auto,
+            &[0.0; BINS],
+            &[],
+            0.0,
+            &AnalysisParams::default(),
         );
+        assert_eq!(outcome(&none), ASSUMED_T1);
+        // Widths say T2, but the middle large mode sits next to the bright one, as in T1.
+        let r = auto(&[
+            (50.0, 1000.0, 3.0),
+            (150.0, 500.0, 4.0),
+            (180.0, 400.0, 10.0),
+        ]);
+        assert_eq!(outcome(&r), ASSUMED_T1, "{}", r.reason);
         assert!(r.reason.contains("nearer the bright"), "{}", r.reason);
-        // Four large modes: not a clean T2.
-        let four = [
-            mode(40.0, 1000.0),
-            mode(60.0, 900.0),
-            mode(90.0, 800.0),
-            mode(200.0, 700.0),
-        ];
-        assert_eq!(auto(&four).basis, ContrastBasis::Assumed);
+        // The tallest mode sits on the zero (the 16^3 phantom's air noise): not tissue.
+        let r = auto(&[(4.0, 1000.0, 3.0), (14.0, 400.0, 5.0)]);
+        assert_eq!(outcome(&r), ASSUMED_T1, "{}", r.reason);
+        assert!(r.reason.contains("noise floor"), "{}", r.reason);
+        // Four large tissue modes: not a head's histogram.
+        let r = auto(&[
+            (40.0, 1000.0, 3.0),
+            (60.0, 900.0, 3.0),
+            (90.0, 800.0, 3.0),
+            (200.0, 700.0, 10.0),
+        ]);
+        assert_eq!(outcome(&r), ASSUMED_T1, "{}", r.reason);
         // T2 whose CSF mode is small (below the major fraction): ambiguous with a T1 bright tail.
-        let r = auto(&[mode(43.0, 1000.0), mode(64.0, 900.0), mode(154.0, 100.0)]);
-        assert_eq!(
-            (r.contrast, r.basis),
-            (Contrast::T1, ContrastBasis::Assumed)
-        );
+        let r = auto(&[
+            (43.0, 1000.0, 3.0),
+            (64.0, 900.0, 4.0),
+            (154.0, 100.0, 12.0),
+        ]);
+        assert_eq!(outcome(&r), ASSUMED_T1, "{}", r.reason);
         assert!(r.reason.contains("bright tail"), "{}", r.reason);
+        assert!(r.reason.contains("--contrast t2"), "{}", r.reason);
     }
 
     #[test]
     fn small_or_near_bright_tails_keep_t1_detected() {
-        let t1 = [mode(30.0, 300.0), mode(75.0, 900.0), mode(100.0, 1000.0)];
-        let with = |tail: Mode| {
+        let t1 = [(30.0, 300.0, 6.0), (75.0, 900.0, 5.0), (100.0, 1000.0, 4.0)];
+        let with = |tail: (f64, f64, f64)| {
             let mut all = t1.to_vec();
             all.push(tail);
             auto(&all)
         };
         // 2x WM but under 5 % of the tallest mode: a tail.
-        assert_eq!(with(mode(200.0, 40.0)).basis, ContrastBasis::Detected);
+        assert_eq!(outcome(&with((200.0, 40.0, 5.0))), DETECTED_T1);
         // 1.7x WM (the phantom's lesion and vessels): a tail, however tall.
-        assert_eq!(with(mode(170.0, 150.0)).basis, ContrastBasis::Detected);
+        assert_eq!(outcome(&with((170.0, 150.0, 5.0))), DETECTED_T1);
         // 2x WM and 15 % of the tallest: could be T2's CSF.
-        let r = with(mode(200.0, 150.0));
-        assert_eq!(
-            (r.contrast, r.basis),
-            (Contrast::T1, ContrastBasis::Assumed)
-        );
+        assert_eq!(outcome(&with((200.0, 150.0, 5.0))), ASSUMED_T1);
     }
 
     #[test]
     fn forced_choices_are_obeyed_and_reported() {
-        let t2 = [mode(43.0, 1000.0), mode(64.0, 900.0), mode(154.0, 300.0)];
-        let p = AnalysisParams::default();
-        let r = decide(ContrastChoice::T1, &t2, 0.0, &p);
-        assert_eq!((r.contrast, r.basis), (Contrast::T1, ContrastBasis::Forced));
-        let r = decide(ContrastChoice::T2, &[], 0.0, &p);
-        assert_eq!((r.contrast, r.basis), (Contrast::T2, ContrastBasis::Forced));
+        let t2 = [
+            (43.0, 1000.0, 3.0),
+            (64.0, 900.0, 4.0),
+            (154.0, 300.0, 12.0),
+        ];
+        let r = decide_on(ContrastChoice::T1, &t2);
+        assert_eq!(outcome(&r), (Contrast::T1, ContrastBasis::Forced));
+        let r = decide_on(ContrastChoice::T2, &[(100.0, 1000.0, 5.0)]);
+        assert_eq!(outcome(&r), (Contrast::T2, ContrastBasis::Forced));
         assert!(r.summary().starts_with("T2 (forced): --contrast t2"));
+    }
+
+    #[test]
+    fn half_widths_are_interpolated_at_half_maximum() {
+        // A Gaussian of sd 4: HWHM = 4 sqrt(2 ln 2) = 4.71 bins on either side.
+        let (s, modes) = histogram(&[(100.0, 1000.0, 4.0)]);
+        let want = 4.0 * (2.0 * 2f64.ln()).sqrt();
+        let left = left_half_width(&s, &modes[0]).unwrap();
+        let right = right_half_width(&s, &modes[0]).unwrap();
+        assert!(
+            (left - want).abs() < 0.1 && (right - want).abs() < 0.1,
+            "{left} {right}"
+        );
+        // A mode touching bin 0 has no measurable dark side.
+        let (s, modes) = histogram(&[(0.5, 1000.0, 4.0)]);
+        assert_eq!(left_half_width(&s, &modes[0]), None);
     }
 }

@@ -87,7 +87,7 @@ pub fn analyze_with(
         .collect();
     let bg = background::find_background(&s, &modes, &spike_bins, params);
     let candidates = &modes[bg.modes..];
-    let decided = contrast::decide(params.contrast, candidates, bg.zero, params);
+    let decided = contrast::decide(params.contrast, &s, candidates, bg.zero, params);
     let assignment = assign::assign_for(decided.contrast, candidates, bg.zero, params);
 
     let peak_of = |i: Option<usize>| i.map(|i| Peak::new(candidates[i].norm(), imin, imax));

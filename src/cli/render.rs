@@ -7,7 +7,7 @@
 //!   render.
 //! - Notes about tissues without a peak are printed in DVR mode only: they are about the
 //!   classification, which MIP and MinIP do not use.
-//! - One note line about the contrast when it matters: tissues labelled T2 (detected or
+//! - One note line about the contrast when it matters (DVR only, like the tissue notes): tissues labelled T2 (detected or
 //!   forced), or T1 only assumed although tissue peaks were found (conflicting evidence). With
 //!   `--windows paper` on a T2 volume the same line warns that those are T1 windows. A T1 that
 //!   was detected or forced, or a volume without tissue peaks, gets no contrast note.
@@ -204,7 +204,7 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
             "morphray: note: no {name} peak was found in this volume, so {name} cannot be shown"
         );
     }
-    if let Some(note) = contrast_note(&opened.report, args.scene.windows) {
+    if let Some(note) = contrast_note(&opened.report, args.scene.windows).filter(|_| classified) {
         eprintln!("morphray: note: {note}");
     }
     let (width, height) = args.scene.size.unwrap_or((1024, 1024));
