@@ -386,4 +386,7 @@ fn peaks_json_and_text_report_the_contrast_and_render_says_it_once() {
         notes[0].starts_with("morphray: note: ") && notes[0].contains("T1 windows"),
         "{err}"
     );
+    if let Some(dir) = path.parent() {
+        let _ = std::fs::remove_dir_all(dir);
+    }
 }

@@ -69,11 +69,13 @@ pub struct Cli {
     #[arg(long, global = true, value_enum, default_value_t = NormalizeArg::Minmax)]
     pub normalize: NormalizeArg,
 
-    /// Which MR contrast the tissues are labelled for. `auto` = read it from the histogram: T2
-    /// when the largest tissue mode is dark and a large mode at least twice as bright exists
-    /// (WM < GM < CSF), T1 otherwise (CSF < GM < WM); when the histogram does not show it, T1
-    /// is assumed and `peaks` and `render` say so. `t1` / `t2` = take it as given (FLAIR reads as
-    /// T1 in a histogram). The paper's fixed windows (`--windows paper`) are T1 windows.
+    /// Which MR contrast the tissues are labelled for: T1 = CSF < GM < WM, T2 = WM < GM < CSF.
+    /// `auto` = read it from the histogram: T2 when the largest tissue mode is dark and sharp
+    /// and a large broad mode (CSF) is more than twice as bright, T1 when the tissue bulk is at
+    /// the bright end; when the histogram cannot tell (one mode, conflicting shapes, a bright
+    /// mode that may be CSF or fat), T1 is assumed and `peaks` and `render` say so with the
+    /// reason. `t1` / `t2` = take it as given. FLAIR looks like T1 in a histogram and is read as
+    /// T1, GM and WM swapped (no setting fixes that yet). `--windows paper` uses T1 windows.
     #[arg(long, global = true, value_enum, default_value_t = ContrastArg::Auto)]
     pub contrast: ContrastArg,
 
