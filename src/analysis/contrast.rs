@@ -25,25 +25,25 @@
 //!    That is T2 (WM/GM dark, CSF bright), or a T1 with very much CSF (tiny or atrophic heads:
 //!    the phantom at 20^3 and 24^3 voxels has its CSF mode tallest, from partial volume). The
 //!    widths tell them apart: CSF is the broad mode in both contrasts (partial volume with every
-//!    tissue, pulsation) and WM the sharp one, so the outer half-widths at half maximum are
-//!    compared (`T`'s dark side, `B`'s bright side, the sides free of the other tissues):
+//!    tissue, pulsation) and WM the sharp one, so the half-widths at half maximum on the outer
+//!    sides (`T`'s dark side, `B`'s bright side) are compared:
 //!    - `T` at least as broad as `B`: T1 (CSF dark) *detected*;
 //!    - `T` sharper: T2 *detected* when the picture is clean: at most three major tissue modes
 //!      (a head has at most three large tissue classes) and every major mode between `T` and
 //!      `B` nearer `T` (T2's GM sits next to WM; T1's GM next to WM at the bright end);
-//!    - otherwise (more major modes, widths not measurable, `T` closer to the zero than two of
-//!      its half-widths, i.e. the noise floor of a tiny volume such as the 16^3 phantom, or a
-//!      middle mode placed as in T1)
-//!      the evidence conflicts and T1 is *assumed*. Histograms of random counts have many major
-//!      modes, so they never pass as T2 (tests/contrast.rs sweeps them; tests/peaks.rs's
-//!      arbitrary-histogram property relies on the T1 order).
+//!    - otherwise the evidence conflicts and T1 is *assumed*: more major modes, widths not
+//!      measurable, `T` closer to the zero than two of its half-widths (the noise floor of a
+//!      tiny volume such as the 16^3 phantom, not WM), or a middle mode placed as in T1.
+//!      Histograms of random counts have many major modes, so they never pass as T2
+//!      (tests/contrast.rs sweeps them; tests/peaks.rs's arbitrary-histogram property relies on
+//!      the T1 order).
 //! 3. `r >= 0.5`: the T1 shape. T1 is *detected*, unless a separate candidate brighter than
 //!    every major mode, at least `BRIGHT_MODE_RATIO` (1.8) times `B` and at least
-//!    `BRIGHT_MODE_HEIGHT` (5 %) of the tallest candidate's height, exists: that is T2 whose CSF mode is small (GM
-//!    then is `B`, CSF is 2-3 times GM) or a T1 with a bright tail (fat, vessels, a lesion), and
-//!    the histogram cannot say which, so T1 is *assumed* and the reason names the mode. 1.8 lies
-//!    below T2's CSF/GM (1.96 at TE 80 ms, more at longer TE) and above the phantom's bright tail
-//!    (lesion 1350 and vessels 1450 over WM 850: 1.6-1.7).
+//!    `BRIGHT_MODE_HEIGHT` (5 %) of the tallest candidate's height, exists: that is T2 whose CSF
+//!    mode is small (GM then is `B`, CSF is 2-3 times GM) or a T1 with a bright tail (fat,
+//!    vessels, a lesion), and the histogram cannot say which, so T1 is *assumed* and the reason
+//!    names the mode. 1.8 lies below T2's CSF/GM (1.96 at TE 80 ms, more at longer TE) and above
+//!    the phantom's bright tail (lesion 1350 and vessels 1450 over WM 850: 1.6-1.7).
 //!
 //! `--contrast t1|t2` skips the rule (*forced*). Whatever the outcome, the reason is one line
 //! with the numbers it used, so a reader can check it.
