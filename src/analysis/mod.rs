@@ -13,8 +13,9 @@
 //! 4. `background`: the darkest modes below 12 % of the WM candidate's intensity (air noise,
 //!    dark shells) and the spikes below the tissue are background; the threshold is the valley
 //!    after them.
-//! 5. `assign`: WM = brightest major mode; GM and CSF by their intensity ratio to WM. A tissue
-//!    that is not there is `None`, never invented.
+//! 5. `contrast` decides T1 or T2 (or takes `--contrast`); `assign`: for T1, WM = brightest
+//!    major mode, for T2 the darkest; GM and CSF by their intensity ratio to WM. A tissue that
+//!    is not there is `None`, never invented.
 //! 6. `windows`: adaptive windows around the modes (boundaries at valleys) and the paper preset.
 //! 7. `table1`: the report and its flat Table-1 row.
 //!
@@ -23,6 +24,7 @@
 
 pub mod assign;
 pub mod background;
+pub mod contrast;
 pub mod params;
 pub mod peaks;
 pub mod range;
@@ -31,6 +33,7 @@ pub mod spikes;
 pub mod table1;
 pub mod windows;
 
+pub use contrast::{Contrast, ContrastBasis, ContrastChoice, ContrastReport};
 pub use params::AnalysisParams;
 pub use range::{NormalizeMode, RangeChoice, RobustRange};
 pub use table1::{
@@ -84,7 +87,8 @@ pub fn analyze_with(
         .collect();
     let bg = background::find_background(&s, &modes, &spike_bins, params);
     let candidates = &modes[bg.modes..];
-    let assignment = assign::assign(candidates, bg.zero, params);
+    let decided = contrast::decide(params.contrast, &s, candidates, bg.zero, params);
+    let assignment = assign::assign_for(decided.contrast, candidates, bg.zero, params);
 
     let peak_of = |i: Option<usize>| i.map(|i| Peak::new(candidates[i].norm(), imin, imax));
     let peaks = Peaks {
@@ -156,5 +160,6 @@ pub fn analyze_with(
         smoothing_sigma_bins: sigma,
         params: *params,
         range: RangeChoice::default(),
+        contrast: decided,
     }
 }

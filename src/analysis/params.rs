@@ -3,6 +3,7 @@
 //!
 //! Every default is stated with its reason next to the field; the ratios are T1-specific (adult
 //! contrast: CSF darker than GM darker than WM), which is what the paper's Table 1 describes.
+//! T2 assignment uses its own ratios (see `assign`); `contrast` says which applies.
 
 /// Parameters of [`super::analyze_with`].
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
@@ -47,6 +48,10 @@ pub struct AnalysisParams {
     /// range), about how well a valley between two modes is located. Capped per report at a
     /// quarter of the narrowest window.
     pub edge_bins: f64,
+    /// Which contrast the tissues are labelled for: detected from the histogram (`Auto`, see
+    /// `contrast`), or forced to T1 or T2 (`--contrast`). Auto: T1 and T2 scans are both common,
+    /// and a T2 read as T1 gets every tissue wrong.
+    pub contrast: super::contrast::ContrastChoice,
 }
 
 impl Default for AnalysisParams {
@@ -63,6 +68,7 @@ impl Default for AnalysisParams {
             gm_min_ratio: 0.5,
             wm_upper_sigmas: 3.0,
             edge_bins: 2.0,
+            contrast: super::contrast::ContrastChoice::Auto,
         }
     }
 }

@@ -1,9 +1,14 @@
 //! `morphray peaks`: the paper's Table-1 row from the GPU histogram.
+//!
+//! Decisions: the contrast the tissues were labelled for is printed with its basis (detected,
+//! assumed, forced) and reason, because every label depends on it; the paper's windows are
+//! marked as T1 windows, and on a volume labelled T2 the "inside?" column says it does not
+//! apply rather than reporting T2 peaks against T1 windows.
 
 use super::args::PeaksArgs;
 use super::output::{json, ms, print_line, print_warnings};
 use super::session;
-use crate::analysis::{Peak, TissueWindows};
+use crate::analysis::{Contrast, ContrastReport, Peak, TissueWindows};
 use crate::error::Error;
 use std::collections::BTreeMap;
 
@@ -27,8 +32,12 @@ struct PeaksReport<'a> {
     background_threshold: f64,
     peaks: BTreeMap<&'static str, Option<Peak>>,
     paper_windows: &'a TissueWindows,
+    /// Always `t1`: the paper's windows describe T1 contrast.
+    paper_windows_contrast: Contrast,
     in_paper_window: BTreeMap<&'static str, Option<bool>>,
     windows: &'a TissueWindows,
+    /// Contrast the tissues were labelled for, how it was decided, and why.
+    contrast: &'a ContrastReport,
     device: String,
     timings_ms: BTreeMap<String, f64>,
     /// The loader's repairs and warnings about the input.
@@ -107,12 +116,14 @@ pub fn run(args: &PeaksArgs, global: &super::GlobalOptions) -> Result<(), Error>
         background_threshold: r.background_threshold,
         peaks: BTreeMap::from([("csf", r.peaks.csf), ("gm", r.peaks.gm), ("wm", r.peaks.wm)]),
         paper_windows: &r.paper_windows,
+        paper_windows_contrast: Contrast::T1,
         in_paper_window: BTreeMap::from([
             ("csf", r.in_paper_window.csf),
             ("gm", r.in_paper_window.gm),
             ("wm", r.in_paper_window.wm),
         ]),
         windows: &r.adaptive_windows,
+        contrast: &r.contrast,
         device: opened.engine.device().adapter().name.clone(),
         timings_ms: timings,
         warnings: &opened.source.volume.warnings,
@@ -142,19 +153,22 @@ pub fn run(args: &PeaksArgs, global: &super::GlobalOptions) -> Result<(), Error>
         _ => print_line("Imin -  Imax -  (no finite voxel)"),
     }
     print_line(&normalization_line(r));
-    print_line("tissue  peak I_norm  peak raw      paper window   inside?");
+    print_line(&format!("contrast {}", report.contrast.summary()));
+    let t2 = report.contrast.contrast == Contrast::T2;
+    print_line("tissue  peak I_norm  peak raw      paper window (T1)  inside?");
     let paper = [("csf", "0.05-0.12"), ("gm", "0.12-0.18"), ("wm", "> 0.18")];
     for (name, window) in paper {
         let peak = report.peaks.get(name).copied().flatten();
         let inside = report.in_paper_window.get(name).copied().flatten();
         match peak {
             Some(p) => print_line(&format!(
-                "{:<7} {:<12.4} {:<13.2} {:<14} {}",
+                "{:<7} {:<12.4} {:<13.2} {:<18} {}",
                 name.to_uppercase(),
                 p.norm,
                 p.raw,
                 window,
                 match inside {
+                    _ if t2 => "n/a: T1 window, T2 volume",
                     Some(true) => "yes",
                     _ => "NO: outside the paper's fixed window",
                 }
@@ -164,6 +178,12 @@ pub fn run(args: &PeaksArgs, global: &super::GlobalOptions) -> Result<(), Error>
                 name.to_uppercase()
             )),
         }
+    }
+    if t2 {
+        print_line(
+            "note: the paper's windows are T1 windows (CSF darkest, WM brightest); on this T2 \
+             volume they select the wrong tissues: render with the adaptive windows",
+        );
     }
     let gpu: Vec<String> = opened
         .twin
