@@ -12,8 +12,9 @@
 //
 // Stages: grid-stride loop (the same trip count for every invocation, so subgroup operations
 // stay in uniform control flow) -> when a whole subgroup lands in one bin (background, runs of
-// one value), one lane adds the subgroup's count -> FINE_BINS + 2 shared counters (8 KiB) per
-// workgroup -> one global atomicAdd per non-empty counter per workgroup.
+// one value), one lane adds the subgroup's count -> FINE_BINS + 4 shared counters (8 KiB) per
+// workgroup -> one global atomicAdd per non-empty counter per workgroup. The extremes inside are
+// kept per invocation and reduced once at the end (subgroup, then shared, then global).
 #extension GL_GOOGLE_include_directive : require
 #extension GL_KHR_shader_subgroup_basic : require
 #extension GL_KHR_shader_subgroup_vote : require
@@ -79,21 +80,21 @@ void main() {
     // Orders the zeroing of the shared counters before any invocation adds to them.
     barrier();
 
+    // Active lanes of this subgroup: the loop runs in uniform control flow, so it is the same at
+    // every step and is counted once.
+    uint lanes = subgroupBallotBitCount(subgroupBallot(true));
+    // The extremes inside the interval stay in registers until the loop ends (no per-voxel
+    // subgroup reduction or shared atomic for them).
+    uint key_min = 0xffffffffu;
+    uint key_max = 0u;
     uint first = gl_WorkGroupID.x * gl_WorkGroupSize.x + local;
     for (uint step = 0u; step < params.iterations; step++) {
         uint key;
         uint counter = counter_of(first + step * params.stride, key);
-        // Lanes outside the interval hold the identities of both reductions.
-        uint key_min = subgroupMin(key);
-        uint key_max = subgroupMax(key == 0xffffffffu ? 0u : key);
-        if (subgroupElect()) {
-            if (key_min != 0xffffffffu) {
-                atomicMin(local_counts[MIN_INSIDE], key_min);
-                atomicMax(local_counts[MAX_INSIDE], key_max);
-            }
+        if (key != 0xffffffffu) {
+            key_min = min(key_min, key);
+            key_max = max(key_max, key);
         }
-        // Counted by every lane, before the branch: inside it only one lane is active.
-        uint lanes = subgroupBallotBitCount(subgroupBallot(true));
         if (subgroupAllEqual(counter)) {
             if (counter != SKIP && subgroupElect()) {
                 atomicAdd(local_counts[counter], lanes);
@@ -101,6 +102,12 @@ void main() {
         } else if (counter != SKIP) {
             atomicAdd(local_counts[counter], 1u);
         }
+    }
+    key_min = subgroupMin(key_min);
+    key_max = subgroupMax(key_max);
+    if (subgroupElect() && key_min != 0xffffffffu) {
+        atomicMin(local_counts[MIN_INSIDE], key_min);
+        atomicMax(local_counts[MAX_INSIDE], key_max);
     }
     // Orders every invocation's shared adds before the flush reads them.
     barrier();

@@ -17,8 +17,9 @@
 //! 4. `background`: the darkest modes below 12 % of the WM candidate's intensity (air noise,
 //!    dark shells) and the spikes below the tissue are background; the threshold is the valley
 //!    after them.
-//! 5. `assign`: WM = brightest major mode; GM and CSF by their intensity ratio to WM. A tissue
-//!    that is not there is `None`, never invented. With GM and WM assigned and no CSF mode, a
+//! 5. `contrast` decides T1 or T2 (or takes `--contrast`); `assign`: for T1, WM = brightest
+//!    major mode, for T2 the darkest; GM and CSF by their intensity ratio to WM. A tissue that
+//!    is not there is `None`, never invented. For T1, with GM and WM assigned and no CSF mode, a
 //!    faint flattening of the flank below GM in CSF's ratio band is taken as CSF (the flattest
 //!    one; `AnalysisParams::faint_csf_*`), then the assignment is redone. Only for unmasked
 //!    scans (a background mode: air noise), where Rician noise and bias blur CSF into GM's
@@ -32,6 +33,7 @@
 
 pub mod assign;
 pub mod background;
+pub mod contrast;
 pub mod params;
 pub mod peaks;
 pub mod range;
@@ -40,6 +42,7 @@ pub mod spikes;
 pub mod table1;
 pub mod windows;
 
+pub use contrast::{Contrast, ContrastBasis, ContrastChoice, ContrastReport};
 pub use params::AnalysisParams;
 pub use range::{NormalizeMode, RangeChoice, RobustRange};
 pub use table1::{
@@ -191,18 +194,22 @@ pub fn analyze_with(
             bg = background::find_background(&s, &modes, &spike_bins, params);
         }
     }
-    let mut assignment = assign::assign(&modes[bg.modes..], bg.zero, params);
-    // Unmasked scans only (see the module doc, step 5).
-    let unmasked = bg.modes > 0;
-    if let (true, None, Some(gm), Some(wm)) =
-        (unmasked, assignment.csf, assignment.gm, assignment.wm)
-    {
+    let decided = contrast::decide(params.contrast, &s, &modes[bg.modes..], bg.zero, params);
+    let mut assignment = assign::assign_for(decided.contrast, &modes[bg.modes..], bg.zero, params);
+    // T1 and unmasked scans only (see the module doc, step 5).
+    let faint_csf_applies = decided.contrast == contrast::Contrast::T1 && bg.modes > 0;
+    if let (true, None, Some(gm), Some(wm)) = (
+        faint_csf_applies,
+        assignment.csf,
+        assignment.gm,
+        assignment.wm,
+    ) {
         let (gm, wm) = (gm + bg.modes, wm + bg.modes);
         if let Some(csf) = faint_csf(&cleaned, &s, sigma, &modes, &bg, gm, wm, params) {
             // Between the background and GM: the background split is unchanged.
             modes.push(csf);
             modes.sort_by(|a, b| a.position.total_cmp(&b.position));
-            assignment = assign::assign(&modes[bg.modes..], bg.zero, params);
+            assignment = assign::assign_for(decided.contrast, &modes[bg.modes..], bg.zero, params);
         }
     }
     let candidates = &modes[bg.modes..];
@@ -277,6 +284,7 @@ pub fn analyze_with(
         smoothing_sigma_bins: sigma,
         params: *params,
         range: RangeChoice::default(),
+        contrast: decided,
     }
 }
 

@@ -3,6 +3,7 @@
 //!
 //! Every default is stated with its reason next to the field; the ratios are T1-specific (adult
 //! contrast: CSF darker than GM darker than WM), which is what the paper's Table 1 describes.
+//! T2 assignment uses its own ratios (see `assign`); `contrast` says which applies.
 
 /// Parameters of [`super::analyze_with`].
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
@@ -73,6 +74,10 @@ pub struct AnalysisParams {
     /// 2.4-4.7 deviations over four noise seeds (ACCURACY.md), too faint for the general
     /// shoulder test; with GM and WM already placed, only this band is searched.
     pub faint_csf_min_height: f64,
+    /// Which contrast the tissues are labelled for: detected from the histogram (`Auto`, see
+    /// `contrast`), or forced to T1 or T2 (`--contrast`). Auto: T1 and T2 scans are both common,
+    /// and a T2 read as T1 gets every tissue wrong.
+    pub contrast: super::contrast::ContrastChoice,
 }
 
 impl Default for AnalysisParams {
@@ -95,6 +100,7 @@ impl Default for AnalysisParams {
             faint_csf_max_slope_ratio: 0.9,
             faint_csf_noise_z: 2.0,
             faint_csf_min_height: 0.03,
+            contrast: super::contrast::ContrastChoice::Auto,
         }
     }
 }

@@ -11,6 +11,13 @@
 //!   threshold, Smith 2002). Taking it over the foreground makes it independent of how much air
 //!   the field of view holds; 0.5 % of the head is far more than "a handful" of hot voxels
 //!   (fat, vessels, spikes) and far less than any tissue.
+//! - The range ends `HEADROOM` (10 %) of its width above that percentile, even past the data's
+//!   maximum: clamped voxels pile up in the top `I_norm` bin, and right at the percentile that
+//!   pile sits against the brightest tissue and reads as a mode (on the MNI152 template, P99.5
+//!   is 234 of 255, inside the WM mode's upper flank, and the pile was taken for WM). The
+//!   headroom also keeps room for the pathology band above WM. Not capping it at the maximum
+//!   keeps the range of a clean scan and of the same scan with hot voxels the same (MNI152:
+//!   0..257.4 both; eq. 1 gives 0..255 and 0..8925).
 //! - Where the rule gives no range (`hi <= lo`: a volume whose foreground is one value, e.g.
 //!   two-valued masks), the finite min/max are used, as in eq. 1.
 //!
@@ -32,10 +39,11 @@ use crate::volume::{LinearMap, Samples};
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum NormalizeMode {
-    /// Percentiles of the finite voxels (see the module doc); values outside are clamped.
-    Robust,
-    /// The paper's eq. 1: the finite minimum and maximum.
+    /// Percentiles of the finite voxels (see the module doc); values outside are clamped. The
+    /// default: a handful of hot voxels leaves the rendering as it is on the clean scan.
     #[default]
+    Robust,
+    /// The paper's eq. 1: the finite minimum and maximum (the paper-literal preset).
     MinMax,
 }
 
@@ -53,6 +61,8 @@ impl NormalizeMode {
 pub const LOW_PERCENTILE: f64 = 0.5;
 /// High end: this percentile of the foreground voxels.
 pub const HIGH_PERCENTILE: f64 = 99.5;
+/// The range ends this fraction of its width above the high percentile (see the module doc).
+pub const HEADROOM: f64 = 0.1;
 /// Background threshold: `P_BACKGROUND_LOW + BACKGROUND_FRACTION (P_BACKGROUND_HIGH - ..)`.
 pub const P_BACKGROUND_LOW: f64 = 2.0;
 /// See [`P_BACKGROUND_LOW`].
@@ -208,9 +218,14 @@ pub fn robust_step(h: &RangeHistogram, pass: usize, data: (f64, f64)) -> Option<
 /// The final range, or the min/max fallback when the percentiles give none.
 pub fn finish(lo: f64, hi: f64, background: f64, data: (f64, f64), passes: usize) -> RobustRange {
     if hi > lo && lo.is_finite() && hi.is_finite() {
+        let with_headroom = hi + 2.0 * HEADROOM * half_difference(hi, lo);
         RobustRange {
             lo,
-            hi,
+            hi: if with_headroom.is_finite() {
+                with_headroom
+            } else {
+                hi
+            },
             background,
             fell_back: false,
             passes,
@@ -288,7 +303,8 @@ mod tests {
         // t = P2 + 0.1 (P98 - P2) = 20 + 0.1 * 960 = 116; 8840 foreground voxels up to 999.9.
         assert!((r.background - 115.9).abs() < 1.0, "{r:?}");
         assert!(
-            (r.lo - 4.9).abs() < 0.6 && (r.hi - 995.5).abs() < 0.6,
+            // P99.5 of the foreground is 995.8; the range ends 10 % of 995.8 - 5 higher.
+            (r.lo - 4.9).abs() < 0.6 && (r.hi - 1094.9).abs() < 0.7,
             "{r:?}"
         );
         assert!(!r.fell_back);
@@ -325,10 +341,13 @@ mod tests {
         values.extend([40_000.0; 3]);
         values.push(f32::NAN);
         let r = exact_robust_range(&Samples::from_f32(&values), LinearMap::IDENTITY).unwrap();
-        assert_eq!((r.lo as f32, r.hi as f32), (5.0, 995.8));
+        assert_eq!((r.lo as f32, r.hi as f32), (5.0, 1094.88));
         let two = Samples::from_f32(&[0.0, 0.0, 0.0, 7.0]);
         let r = exact_robust_range(&two, LinearMap::IDENTITY).unwrap();
-        assert!(!r.fell_back && (r.lo, r.hi) == (0.0, 7.0), "{r:?}");
+        assert!(
+            !r.fell_back && r.lo == 0.0 && (r.hi - 7.7).abs() < 1e-12,
+            "{r:?}"
+        );
         let constant = Samples::from_f32(&[3.0; 5]);
         let r = exact_robust_range(&constant, LinearMap::IDENTITY).unwrap();
         assert!(r.fell_back && (r.lo, r.hi) == (3.0, 3.0), "{r:?}");

@@ -11,6 +11,7 @@
 //! - The report also lists every significant mode with its role and every spike, so a reader can
 //!   see why a tissue is missing.
 
+use super::contrast::ContrastReport;
 use super::params::AnalysisParams;
 use super::range::RangeChoice;
 use super::windows::TissueWindows;
@@ -135,8 +136,10 @@ pub struct TissueReport {
     /// Parameters used.
     pub params: AnalysisParams,
     /// How `imin..imax` was chosen: the mode, eq. 1's data min/max, the robust range (filled in
-    /// by the engine, which knows the data; the default says min/max with no data).
+    /// by the engine, which knows the data; until then the default mode with no data).
     pub range: RangeChoice,
+    /// Contrast the tissues were labelled for, whether detected, assumed or forced, and why.
+    pub contrast: ContrastReport,
 }
 
 /// One row of the paper's Table 1, flat (one column per field, for CSV or JSON lines).

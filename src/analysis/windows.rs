@@ -9,11 +9,19 @@
 //!   windows share the boundary and one `edge`, so their weights sum to exactly 1 across it.
 //! - The darkest present tissue starts at the valley after the nearest darker significant mode
 //!   (a dark shell, the background mode), and never below the background threshold.
-//! - The brightest present tissue (WM) ends `wm_upper_sigmas` (3) standard deviations above its
-//!   mode, the standard deviation estimated from the right half-width at half maximum
-//!   (`sigma = HWHM / sqrt(2 ln 2)`; the bright side of WM is free of GM partial volume), or at
-//!   the valley before a brighter significant mode if that comes first. The pathology/contrast
-//!   band starts there and is open above.
+//! - Windows follow the intensity order of the modes, whichever tissue each is: CSF, GM, WM in
+//!   T1, WM, GM, CSF in T2 (see `contrast`).
+//! - The brightest present tissue (WM in T1, CSF in T2) ends `wm_upper_sigmas` (3) standard
+//!   deviations above its mode, the standard deviation estimated from the right half-width at
+//!   half maximum (`sigma = HWHM / sqrt(2 ln 2)`; the bright side of the brightest tissue is free
+//!   of partial volume with the others), or at the valley before a brighter significant mode if
+//!   that comes first. The pathology/contrast band starts there and is open above.
+//! - What the pathology band means depends on the contrast. T1: what is brighter than WM
+//!   (gadolinium enhancement, fat, vessels), the paper's meaning. T2: what is brighter than CSF
+//!   (fat on fast spin echo, inflow artefacts); T2-bright lesions and oedema lie between GM and
+//!   CSF, inside the GM and CSF windows, so in T2 the band is "brighter than every tissue", not
+//!   a lesion detector. Keeping one definition (above the brightest tissue) keeps the windows a
+//!   partition of unity for both contrasts.
 //! - Open-ended windows (WM and pathology in the paper preset; pathology in the adaptive one, or
 //!   WM when no pathology band fits above it) have `hi = 1 + edge`, so that `I_norm = 1` gets full weight under the formula above
 //!   (with `hi = 1` it would get 0.5).
@@ -75,13 +83,15 @@ pub struct TissueWindows {
     pub gm: Option<Window>,
     /// White matter.
     pub wm: Option<Window>,
-    /// Pathology / contrast enhancement, above WM.
+    /// Pathology / contrast enhancement: above the brightest tissue (WM in T1, CSF in T2; module
+    /// doc).
     pub pathology: Option<Window>,
 }
 
 impl TissueWindows {
     /// The paper's fixed "biological radiometric constants": CSF 0.05-0.12, GM 0.12-0.18,
-    /// WM > 0.18, pathology/contrast > 0.20 (WM and pathology overlap, as in the paper).
+    /// WM > 0.18, pathology/contrast > 0.20 (WM and pathology overlap, as in the paper). These
+    /// are T1 windows (CSF darkest, WM brightest): on a T2 volume they select the wrong tissues.
     pub fn paper() -> Self {
         let w = |lo: f64, hi: f64| {
             Some(Window {
@@ -122,11 +132,13 @@ pub fn adaptive(
     params: &AnalysisParams,
 ) -> TissueWindows {
     let global = |i: Option<usize>| i.map(|i| i + first_candidate).filter(|&i| i < modes.len());
-    let present: Vec<(usize, usize)> = [assignment.csf, assignment.gm, assignment.wm]
+    let mut present: Vec<(usize, usize)> = [assignment.csf, assignment.gm, assignment.wm]
         .into_iter()
         .enumerate()
         .filter_map(|(tissue, i)| global(i).map(|i| (tissue, i)))
         .collect();
+    // Ascending intensity: CSF, GM, WM in T1 (already so), WM, GM, CSF in T2.
+    present.sort_by_key(|&(_, i)| i);
     let (Some(&(_, lowest)), Some(&(_, highest))) = (present.first(), present.last()) else {
         return TissueWindows::none();
     };

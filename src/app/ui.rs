@@ -18,7 +18,7 @@ use super::camera_control::{
 use super::histogram;
 use super::script::Preset;
 use super::status::Status;
-use crate::analysis::TissueReport;
+use crate::analysis::{Contrast, TissueReport};
 use crate::scene::visibility::{EmptyScene, predict_empty};
 use crate::scene::{Classification, RenderMode, Scene, TissueClass};
 use egui::{Color32, Pos2, Rect, RichText, Ui, vec2};
@@ -336,8 +336,11 @@ fn tissue_panel(ui: &mut Ui, controls: &mut Controls) -> Option<Rect> {
             controls.preset(Preset::Adaptive);
         }
         if ui
-            .selectable_label(source == WindowSource::Paper, "Paper")
-            .on_hover_text("The paper's fixed constants (CSF 0.05-0.12, GM 0.12-0.18, WM > 0.18)")
+            .selectable_label(source == WindowSource::Paper, "Paper (T1)")
+            .on_hover_text(
+                "The paper's fixed T1 constants (CSF 0.05-0.12, GM 0.12-0.18, WM > 0.18); \
+                 wrong tissues on a T2 volume",
+            )
             .clicked()
         {
             controls.preset(Preset::Paper);
@@ -350,7 +353,27 @@ fn tissue_panel(ui: &mut Ui, controls: &mut Controls) -> Option<Rect> {
             controls.preset(Preset::Reset);
         }
     });
+    contrast_label(ui, controls);
     rect
+}
+
+/// The contrast the tissues were labelled for, its reason on hover, and a warning when the
+/// paper's T1 windows are applied to a volume labelled T2.
+fn contrast_label(ui: &mut Ui, controls: &Controls) {
+    let Some(report) = &controls.report else {
+        return;
+    };
+    let c = &report.contrast;
+    let text = format!("Contrast: {} ({})", c.contrast.name(), c.basis.name());
+    ui.label(RichText::new(text).small())
+        .on_hover_text(c.reason.as_str());
+    if c.contrast == Contrast::T2 && controls.windows == WindowSource::Paper {
+        ui.label(
+            RichText::new("Paper windows are T1 windows: wrong tissues on this T2 volume")
+                .small()
+                .color(Color32::YELLOW),
+        );
+    }
 }
 
 fn rendering_panel(ui: &mut Ui, controls: &mut Controls) {

@@ -65,9 +65,20 @@ pub struct Cli {
     /// Which intensity range becomes I_norm 0..1 (the scale the tissue windows are in):
     /// `robust` = from percentiles of the finite voxels, so a few hot voxels (fat, vessels,
     /// spikes) cannot squeeze every tissue into the darkest bins; values outside are clamped.
-    /// `minmax` = the paper's eq. 1, the finite minimum and maximum (paper-literal preset).
-    #[arg(long, global = true, value_enum, default_value_t = NormalizeArg::Minmax)]
+    /// `minmax` = the paper's eq. 1, the finite minimum and maximum (paper-literal preset;
+    /// `morphray peaks` reports both).
+    #[arg(long, global = true, value_enum, default_value_t = NormalizeArg::Robust)]
     pub normalize: NormalizeArg,
+
+    /// Which MR contrast the tissues are labelled for: T1 = CSF < GM < WM, T2 = WM < GM < CSF.
+    /// `auto` = read it from the histogram: T2 when the largest tissue mode is dark and sharp
+    /// and a large broad mode (CSF) is more than twice as bright, T1 when the tissue bulk is at
+    /// the bright end; when the histogram cannot tell (one mode, conflicting shapes, a bright
+    /// mode that may be CSF or fat), T1 is assumed and `peaks` and `render` say so with the
+    /// reason. `t1` / `t2` = take it as given. FLAIR looks like T1 in a histogram and is read as
+    /// T1, GM and WM swapped (no setting fixes that yet). `--windows paper` uses T1 windows.
+    #[arg(long, global = true, value_enum, default_value_t = ContrastArg::Auto)]
+    pub contrast: ContrastArg,
 
     /// What to do.
     #[command(subcommand)]
@@ -88,6 +99,27 @@ impl From<NormalizeArg> for crate::analysis::NormalizeMode {
         match arg {
             NormalizeArg::Robust => crate::analysis::NormalizeMode::Robust,
             NormalizeArg::Minmax => crate::analysis::NormalizeMode::MinMax,
+        }
+    }
+}
+
+/// `--contrast`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ContrastArg {
+    /// Detect from the histogram (T1 when it cannot tell).
+    Auto,
+    /// T1-weighted: CSF < GM < WM.
+    T1,
+    /// T2-weighted: WM < GM < CSF.
+    T2,
+}
+
+impl From<ContrastArg> for crate::analysis::ContrastChoice {
+    fn from(arg: ContrastArg) -> Self {
+        match arg {
+            ContrastArg::Auto => crate::analysis::ContrastChoice::Auto,
+            ContrastArg::T1 => crate::analysis::ContrastChoice::T1,
+            ContrastArg::T2 => crate::analysis::ContrastChoice::T2,
         }
     }
 }
@@ -181,7 +213,8 @@ pub enum ModeArg {
 pub enum WindowsArg {
     /// Placed around the CSF / GM / WM peaks found in this volume's histogram.
     Adaptive,
-    /// The paper's fixed constants (CSF 0.05-0.12, GM 0.12-0.18, WM > 0.18, pathology > 0.20).
+    /// The paper's fixed constants (CSF 0.05-0.12, GM 0.12-0.18, WM > 0.18, pathology > 0.20):
+    /// T1 windows, wrong for a T2 volume.
     Paper,
 }
 

@@ -74,6 +74,8 @@ pub struct GlobalOptions {
     pub pipeline_cache: crate::gpu::PipelineCacheConfig,
     /// Which range maps to I_norm 0..1.
     pub normalize: crate::analysis::NormalizeMode,
+    /// Which contrast tissues are labelled for (auto-detected unless forced).
+    pub contrast: crate::analysis::ContrastChoice,
 }
 
 impl GlobalOptions {
@@ -86,6 +88,7 @@ impl GlobalOptions {
         config.device.tuning = self.tuning.clone();
         config.pipeline_cache = self.pipeline_cache.clone();
         config.normalize = self.normalize;
+        config.analysis.contrast = self.contrast;
         config
     }
 }
@@ -128,6 +131,7 @@ pub fn run(cli: &Cli) -> Result<(), Error> {
         tuning,
         pipeline_cache: pipeline_cache_config(cli.pipeline_cache.as_deref()),
         normalize: cli.normalize.into(),
+        contrast: cli.contrast.into(),
     };
     let global = &global;
     match &cli.command {

@@ -1,9 +1,14 @@
 //! `morphray peaks`: the paper's Table-1 row from the GPU histogram.
+//!
+//! Decisions: the contrast the tissues were labelled for is printed with its basis (detected,
+//! assumed, forced) and reason, because every label depends on it; the paper's windows are
+//! marked as T1 windows, and on a volume labelled T2 the "inside?" column says it does not
+//! apply rather than reporting T2 peaks against T1 windows.
 
 use super::args::PeaksArgs;
 use super::output::{json, ms, print_line, print_warnings};
 use super::session;
-use crate::analysis::{Peak, TissueWindows};
+use crate::analysis::{Contrast, ContrastReport, Peak, TissueWindows};
 use crate::error::Error;
 use std::collections::BTreeMap;
 
@@ -18,15 +23,50 @@ struct PeaksReport<'a> {
     nonfinite_voxels: usize,
     imin: Option<f64>,
     imax: Option<f64>,
+    /// How the range mapped to I_norm 0..1 was chosen, and eq. 1's data range.
+    normalization: crate::analysis::RangeChoice,
+    /// The physical range mapped to I_norm 0..1 (the robust range, or imin..imax).
+    range: Option<[f64; 2]>,
+    /// The paper's Table-1 row: eq. 1's Imin/Imax and its I_norm peaks next to the rendered ones.
+    table1: crate::analysis::Table1Row,
     background_threshold: f64,
     peaks: BTreeMap<&'static str, Option<Peak>>,
     paper_windows: &'a TissueWindows,
+    /// Always `t1`: the paper's windows describe T1 contrast.
+    paper_windows_contrast: Contrast,
     in_paper_window: BTreeMap<&'static str, Option<bool>>,
     windows: &'a TissueWindows,
+    /// Contrast the tissues were labelled for, how it was decided, and why.
+    contrast: &'a ContrastReport,
     device: String,
     timings_ms: BTreeMap<String, f64>,
     /// The loader's repairs and warnings about the input.
     warnings: &'a [String],
+}
+
+/// One line saying which range became I_norm 0..1 and why.
+fn normalization_line(r: &crate::analysis::TissueReport) -> String {
+    match (r.range.mode, r.range.robust) {
+        (_, _) if r.finite_voxels == 0 => "I_norm: no finite voxel".into(),
+        (crate::analysis::NormalizeMode::MinMax, _) => {
+            "I_norm: eq. 1 (min/max; --normalize minmax, the paper-literal preset)".into()
+        }
+        (_, Some(robust)) if robust.fell_back => format!(
+            "I_norm: eq. 1 (min/max): the robust percentiles give no range here (the foreground \
+             is one value); background threshold {:.6}",
+            robust.background
+        ),
+        (_, Some(robust)) => format!(
+            "I_norm: robust range {} .. {} (P{} of the finite voxels .. P{} of the voxels above \
+             the background threshold {:.6}; values outside clamped)",
+            r.imin,
+            r.imax,
+            crate::analysis::range::LOW_PERCENTILE,
+            crate::analysis::range::HIGH_PERCENTILE,
+            robust.background
+        ),
+        (_, None) => "I_norm: eq. 1 (min/max)".into(),
+    }
 }
 
 /// Runs the command.
@@ -68,17 +108,22 @@ pub fn run(args: &PeaksArgs, global: &super::GlobalOptions) -> Result<(), Error>
         used_voxels_definition: "finite voxels whose I_norm bin is at or above the background threshold",
         nonfinite_voxels: r.nonfinite_voxels,
         // null without a finite voxel (the analysis' 0 would read as a real intensity).
-        imin: (r.finite_voxels > 0).then_some(r.imin),
-        imax: (r.finite_voxels > 0).then_some(r.imax),
+        imin: r.range.data_min,
+        imax: r.range.data_max,
+        normalization: r.range,
+        range: (r.finite_voxels > 0).then_some([r.imin, r.imax]),
+        table1: r.table1(),
         background_threshold: r.background_threshold,
         peaks: BTreeMap::from([("csf", r.peaks.csf), ("gm", r.peaks.gm), ("wm", r.peaks.wm)]),
         paper_windows: &r.paper_windows,
+        paper_windows_contrast: Contrast::T1,
         in_paper_window: BTreeMap::from([
             ("csf", r.in_paper_window.csf),
             ("gm", r.in_paper_window.gm),
             ("wm", r.in_paper_window.wm),
         ]),
         windows: &r.adaptive_windows,
+        contrast: &r.contrast,
         device: opened.engine.device().adapter().name.clone(),
         timings_ms: timings,
         warnings: &opened.source.volume.warnings,
@@ -107,19 +152,23 @@ pub fn run(args: &PeaksArgs, global: &super::GlobalOptions) -> Result<(), Error>
         (Some(lo), Some(hi)) => print_line(&format!("Imin {lo}  Imax {hi}")),
         _ => print_line("Imin -  Imax -  (no finite voxel)"),
     }
-    print_line("tissue  peak I_norm  peak raw      paper window   inside?");
+    print_line(&normalization_line(r));
+    print_line(&format!("contrast {}", report.contrast.summary()));
+    let t2 = report.contrast.contrast == Contrast::T2;
+    print_line("tissue  peak I_norm  peak raw      paper window (T1)  inside?");
     let paper = [("csf", "0.05-0.12"), ("gm", "0.12-0.18"), ("wm", "> 0.18")];
     for (name, window) in paper {
         let peak = report.peaks.get(name).copied().flatten();
         let inside = report.in_paper_window.get(name).copied().flatten();
         match peak {
             Some(p) => print_line(&format!(
-                "{:<7} {:<12.4} {:<13.2} {:<14} {}",
+                "{:<7} {:<12.4} {:<13.2} {:<18} {}",
                 name.to_uppercase(),
                 p.norm,
                 p.raw,
                 window,
                 match inside {
+                    _ if t2 => "n/a: T1 window, T2 volume",
                     Some(true) => "yes",
                     _ => "NO: outside the paper's fixed window",
                 }
@@ -129,6 +178,12 @@ pub fn run(args: &PeaksArgs, global: &super::GlobalOptions) -> Result<(), Error>
                 name.to_uppercase()
             )),
         }
+    }
+    if t2 {
+        print_line(
+            "note: the paper's windows are T1 windows (CSF darkest, WM brightest); on this T2 \
+             volume they select the wrong tissues: render with the adaptive windows",
+        );
     }
     let gpu: Vec<String> = opened
         .twin

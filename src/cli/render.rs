@@ -7,6 +7,11 @@
 //!   render.
 //! - Notes about tissues without a peak are printed in DVR mode only: they are about the
 //!   classification, which MIP and MinIP do not use.
+//! - One note line about the contrast when it matters, in DVR only like the tissue notes:
+//!   tissues labelled T2 (detected or forced), or T1 only assumed although tissue peaks were
+//!   found (conflicting evidence). With `--windows paper` on a T2 volume the same line warns that
+//!   those are T1 windows. A T1 that was detected or forced, or a volume without tissue peaks,
+//!   gets no contrast note.
 
 use super::args::{
     GradientArg, ModeArg, PrecisionArg, ProjectionArg, RenderArgs, SceneArgs, WindowsArg,
@@ -14,7 +19,7 @@ use super::args::{
 use super::output::{ms, print_line, print_warnings};
 use super::png::{Provenance, write_rgba8};
 use super::session;
-use crate::analysis::TissueReport;
+use crate::analysis::{Contrast, ContrastBasis, TissueReport};
 use crate::error::Error;
 use crate::files::write::{OutputKind, check_output};
 use crate::scene::visibility::{EmptyScene, pixels_off_background, predict_empty};
@@ -113,6 +118,26 @@ pub fn missing_tissues(scene: &Scene) -> Vec<&'static str> {
         .collect()
 }
 
+/// The one contrast note for `render` (module doc), without the `morphray: note: ` prefix.
+pub fn contrast_note(report: &TissueReport, windows: WindowsArg) -> Option<String> {
+    let c = &report.contrast;
+    match (c.contrast, c.basis) {
+        (Contrast::T2, _) => {
+            let paper = if windows == WindowsArg::Paper {
+                "; --windows paper uses the paper's T1 windows, which select the wrong tissues \
+                 on a T2 volume: use --windows adaptive"
+            } else {
+                ""
+            };
+            Some(format!("tissues labelled for {}{paper}", c.summary()))
+        }
+        (Contrast::T1, ContrastBasis::Assumed) if report.peaks.wm.is_some() => {
+            Some(format!("tissues labelled for {}", c.summary()))
+        }
+        _ => None,
+    }
+}
+
 /// What to try on the command line for an empty image.
 fn what_to_try(why: &EmptyScene, scene: &Scene) -> String {
     match why {
@@ -180,6 +205,9 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
             "morphray: note: no {name} peak was found in this volume, so {name} cannot be shown"
         );
     }
+    if let Some(note) = contrast_note(&opened.report, args.scene.windows).filter(|_| classified) {
+        eprintln!("morphray: note: {note}");
+    }
     let (width, height) = args.scene.size.unwrap_or((1024, 1024));
     let mut target = opened
         .engine
@@ -209,6 +237,8 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
             "device": opened.engine.device().adapter().name,
             "layout": opened.plan.layout,
             "normalized_format": opened.plan.normalized_format,
+            "normalization": opened.report.table1(),
+            "contrast": opened.report.contrast,
             "degradations": opened.plan.degradations,
         });
         let provenance = Provenance {
@@ -243,4 +273,42 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
         session::check_validation(&opened.engine)?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::analysis::{ContrastReport, Peak, analyze};
+
+    fn report(contrast: Contrast, basis: ContrastBasis, wm: bool) -> TissueReport {
+        let mut r = analyze(&[0; crate::reference::BINS], 0.0, 1.0, 0, 0);
+        r.contrast = ContrastReport {
+            contrast,
+            basis,
+            reason: "because".into(),
+        };
+        r.peaks.wm = wm.then(|| Peak::new(0.5, 0.0, 1.0));
+        r
+    }
+
+    #[test]
+    fn contrast_note_only_when_the_labels_are_t2_or_an_assumption() {
+        use ContrastBasis::{Assumed, Detected, Forced};
+        let note = |c, b, wm, w| contrast_note(&report(c, b, wm), w);
+        let adaptive = WindowsArg::Adaptive;
+        assert_eq!(note(Contrast::T1, Detected, true, adaptive), None);
+        assert_eq!(note(Contrast::T1, Forced, true, WindowsArg::Paper), None);
+        // No tissue peak: nothing was labelled, the tissue notes already say so.
+        assert_eq!(note(Contrast::T1, Assumed, false, adaptive), None);
+        let assumed = note(Contrast::T1, Assumed, true, adaptive).unwrap();
+        assert_eq!(assumed, "tissues labelled for T1 (assumed): because");
+        let t2 = note(Contrast::T2, Forced, true, adaptive).unwrap();
+        assert_eq!(t2, "tissues labelled for T2 (forced): because");
+        let paper = note(Contrast::T2, Detected, true, WindowsArg::Paper).unwrap();
+        assert!(
+            paper.contains("T2 (detected)") && paper.contains("T1 windows"),
+            "{paper}"
+        );
+        assert_eq!(paper.lines().count(), 1);
+    }
 }

@@ -9,13 +9,21 @@ pub mod volumes;
 use morphray::engine::{Engine, EngineConfig};
 use morphray::gpu::{DeviceConfig, Validation};
 
-/// An engine on the default device with the Khronos validation layer required.
+/// An engine on the default device with the Khronos validation layer required, normalizing by
+/// eq. 1 (min/max): these tests check the kernels against eq. 1's f64 twins at exact ranges.
+/// The robust range (the default) has its own tests: robust_range.rs, robust_render.rs.
 pub fn engine() -> Engine {
+    engine_normalizing(morphray::analysis::NormalizeMode::MinMax)
+}
+
+/// [`engine`] with the given normalization.
+pub fn engine_normalizing(normalize: morphray::analysis::NormalizeMode) -> Engine {
     let config = EngineConfig {
         device: DeviceConfig {
             validation: Validation::Required,
             ..Default::default()
         },
+        normalize,
         ..Default::default()
     };
     match Engine::new(config) {
