@@ -17,8 +17,9 @@
 //!   range of 234 values leaves every 11th bin empty, a mean of three u8 slices (values in thirds)
 //!   puts 2 instead of 3 values in every 5th bin. Each such bin becomes a deep, "significant"
 //!   dip that splits a tissue mode in two; it is replaced by the mean of its neighbours, like a
-//!   spike. Only as a pattern (5 or more such bins: a single one is a real sharp valley) and
-//!   only for dense histograms (quantization gap 1): a comb of gap 2 or more is the
+//!   spike. Dips only as a pattern (5 or more: a single one is a real sharp valley), bumps
+//!   always (a single bin holding two values of a 258-value range made a fake GM mode on the
+//!   MNI152); only for dense histograms (quantization gap 1): a comb of gap 2 or more is the
 //!   smoothing's job (`smoothing`), and its empty bins are not outliers.
 //! - The top bin holds every voxel at or above the range's top when the range is robust (the
 //!   clamped bright tail: 0.5 % of the foreground, piled into one bin), so it is capped at its
@@ -74,29 +75,39 @@ const QUANTIZATION_DIP: f64 = 0.85;
 /// bins of 2: 1.5); a real Gaussian mode's top reaches 1.3 only below a width of 1.4 bins.
 const QUANTIZATION_BUMP: f64 = 1.3;
 
-/// Fewer outliers than this are not a binning pattern (see [`find_quantization_outliers`]).
+/// Fewer dips than this are not a binning pattern (see [`find_quantization_outliers`]).
 const QUANTIZATION_PATTERN: usize = 5;
 
 /// Interior bins (1..=254) that lie more than `z` Poisson deviations and 15 % below the lower,
 /// or `z` deviations and 30 % above the higher of their two neighbours (see the module doc),
-/// ascending; none unless there are at least 5 of them.
+/// ascending; dips only when there are at least 5 of them.
 pub fn find_quantization_outliers(hist: &[f64; BINS], z: f64) -> Vec<usize> {
-    let found: Vec<usize> = (1..BINS - 1)
+    let neighbours = |b: usize| {
+        let (l, r) = (hist[b - 1], hist[b + 1]);
+        (l.min(r), l.max(r))
+    };
+    let dips: Vec<usize> = (1..BINS - 1)
         .filter(|&b| {
-            let (l, c, r) = (hist[b - 1], hist[b], hist[b + 1]);
-            let (low, high) = (l.min(r), l.max(r));
-            let dip = c < low - z * low.sqrt() && c < QUANTIZATION_DIP * low;
-            let bump = c > high + z * high.max(1.0).sqrt() && c > QUANTIZATION_BUMP * high;
-            dip || bump
+            let (low, _) = neighbours(b);
+            hist[b] < low - z * low.sqrt() && hist[b] < QUANTIZATION_DIP * low
         })
         .collect();
-    // Binning artefacts repeat along the whole range; one or a few such bins are real sharp
-    // valleys (two steep modes meeting, as between air noise and a dark shell) and stay.
-    if found.len() >= QUANTIZATION_PATTERN {
-        found
+    let bumps = (1..BINS - 1).filter(|&b| {
+        let (_, high) = neighbours(b);
+        hist[b] > high + z * high.max(1.0).sqrt() && hist[b] > QUANTIZATION_BUMP * high
+    });
+    // Dips count only as a pattern: one or a few are real sharp valleys (two steep modes
+    // meeting, as between air noise and a dark shell). A bump 30 % above both neighbours is
+    // never a tissue top (that would need a mode narrower than 1.4 bins), so one is enough: a
+    // range of 258 integer values over 256 bins puts two values into a single bin.
+    let mut found: Vec<usize> = if dips.len() >= QUANTIZATION_PATTERN {
+        dips
     } else {
         Vec::new()
-    }
+    };
+    found.extend(bumps);
+    found.sort_unstable();
+    found
 }
 
 /// A copy of `hist` whose top bin holds at most its neighbour's count.
@@ -154,9 +165,13 @@ mod tests {
         }
         assert!(find_quantization_outliers(&narrow, 6.0).is_empty());
         // A single sharp valley between two steep modes is real: not a pattern, left alone.
-        let mut valley = [0.0; BINS];
+        let mut valley = [2500.0; BINS];
         valley[10..15].copy_from_slice(&[2000.0, 1217.0, 950.0, 1428.0, 3000.0]);
         assert!(find_quantization_outliers(&valley, 6.0).is_empty());
+        // One bin holding two stored values among bins of one (a 258-value range) is filled.
+        let mut double = [20_000.0; BINS];
+        double[183] = 38_000.0;
+        assert_eq!(find_quantization_outliers(&double, 6.0), vec![183]);
         // Poisson-sized wiggles (2 deviations) and the start of the support are left alone.
         let mut wiggle = [0.0; BINS];
         for (b, v) in wiggle.iter_mut().enumerate().skip(30) {
