@@ -4,10 +4,9 @@
 //! which the integrator's own validation messenger checks.
 
 use ash::vk;
-use morphray::analysis::TissueReport;
 use morphray::engine::{Engine, EngineConfig};
 use morphray::gpu::{AdoptedHandles, Device, DeviceConfig, KernelTuning, Validation};
-use morphray::scene::{Classification, Scene};
+use morphray::scene::SceneRecipe;
 use morphray::volume::phantom::{PhantomSpec, generate};
 use morphray::volume::{LinearMap, Volume};
 use std::ffi::c_void;
@@ -161,19 +160,17 @@ fn volume_from_memory() -> Volume {
     .unwrap()
 }
 
-fn scene(report: &TissueReport) -> Scene {
-    let mut scene = Scene::new(Classification::from_tissue_windows(
-        &report.adaptive_windows,
-    ));
-    scene.camera.azimuth_deg = 30.0;
-    scene.effects.curvature = true;
-    scene
+fn scene() -> SceneRecipe {
+    let mut recipe = SceneRecipe::default();
+    recipe.camera.azimuth_deg = 30.0;
+    recipe.effects.curvature = true;
+    recipe
 }
 
 const SIZE: [u32; 2] = [48, 36];
 
 fn render_into_owned_buffer(engine: &mut Engine, volume: &Volume) -> Vec<u8> {
-    let mut opened = engine.open_volume(volume, SIZE, &scene).unwrap();
+    let mut opened = engine.open_volume(volume, SIZE, &scene()).unwrap();
     let mut target = engine
         .render_target(SIZE[0], SIZE[1], vk::Format::R8G8B8A8_UNORM)
         .unwrap();

@@ -3,13 +3,19 @@
 //! composition, screenshots, status and the session log.
 //!
 //! Decisions:
+//! - Every volume is opened the library's way (the loader calls `Engine::open_with`): one plan
+//!   within `--memory-budget` and `--profile`, whole or bricked (`--bricked`), exactly as
+//!   `render` does; the status bar shows the layout and the plan's degradations, and the
+//!   session log names them (`plan: ...`).
+//! - The volume on screen is an `engine::Twin`, and derived volumes follow the twin's update
+//!   rule (`engine::twin_step`): a step that needs no GPU work (drop the normals, free all for
+//!   MIP) is applied at once (the raymarch has finished: `Engine::render` waits); a
+//!   recomputation runs on the loader thread while the previous effects stay on screen (the
+//!   held volumes serve them: `Twin::serves`) and the status line says what is being computed.
+//!   A result that arrives after the effects changed again is dropped.
 //! - Interaction cost: a slider, toggle or camera move changes [`Controls::scene`]; the frame
 //!   renders it with `Engine::render`, which writes the uniform buffer (and the host-written
-//!   occupancy bits) and records the raymarch only. An effect that needs a derived volume the
-//!   current one lacks (curvature, shading, the gradient after MIP) is requested from the loader
-//!   thread once, for the union of what was computed and what is needed, so switching it off
-//!   and on again costs nothing; until it arrives the previous effects stay on screen and the
-//!   status line says what is being computed.
+//!   occupancy bits) and records the raymarch only.
 //! - Two raymarch targets alternate, so frame N+1's raymarch never writes the image frame N's
 //!   composition may still be copying; a target is reused only after every frame that read it
 //!   has finished. The 3D view is rendered at its own pixel size (the central rectangle), so
@@ -28,14 +34,14 @@ use super::script::{Action, Runner, Step};
 use super::status::{Loading, Status};
 use super::swapchain::{Surface, Swapchain};
 use super::ui::{self, Controls, Request};
-use crate::cli::args::SceneArgs;
 use crate::cli::png::{PngError, Provenance, write_rgba8};
-use crate::cli::render::scene_from_args;
-use crate::engine::{Derived, Engine, EngineConfig, RenderTarget};
+use crate::engine::{Engine, EngineConfig, OpenOptions, RenderTarget, TwinStep, twin_step};
 use crate::files::write::{OutputKind, check_output};
 use crate::gpu::{Device, GpuError, PassTiming, Presentation};
 use crate::passes::derivatives::DerivativeOutputs;
-use crate::scene::{Effects, Scene};
+use crate::scene::plan::{Layout, Plan};
+use crate::scene::{Effects, Scene, SceneRecipe, WindowSet};
+use crate::volume::source::ReadOptions;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Instant;
@@ -44,8 +50,8 @@ use std::time::Instant;
 pub struct ViewerConfig {
     /// File to open first (None: the phantom).
     pub file: Option<PathBuf>,
-    /// Initial scene options (as for `render`).
-    pub scene: SceneArgs,
+    /// How to build each volume's scene (as for `render`); checked by [`Viewer::new`].
+    pub recipe: SceneRecipe,
     /// Window or offscreen image size, pixels.
     pub size: [u32; 2],
     /// Wait for vertical sync when presenting.
@@ -125,8 +131,8 @@ impl Gpu {
 
 /// The volume on screen.
 struct Current {
+    /// The twin, report, plan and provenance of the volume.
     loaded: LoadedVolume,
-    derived: Option<Derived>,
     /// First frame of this volume done (time to first pixel measured).
     shown: bool,
 }
@@ -206,13 +212,16 @@ impl Viewer {
     pub fn new(config: ViewerConfig) -> Result<Viewer, AppError> {
         // The scene before any volume: options from the command line, no windows yet (they
         // come from each volume's histogram).
+        config
+            .recipe
+            .check()
+            .map_err(|e| AppError::Failed(e.to_string()))?;
         let empty = crate::analysis::analyze(&[0; 256], 0.0, 0.0, 0, 0);
-        let scene = scene_from_args(&config.scene, &empty)
-            .map_err(|e| AppError::Failed(one_line(&e.to_string())))?;
+        let scene = config.recipe.scene_for(&empty);
         let mut controls = Controls::new(scene);
-        controls.windows = match config.scene.windows {
-            crate::cli::args::WindowsArg::Adaptive => ui::WindowSource::Adaptive,
-            crate::cli::args::WindowsArg::Paper => ui::WindowSource::Paper,
+        controls.windows = match config.recipe.windows {
+            WindowSet::Adaptive => ui::WindowSource::Adaptive,
+            WindowSet::Paper => ui::WindowSource::Paper,
         };
         let loader = Loader::spawn(config.engine.clone());
         if !loader.is_running() {
@@ -229,7 +238,7 @@ impl Viewer {
             1,
             config.file.clone(),
             config.started,
-            scene.effects.derivative_outputs(),
+            open_options(&config.recipe, scene.effects, config.size),
         );
         let log = FrameLog::new(config.log);
         let runner = Runner::new(config.script.clone());
@@ -416,6 +425,13 @@ impl Viewer {
                     }
                     self.pending_derive = None;
                     self.status.deriving = None;
+                    // The twin's rule decides whether this result is still what is wanted.
+                    let wanted = self.controls.scene.effects.derivative_outputs();
+                    if twin_step(current.loaded.twin.outputs(), wanted)
+                        != TwinStep::Recompute(outputs)
+                    {
+                        continue;
+                    }
                     let ms: f64 = derived.gpu_timings.iter().map(|t| t.gpu_ms).sum();
                     let what = describe(outputs);
                     self.status.note = Some(format!(
@@ -425,7 +441,7 @@ impl Viewer {
                         format!("derived volume ({what}), computed once"),
                         derived.gpu_timings.clone(),
                     ));
-                    current.derived = Some(*derived);
+                    current.loaded.twin.install(*derived);
                 }
                 Reply::DeriveFailed {
                     id,
@@ -456,7 +472,7 @@ impl Viewer {
         self.pending_load = None;
         self.status.loading = None;
         self.status.error = None;
-        let prepared = &loaded.prepared;
+        let prepared = &loaded.twin.prepared;
         let extent_mm = (0..3)
             .map(|i| prepared.dims[i] as f64 * loaded.spacing_mm[i])
             .fold(0.0, f64::max);
@@ -482,50 +498,46 @@ impl Viewer {
             peak_text(loaded.report.peaks.gm),
             peak_text(loaded.report.peaks.wm)
         ));
-        let mut loaded = loaded;
-        let derived = loaded.derived.take();
+        // The plan may have degraded the requested effects to fit the budget: show what fits.
+        if !loaded.plan.degradations.is_empty() {
+            self.controls.scene.effects = loaded.scene.effects;
+        }
+        self.status.plan = Some(plan_text(&loaded.plan));
+        self.log.say(&format!("plan: {}", plan_text(&loaded.plan)));
         self.current = Some(Current {
             loaded,
-            derived,
             shown: false,
         });
         self.request_derived();
     }
 
-    /// Asks the loader for the derived volumes the requested effects need (once), and picks
-    /// the effects to render now.
+    /// Brings the twin in line with the requested effects by the twin's rule (module
+    /// decisions): steps without GPU work at once, a recomputation on the loader thread (one at
+    /// a time); then picks the effects to render now (what the held volumes serve).
     fn request_derived(&mut self) {
-        let Some(current) = &self.current else { return };
-        let wanted = self.controls.scene.effects;
-        let have = current.derived.as_ref().map(|d| d.volumes.outputs);
-        let covered = |e: &Effects| match e.derivative_outputs() {
-            None => true,
-            Some(need) => have.is_some_and(|h| covers(h, need)),
-        };
-        if covered(&wanted) {
-            self.active_effects = wanted;
+        let Some(current) = &mut self.current else {
             return;
+        };
+        let twin = &mut current.loaded.twin;
+        let wanted = self.controls.scene.effects;
+        match twin_step(twin.outputs(), wanted.derivative_outputs()) {
+            TwinStep::Recompute(outputs) => {
+                if self.pending_derive.is_none() {
+                    let what = describe(outputs);
+                    self.status.deriving = Some(format!("Computing the {what} (once)..."));
+                    self.log.say(&format!("requesting derived volumes: {what}"));
+                    self.loader
+                        .derive(current.loaded.id, twin.prepared.clone(), outputs);
+                    self.pending_derive = Some(outputs);
+                }
+            }
+            step => {
+                twin.apply(step);
+            }
         }
-        if self.pending_derive.is_none()
-            && let Some(need) = wanted.derivative_outputs()
-        {
-            let outputs = match have {
-                Some(h) if h.precision == need.precision => DerivativeOutputs {
-                    magnitude: h.magnitude || need.magnitude,
-                    curvature: h.curvature || need.curvature,
-                    normal: h.normal || need.normal,
-                    precision: need.precision,
-                },
-                _ => need,
-            };
-            let what = describe(outputs);
-            self.status.deriving = Some(format!("Computing the {what} (once)..."));
-            self.log.say(&format!("requesting derived volumes: {what}"));
-            self.loader
-                .derive(current.loaded.id, current.loaded.prepared.clone(), outputs);
-            self.pending_derive = Some(outputs);
-        }
-        if !covered(&self.active_effects) {
+        if twin.serves(&wanted) {
+            self.active_effects = wanted;
+        } else if !twin.serves(&self.active_effects) {
             // Nothing renderable yet with derived volumes: MIP needs none.
             self.active_effects.mode = crate::scene::RenderMode::Mip;
         }
@@ -545,7 +557,7 @@ impl Viewer {
             id,
             path.clone(),
             now,
-            self.controls.scene.effects.derivative_outputs(),
+            open_options(&self.config.recipe, self.controls.scene.effects, self.size),
         );
         self.pending_load = Some((id, label, path));
         if let Some(text) = label_for_log {
@@ -718,7 +730,7 @@ impl Viewer {
         let constant_volume = self
             .current
             .as_ref()
-            .is_some_and(|c| c.loaded.prepared.normalization.constant);
+            .is_some_and(|c| c.loaded.twin.prepared.normalization.constant);
         let shown = ui::Shown {
             status: &self.status,
             has_volume: self.current.is_some(),
@@ -931,14 +943,19 @@ impl Viewer {
                 let Some(target) = gpu.targets[index].as_mut() else {
                     return Ok(());
                 };
-                let derived = current.derived.as_ref();
+                let twin = &current.loaded.twin;
                 match gpu
                     .engine
-                    .render(target, &current.loaded.prepared, derived, &scene)
+                    .render(target, &twin.prepared, twin.derived(), &scene)
                 {
                     Ok(frame) => raymarch = frame.gpu_timings,
                     Err(e) => {
-                        if matches!(e, GpuError::OutOfDeviceMemory { .. }) {
+                        // Out of memory, or a scene a bricked volume's resident bricks cannot
+                        // show: retrying the same scene every frame would fail the same way.
+                        if matches!(
+                            e,
+                            GpuError::OutOfDeviceMemory { .. } | GpuError::InvalidRequest(_)
+                        ) {
                             self.render_blocked = Some((scene, view_rect));
                         }
                         return Err(FrameError::Gpu(e));
@@ -1242,12 +1259,40 @@ impl From<AppError> for FrameError {
     }
 }
 
-/// True when derived volumes `have` include everything `need` asks for.
-fn covers(have: DerivativeOutputs, need: DerivativeOutputs) -> bool {
-    have.precision == need.precision
-        && (have.magnitude || !need.magnitude)
-        && (have.curvature || !need.curvature)
-        && (have.normal || !need.normal)
+/// How the viewer opens a volume: the recipe with the effects requested now, planned for the
+/// view's size, hashed for screenshots' provenance, pipelines ahead of time.
+fn open_options(recipe: &SceneRecipe, effects: Effects, size: [u32; 2]) -> OpenOptions {
+    let mut recipe = recipe.clone();
+    recipe.effects = effects;
+    OpenOptions {
+        read: ReadOptions {
+            frame: 0,
+            hash: true,
+        },
+        image: size,
+        recipe,
+        first_frame: true,
+    }
+}
+
+/// The plan for the status bar and the log: layout, then each degradation.
+fn plan_text(plan: &Plan) -> String {
+    let layout = match plan.layout {
+        Layout::Whole => "whole volume".to_string(),
+        Layout::Bricked { grid, resident, .. } => format!(
+            "bricked ({resident} of {} bricks resident)",
+            grid[0] * grid[1] * grid[2]
+        ),
+    };
+    let budget = plan.budget / (1 << 20);
+    if plan.degradations.is_empty() {
+        return format!("{layout} within {budget} MiB");
+    }
+    let what: Vec<&str> = plan.degradations.iter().map(|d| d.what.as_str()).collect();
+    format!(
+        "{layout} within {budget} MiB; degraded: {}",
+        what.join("; ")
+    )
 }
 
 /// What a set of derived volumes is, for the status line.
@@ -1297,16 +1342,13 @@ mod tests {
     use super::*;
 
     #[test]
-    fn derived_volumes_cover_what_effects_need() {
+    fn derived_volumes_are_described_for_the_status_line() {
         let o = |magnitude, curvature, normal| DerivativeOutputs {
             magnitude,
             curvature,
             normal,
             precision: Default::default(),
         };
-        assert!(covers(o(true, true, false), o(true, false, false)));
-        assert!(!covers(o(true, false, false), o(true, true, false)));
-        assert!(covers(o(true, true, true), o(true, true, true)));
         assert_eq!(
             describe(o(true, true, false)),
             "gradient magnitude + curvature volume"

@@ -23,6 +23,7 @@ mod probe;
 pub mod readback;
 mod render;
 mod robust;
+pub mod session;
 mod twin;
 pub mod upload;
 
@@ -32,7 +33,8 @@ pub use open::{OpenError, OpenTimings, OpenedVolume};
 pub use pipelines::PipelineTimes;
 pub use prepare::{BrickAtlas, PrepareTimings, PreparedVolume, VolumeLayout};
 pub use render::{FRAMES_IN_FLIGHT, Frame, MAX_OCCUPANCY_FOR_SKIPPING, RenderTarget, SampleCounts};
-pub use twin::{Twin, TwinUpdate};
+pub use session::{OpenOptions, Session, SessionError, SessionTimings};
+pub use twin::{Twin, TwinStep, TwinUpdate, twin_step};
 
 use crate::gpu::pipeline_cache::PersistError;
 use crate::gpu::{
