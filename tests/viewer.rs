@@ -583,3 +583,67 @@ fn a_fifo_named_as_the_script_is_refused_at_once() {
     assert_eq!(o.status.code(), Some(1), "{stderr}");
     assert!(stderr.contains("is a FIFO"), "{stderr}");
 }
+
+/// A 96x96x80 phantom (1 mm): large enough that a 4 MiB budget degrades its plan.
+fn mid_phantom(dir: &Path) -> PathBuf {
+    let spec = PhantomSpec {
+        dims: [96, 96, 80],
+        ..PhantomSpec::cohort_a()
+    };
+    let phantom = generate(&spec).unwrap();
+    let path = dir.join("mid.nii.gz");
+    write_nifti1(&phantom.volume, &path, true).unwrap();
+    path
+}
+
+/// Issue 13: the viewer used to open volumes its own way (no plan, no budget, no bricking).
+/// Now it opens them through the library's path, so `--memory-budget` and `--bricked` mean
+/// exactly what they mean to `render`: the same layout, the same degradations in the same
+/// order (the viewer's log line is what its status bar shows), and a volume on screen.
+#[test]
+fn the_viewer_bricks_and_degrades_within_the_budget_exactly_as_render_does() {
+    let dir = temp_dir("budget");
+    let volume = mid_phantom(&dir);
+    let shot = dir.join("bricked.png");
+    let common = ["--bricked", "--memory-budget", "4M", "--size", "640x480"];
+    let mut args = vec![volume.to_str().unwrap(), "--offscreen", "--frames", "2"];
+    args.extend(["--shading", "on", "--screenshot", shot.to_str().unwrap()]);
+    args.extend(common);
+    let o = view(&args, false);
+    assert_ok(&o);
+    let log = stdout(&o);
+    let plan = log
+        .lines()
+        .find_map(|l| l.strip_prefix("plan: "))
+        .unwrap_or_else(|| panic!("no plan line:\n{log}"));
+    assert!(plan.starts_with("bricked ("), "{plan}");
+    // What `render` says, note by note, with the same options.
+    let png = dir.join("render.png");
+    let render = Command::new(env!("CARGO_BIN_EXE_morphray"))
+        .args(["render", volume.to_str().unwrap(), "--shading", "on", "-o"])
+        .arg(&png)
+        .args(common)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&render.stderr);
+    assert!(render.status.success(), "{stderr}");
+    let render_degradations: Vec<&str> = stderr
+        .lines()
+        .filter_map(|l| l.strip_prefix("morphray: note: to fit 4 MiB of GPU memory: "))
+        .filter_map(|l| l.split(" (saves ").next())
+        .collect();
+    assert!(
+        render_degradations.len() >= 2,
+        "render degrades: {stderr}"
+    );
+    let viewer_degradations: Vec<&str> = plan
+        .split_once("degraded: ")
+        .map(|(_, list)| list.split("; ").collect())
+        .unwrap_or_default();
+    assert_eq!(viewer_degradations, render_degradations, "{log}");
+    // The bricked volume is on screen.
+    let view_rect = layout_rect(&log, "view");
+    let lit = lit(&Png::read(&shot), view_rect);
+    assert!(lit > 2000, "the bricked volume is shown: {lit} lit pixels");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
