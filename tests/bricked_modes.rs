@@ -24,6 +24,9 @@ fn bricking_engine() -> Engine {
         ..Default::default()
     };
     config.force_bricking = true;
+    // As `common::engine`, the whole volume's engine: both normalize by min/max (eq. 1), so the
+    // comparison is about bricking, not about the range.
+    config.normalize = morphray::analysis::NormalizeMode::MinMax;
     Engine::new(config).unwrap_or_else(|e| {
         panic!(
             "this test needs a Vulkan device with the validation layer \

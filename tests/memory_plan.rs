@@ -20,6 +20,8 @@ fn engine_with_budget(budget: Option<u64>) -> Engine {
             ..Default::default()
         },
         memory_budget: budget,
+        // As `common::engine`, which the bricked renders are compared with: min/max (eq. 1).
+        normalize: morphray::analysis::NormalizeMode::MinMax,
         ..Default::default()
     };
     Engine::new(config).unwrap_or_else(|e| {
@@ -319,6 +321,8 @@ fn stored_derivatives_of_a_bricked_volume_render_like_the_whole_volume() {
         ..Default::default()
     };
     config.force_bricking = true;
+    // Compared with `common::engine`'s whole volume: the same normalization (min/max).
+    config.normalize = morphray::analysis::NormalizeMode::MinMax;
     let mut bricking = Engine::new(config).unwrap();
     let mut bricked = open(&mut bricking, &volume, edit);
     assert!(matches!(bricked.plan.layout, Layout::Bricked { .. }));

@@ -632,10 +632,7 @@ fn the_viewer_bricks_and_degrades_within_the_budget_exactly_as_render_does() {
         .filter_map(|l| l.strip_prefix("morphray: note: to fit 4 MiB of GPU memory: "))
         .filter_map(|l| l.split(" (saves ").next())
         .collect();
-    assert!(
-        render_degradations.len() >= 2,
-        "render degrades: {stderr}"
-    );
+    assert!(render_degradations.len() >= 2, "render degrades: {stderr}");
     let viewer_degradations: Vec<&str> = plan
         .split_once("degraded: ")
         .map(|(_, list)| list.split("; ").collect())
@@ -645,5 +642,49 @@ fn the_viewer_bricks_and_degrades_within_the_budget_exactly_as_render_does() {
     let view_rect = layout_rect(&log, "view");
     let lit = lit(&Png::read(&shot), view_rect);
     assert!(lit > 2000, "the bricked volume is shown: {lit} lit pixels");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Issue 13: a bricked volume holds the bricks its scene can see. Switching to MIP (which sees
+/// every brick above 0) used to be an error in the viewer ("open it again with this scene");
+/// now the viewer opens it again for the scene on screen, keeps the controls, and shows it.
+#[test]
+fn a_bricked_volume_is_opened_again_when_the_scene_needs_other_bricks() {
+    let dir = temp_dir("rebrick");
+    let volume = mid_phantom(&dir);
+    let script = dir.join("mip.txt");
+    let shot = dir.join("mip.png");
+    std::fs::write(
+        &script,
+        format!("wait 1\nmode mip\nwait 2\nscreenshot {}\n", shot.display()),
+    )
+    .unwrap();
+    let o = view(
+        &[
+            volume.to_str().unwrap(),
+            "--bricked",
+            "--offscreen",
+            "--size",
+            "640x480",
+            "--frames",
+            "4",
+            "--script",
+            script.to_str().unwrap(),
+        ],
+        false,
+    );
+    assert_ok(&o);
+    let log = stdout(&o);
+    let plans: Vec<&str> = log.lines().filter(|l| l.starts_with("plan: ")).collect();
+    assert_eq!(plans.len(), 2, "opened once, then again for MIP:\n{log}");
+    assert!(plans.iter().all(|p| p.contains("bricked (")), "{plans:?}");
+    assert_ne!(plans[0], plans[1], "MIP keeps other bricks:\n{log}");
+    assert!(log.contains("opening it again for this one"), "{log}");
+    assert!(!log.contains("error shown"), "{log}");
+    let lit = lit(&Png::read(&shot), layout_rect(&log, "view"));
+    assert!(
+        lit > 2000,
+        "the MIP of the bricked volume is shown: {lit} lit pixels"
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }

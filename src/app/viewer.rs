@@ -193,8 +193,14 @@ pub struct Viewer {
     unapplied: egui::TexturesDelta,
     /// Host copies of egui's textures (re-sent to a new painter after a device loss).
     mirror: super::painter::TextureMirror,
-    /// Why the last raymarch was refused (out of memory), so it is not retried every frame.
+    /// Why the last raymarch was refused (out of memory, or bricks of another scene), so it is
+    /// not retried every frame.
     render_blocked: Option<(Scene, [u32; 4])>,
+    /// A load that opens the volume on screen again for its scene: its adoption keeps the
+    /// controls as they are.
+    keep_scene: Option<u64>,
+    /// The scene the bricked volume was last opened again for.
+    reopened_for: Option<SceneRecipe>,
 }
 
 /// What the last raymarch rendered.
@@ -234,11 +240,13 @@ impl Viewer {
             stage: "starting".into(),
             since: config.started,
         });
+        let mut recipe = config.recipe.clone();
+        recipe.effects = scene.effects;
         loader.load(
             1,
             config.file.clone(),
             config.started,
-            open_options(&config.recipe, scene.effects, config.size),
+            open_options(recipe, config.size),
         );
         let log = FrameLog::new(config.log);
         let runner = Runner::new(config.script.clone());
@@ -274,6 +282,8 @@ impl Viewer {
             idle_frames: 0,
             mirror: Default::default(),
             render_blocked: None,
+            keep_scene: None,
+            reopened_for: None,
             config,
         })
     }
@@ -476,8 +486,15 @@ impl Viewer {
         let extent_mm = (0..3)
             .map(|i| prepared.dims[i] as f64 * loaded.spacing_mm[i])
             .fold(0.0, f64::max);
+        let keep = (self.keep_scene == Some(loaded.id))
+            .then_some((self.controls.scene, self.controls.windows));
         self.controls
             .adopt_volume(loaded.report.clone(), prepared.histogram, extent_mm);
+        if let Some((scene, windows)) = keep {
+            self.controls.scene = scene;
+            self.controls.windows = windows;
+        }
+        self.render_blocked = None;
         self.status.file = loaded.label.clone();
         self.status.dims = prepared.dims;
         self.status.spacing_mm = loaded.spacing_mm;
@@ -544,6 +561,18 @@ impl Viewer {
     }
 
     fn open(&mut self, path: Option<PathBuf>, label_for_log: Option<String>) {
+        let mut recipe = self.config.recipe.clone();
+        recipe.effects = self.controls.scene.effects;
+        self.open_recipe(path, recipe, label_for_log);
+    }
+
+    /// Queues opening `path` with `recipe` (its effects planned for); returns the request's id.
+    fn open_recipe(
+        &mut self,
+        path: Option<PathBuf>,
+        recipe: SceneRecipe,
+        label_for_log: Option<String>,
+    ) -> u64 {
         let id = self.next_id;
         self.next_id += 1;
         let label = label_of(path.as_ref());
@@ -553,12 +582,8 @@ impl Viewer {
             stage: "queued".into(),
             since: now,
         });
-        self.loader.load(
-            id,
-            path.clone(),
-            now,
-            open_options(&self.config.recipe, self.controls.scene.effects, self.size),
-        );
+        self.loader
+            .load(id, path.clone(), now, open_options(recipe, self.size));
         self.pending_load = Some((id, label, path));
         if let Some(text) = label_for_log {
             self.log.pending.push(Pending {
@@ -567,6 +592,40 @@ impl Viewer {
                 until: Until::VolumeShown(id),
             });
         }
+        id
+    }
+
+    /// The bricked volume on screen holds the bricks of another scene (tissues or mode changed
+    /// what can be seen): opens it again for the scene shown now, once per scene (the same
+    /// failure twice is an error in the status line, never a loop).
+    fn reopen_for_scene(&mut self, message: &str) {
+        let (Some(scene), Some(current)) = (self.rendered_scene(), &self.current) else {
+            return;
+        };
+        if self.pending_load.is_some() {
+            // The volume is being opened (again): the next one shows this scene.
+            return;
+        }
+        // Compared as recipes: the frame counter (jitter seed) changes every scripted frame.
+        let recipe = SceneRecipe::from_scene(&scene);
+        if self.reopened_for.as_ref() == Some(&recipe) {
+            self.status.error = Some(one_line(message));
+            return;
+        }
+        let path = current.loaded.path.clone();
+        self.reopened_for = Some(recipe.clone());
+        self.log.say(
+            "the bricked volume holds the bricks of another scene: opening it again for this one",
+        );
+        let id = self.open_recipe(path, recipe, None);
+        self.keep_scene = Some(id);
+    }
+
+    /// True when the volume on screen is bricked.
+    fn bricked_now(&self) -> bool {
+        self.current
+            .as_ref()
+            .is_some_and(|c| matches!(c.loaded.plan.layout, Layout::Bricked { .. }))
     }
 
     fn apply(&mut self, step: &Step) -> Option<[u32; 2]> {
@@ -854,6 +913,9 @@ impl Viewer {
                     "{}; showing the last image (make the window smaller, or use a larger step)",
                     one_line(&e.to_string())
                 ));
+            }
+            Err(FrameError::Gpu(GpuError::InvalidRequest(message))) if self.bricked_now() => {
+                self.reopen_for_scene(&message);
             }
             Err(FrameError::Gpu(e)) => {
                 self.status.error = Some(one_line(&e.to_string()));
@@ -1259,11 +1321,9 @@ impl From<AppError> for FrameError {
     }
 }
 
-/// How the viewer opens a volume: the recipe with the effects requested now, planned for the
-/// view's size, hashed for screenshots' provenance, pipelines ahead of time.
-fn open_options(recipe: &SceneRecipe, effects: Effects, size: [u32; 2]) -> OpenOptions {
-    let mut recipe = recipe.clone();
-    recipe.effects = effects;
+/// How the viewer opens a volume: planned for the window's size, hashed for screenshots'
+/// provenance, pipelines ahead of time.
+fn open_options(recipe: SceneRecipe, size: [u32; 2]) -> OpenOptions {
     OpenOptions {
         read: ReadOptions {
             frame: 0,

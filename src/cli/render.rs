@@ -87,6 +87,7 @@ pub fn recipe_from_args(args: &SceneArgs) -> Result<SceneRecipe, Error> {
         step_voxels: args.step,
         jitter: !args.no_jitter,
         background: args.background,
+        ..SceneRecipe::default()
     };
     recipe.check().map_err(|e| Error::Usage(e.0))?;
     Ok(recipe)

@@ -39,6 +39,9 @@ pub struct SceneRecipe {
     pub opacity: Vec<(TissueClass, f32)>,
     /// Colours (RGB 0..1), in order.
     pub colour: Vec<(TissueClass, [f32; 3])>,
+    /// A classification to use as it is, instead of `windows`, `visible`, `window`, `opacity`
+    /// and `colour` (a client opening a volume again for the scene it shows).
+    pub classification: Option<Classification>,
     /// Camera.
     pub camera: Camera,
     /// Mode and effects (what the engine plans for).
@@ -49,6 +52,10 @@ pub struct SceneRecipe {
     pub jitter: bool,
     /// Background colour, RGB 0..1.
     pub background: [f32; 3],
+    /// Strength of the curvature weight.
+    pub curvature_strength: f32,
+    /// MIP/MinIP display window in I_norm.
+    pub intensity_window: [f32; 2],
 }
 
 impl Default for SceneRecipe {
@@ -64,11 +71,14 @@ impl Default for SceneRecipe {
             window: Vec::new(),
             opacity: Vec::new(),
             colour: Vec::new(),
+            classification: None,
             camera: scene.camera,
             effects: scene.effects,
             step_voxels: scene.step_voxels,
             jitter: scene.jitter,
             background: scene.background,
+            curvature_strength: scene.curvature_strength,
+            intensity_window: scene.intensity_window,
         }
     }
 }
@@ -97,9 +107,40 @@ impl SceneRecipe {
         Ok(())
     }
 
+    /// The recipe that makes `scene` again (its classification as it is).
+    pub fn from_scene(scene: &Scene) -> SceneRecipe {
+        SceneRecipe {
+            classification: Some(scene.classification),
+            camera: scene.camera,
+            effects: scene.effects,
+            step_voxels: scene.step_voxels,
+            jitter: scene.jitter,
+            background: scene.background,
+            curvature_strength: scene.curvature_strength,
+            intensity_window: scene.intensity_window,
+            ..SceneRecipe::default()
+        }
+    }
+
     /// The scene this recipe makes around `report` (windows from its peaks, MinIP's floor from
     /// its background threshold).
     pub fn scene_for(&self, report: &TissueReport) -> Scene {
+        let mut scene = Scene::new(self.classification_for(report));
+        scene.camera = self.camera;
+        scene.effects = self.effects;
+        scene.step_voxels = self.step_voxels;
+        scene.jitter = self.jitter;
+        scene.background = self.background;
+        scene.curvature_strength = self.curvature_strength;
+        scene.intensity_window = self.intensity_window;
+        scene.minip_floor = report.background_threshold as f32;
+        scene
+    }
+
+    fn classification_for(&self, report: &TissueReport) -> Classification {
+        if let Some(classification) = self.classification {
+            return classification;
+        }
         let windows = match self.windows {
             WindowSet::Adaptive => &report.adaptive_windows,
             WindowSet::Paper => &report.paper_windows,
@@ -118,14 +159,7 @@ impl SceneRecipe {
         for &(tissue, colour) in &self.colour {
             classification.style_mut(tissue).colour = colour;
         }
-        let mut scene = Scene::new(classification);
-        scene.camera = self.camera;
-        scene.effects = self.effects;
-        scene.step_voxels = self.step_voxels;
-        scene.jitter = self.jitter;
-        scene.background = self.background;
-        scene.minip_floor = report.background_threshold as f32;
-        scene
+        classification
     }
 }
 
@@ -182,6 +216,17 @@ mod tests {
             scene.classification.style(TissueClass::Csf).window,
             paper.style(TissueClass::Csf).window
         );
+    }
+
+    #[test]
+    fn a_recipe_from_a_scene_makes_that_scene_again() {
+        let report = report();
+        let mut scene = SceneRecipe::default().scene_for(&report);
+        scene.classification.set_window(TissueClass::Gm, 0.3, 0.45);
+        scene.classification.style_mut(TissueClass::Csf).visible = false;
+        scene.camera.azimuth_deg = 75.0;
+        scene.effects.shading = true;
+        assert_eq!(SceneRecipe::from_scene(&scene).scene_for(&report), scene);
     }
 
     #[test]

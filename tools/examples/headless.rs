@@ -7,6 +7,11 @@
 //! An integrator with their own Vulkan instance and device would create the engine with
 //! `Engine::with_device(unsafe { Device::adopt(handles) }?, config)` instead of `Engine::new`
 //! (see `morphray::gpu::AdoptedHandles` and tests/integrator.rs).
+//!
+//! A volume in memory opens with `Engine::open_volume(volume, size, &recipe)`; a file (NIfTI,
+//! ANALYZE, or any format `morphray::volume::source` registers) opens with
+//! `Session::open(&VolumeSource::File(path), config, &OpenOptions { recipe, .. })`, which reads
+//! it while the device starts. Both are the path every morphray command and the viewer use.
 
 use ash::vk;
 use morphray::engine::{Engine, EngineConfig};
