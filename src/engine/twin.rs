@@ -186,3 +186,45 @@ impl Engine {
         self.render_into(target, &twin.prepared, twin.derived.as_ref(), scene, out)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::DerivedPrecision;
+
+    fn o(magnitude: bool, curvature: bool, normal: bool) -> DerivativeOutputs {
+        DerivativeOutputs {
+            magnitude,
+            curvature,
+            normal,
+            precision: DerivedPrecision::Snorm8,
+        }
+    }
+
+    #[test]
+    fn the_rule_does_the_least_that_makes_held_equal_wanted() {
+        let all = o(true, true, true);
+        assert_eq!(twin_step(Some(all), Some(all)), TwinStep::Keep);
+        assert_eq!(twin_step(None, None), TwinStep::Keep);
+        assert_eq!(twin_step(Some(all), None), TwinStep::FreeAll);
+        assert_eq!(
+            twin_step(Some(all), Some(o(true, true, false))),
+            TwinStep::DropNormals
+        );
+        // Curvature off frees its memory by recomputing the smaller set (never both held).
+        let magnitude = o(true, false, false);
+        assert_eq!(
+            twin_step(Some(o(true, true, false)), Some(magnitude)),
+            TwinStep::Recompute(magnitude)
+        );
+        assert_eq!(
+            twin_step(None, Some(magnitude)),
+            TwinStep::Recompute(magnitude)
+        );
+        let f16 = DerivativeOutputs {
+            precision: DerivedPrecision::F16,
+            ..all
+        };
+        assert_eq!(twin_step(Some(all), Some(f16)), TwinStep::Recompute(f16));
+    }
+}
