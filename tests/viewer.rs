@@ -679,12 +679,63 @@ fn a_bricked_volume_is_opened_again_when_the_scene_needs_other_bricks() {
     assert_eq!(plans.len(), 2, "opened once, then again for MIP:\n{log}");
     assert!(plans.iter().all(|p| p.contains("bricked (")), "{plans:?}");
     assert_ne!(plans[0], plans[1], "MIP keeps other bricks:\n{log}");
-    assert!(log.contains("opening it again for this one"), "{log}");
+    assert!(
+        log.contains("opening the volume again for this scene"),
+        "{log}"
+    );
     assert!(!log.contains("error shown"), "{log}");
     let lit = lit(&Png::read(&shot), layout_rect(&log, "view"));
     assert!(
         lit > 2000,
         "the MIP of the bricked volume is shown: {lit} lit pixels"
     );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Issue 13: an effect switched on in the viewer is planned within the budget as `render`
+/// plans it. Before, `shading on` under an 8 MiB budget computed stored gradients and normals
+/// beyond it; now the plan degrades the effect the way `render --shading on` does.
+#[test]
+fn an_effect_switched_on_is_planned_within_the_budget_as_render_plans_it() {
+    let dir = temp_dir("replan");
+    let volume = mid_phantom(&dir);
+    let script = dir.join("shading.txt");
+    std::fs::write(&script, "wait 1\nshading on\nwait 2\n").unwrap();
+    let common = ["--memory-budget", "8M", "--size", "640x480"];
+    let mut args = vec![volume.to_str().unwrap(), "--offscreen", "--frames", "3"];
+    args.extend(["--script", script.to_str().unwrap()]);
+    args.extend(common);
+    let o = view(&args, false);
+    assert_ok(&o);
+    let log = stdout(&o);
+    let plans: Vec<&str> = log
+        .lines()
+        .filter_map(|l| l.strip_prefix("plan: "))
+        .collect();
+    assert_eq!(
+        plans.len(),
+        2,
+        "opened, then planned again for shading:\n{log}"
+    );
+    assert!(!plans[0].contains("degraded"), "{plans:?}");
+    let render = Command::new(env!("CARGO_BIN_EXE_morphray"))
+        .args(["render", volume.to_str().unwrap(), "--shading", "on", "-o"])
+        .arg(dir.join("render.png"))
+        .args(common)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&render.stderr);
+    assert!(render.status.success(), "{stderr}");
+    let render_degradations: Vec<&str> = stderr
+        .lines()
+        .filter_map(|l| l.strip_prefix("morphray: note: to fit 8 MiB of GPU memory: "))
+        .filter_map(|l| l.split(" (saves ").next())
+        .collect();
+    assert!(!render_degradations.is_empty(), "render degrades: {stderr}");
+    let viewer_degradations: Vec<&str> = plans[1]
+        .split_once("degraded: ")
+        .map(|(_, list)| list.split("; ").collect())
+        .unwrap_or_default();
+    assert_eq!(viewer_degradations, render_degradations, "{log}");
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -532,6 +532,9 @@ impl Viewer {
     /// decisions): steps without GPU work at once, a recomputation on the loader thread (one at
     /// a time); then picks the effects to render now (what the held volumes serve).
     fn request_derived(&mut self) {
+        if self.pending_derive.is_none() && self.pending_load.is_none() {
+            self.replan_for_wanted();
+        }
         let Some(current) = &mut self.current else {
             return;
         };
@@ -557,6 +560,60 @@ impl Viewer {
         } else if !twin.serves(&self.active_effects) {
             // Nothing renderable yet with derived volumes: MIP needs none.
             self.active_effects.mode = crate::scene::RenderMode::Mip;
+        }
+    }
+
+    /// When the requested effects need other derived volumes, plans them again as the open
+    /// did, within the same budget: what fits with the same layout and format is adopted (the
+    /// effects possibly degraded, as `render` would degrade them); another layout or format
+    /// opens the volume again for them; nothing that fits keeps the effects that were shown.
+    fn replan_for_wanted(&mut self) {
+        let wanted = self.controls.scene.effects;
+        let (Some(current), Some(gpu)) = (&self.current, &self.gpu) else {
+            return;
+        };
+        let twin = &current.loaded.twin;
+        if !matches!(
+            twin_step(twin.outputs(), wanted.derivative_outputs()),
+            TwinStep::Recompute(_)
+        ) {
+            return;
+        }
+        let old = &current.loaded.plan;
+        let replanned = gpu.engine.replan(twin, old, wanted, self.size);
+        let same_layout = |new: &Plan| {
+            std::mem::discriminant(&new.layout) == std::mem::discriminant(&old.layout)
+                && new.normalized_format == old.normalized_format
+        };
+        match replanned {
+            Ok(new) if same_layout(&new) => {
+                let text = plan_text(&new);
+                if new.effects != wanted {
+                    self.controls.scene.effects = new.effects;
+                    self.status.note = Some(format!("To fit the memory budget: {text}"));
+                }
+                if self.status.plan.as_deref() != Some(text.as_str()) {
+                    self.log.say(&format!("plan: {text}"));
+                    self.status.plan = Some(text);
+                }
+                if let Some(current) = &mut self.current {
+                    current.loaded.plan = new;
+                }
+            }
+            Ok(_) => {
+                let scene = self.controls.scene;
+                self.reopen(
+                    scene,
+                    "the memory plan for these effects needs another layout",
+                );
+            }
+            Err(e) => {
+                self.controls.scene.effects = self.active_effects;
+                self.status.error = Some(format!(
+                    "Cannot show that within the memory budget: {}",
+                    one_line(&e.to_string())
+                ));
+            }
         }
     }
 
@@ -599,7 +656,15 @@ impl Viewer {
     /// what can be seen): opens it again for the scene shown now, once per scene (the same
     /// failure twice is an error in the status line, never a loop).
     fn reopen_for_scene(&mut self, message: &str) {
-        let (Some(scene), Some(current)) = (self.rendered_scene(), &self.current) else {
+        if let Some(scene) = self.rendered_scene() {
+            self.reopen(scene, message);
+        }
+    }
+
+    /// Opens the volume on screen again for `scene` (see [`Viewer::reopen_for_scene`]);
+    /// `message` is the error shown when that was tried for this scene already.
+    fn reopen(&mut self, scene: Scene, message: &str) {
+        let Some(current) = &self.current else {
             return;
         };
         if self.pending_load.is_some() {
@@ -614,9 +679,9 @@ impl Viewer {
         }
         let path = current.loaded.path.clone();
         self.reopened_for = Some(recipe.clone());
-        self.log.say(
-            "the bricked volume holds the bricks of another scene: opening it again for this one",
-        );
+        self.log.say(&format!(
+            "{message}: opening the volume again for this scene"
+        ));
         let id = self.open_recipe(path, recipe, None);
         self.keep_scene = Some(id);
     }
@@ -914,8 +979,8 @@ impl Viewer {
                     one_line(&e.to_string())
                 ));
             }
-            Err(FrameError::Gpu(GpuError::InvalidRequest(message))) if self.bricked_now() => {
-                self.reopen_for_scene(&message);
+            Err(FrameError::Gpu(GpuError::InvalidRequest(_))) if self.bricked_now() => {
+                self.reopen_for_scene("the bricked volume holds the bricks of another scene");
             }
             Err(FrameError::Gpu(e)) => {
                 self.status.error = Some(one_line(&e.to_string()));

@@ -291,10 +291,22 @@ impl Engine {
         image: [u32; 2],
         occupied_fraction: f64,
     ) -> crate::scene::plan::PlanInput {
+        let dims = volume.dims.map(|d| u32::try_from(d).unwrap_or(u32::MAX));
+        self.plan_input_for(dims, volume.samples.kind(), image, occupied_fraction)
+    }
+
+    /// [`Engine::plan_input`] from a volume's size and sample kind (a volume that is open).
+    pub fn plan_input_for(
+        &self,
+        dims: [u32; 3],
+        sample_kind: crate::volume::SampleKind,
+        image: [u32; 2],
+        occupied_fraction: f64,
+    ) -> crate::scene::plan::PlanInput {
         let a = self.device.adapter();
         crate::scene::plan::PlanInput {
-            dims: volume.dims.map(|d| u32::try_from(d).unwrap_or(u32::MAX)),
-            sample_kind: volume.samples.kind(),
+            dims,
+            sample_kind,
             image,
             max_image_dimension_3d: a.max_image_dimension_3d,
             max_storage_buffer_range: a.max_storage_buffer_range as u64,

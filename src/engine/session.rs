@@ -235,4 +235,27 @@ impl Engine {
         opened.timings.wall_ms += plan_ms + ahead_ms;
         Ok(opened)
     }
+
+    /// Plans `effects` again for the volume `twin` holds, as its open did (the scene's needs
+    /// changed: an effect that needs other derived volumes). `plan` is the plan it was opened
+    /// with (its resident fraction when bricked). A client compares the result with `plan`:
+    /// the same layout and format mean the new effects (possibly degraded) fit as they are.
+    pub fn replan(
+        &self,
+        twin: &Twin,
+        plan: &Plan,
+        effects: crate::scene::Effects,
+        image: [u32; 2],
+    ) -> Result<Plan, crate::scene::plan::DoesNotFit> {
+        let fraction = match plan.layout {
+            Layout::Whole => 1.0,
+            Layout::Bricked { grid, resident, .. } => {
+                f64::from(resident)
+                    / (f64::from(grid[0]) * f64::from(grid[1]) * f64::from(grid[2])).max(1.0)
+            }
+        };
+        let prepared = &twin.prepared;
+        let input = self.plan_input_for(prepared.dims, prepared.kind, image, fraction);
+        crate::scene::plan::plan(effects, &input, &super::DeviceImageSizes(self.device()))
+    }
 }

@@ -66,19 +66,8 @@ impl Default for SceneRecipe {
             &crate::analysis::TissueWindows::paper(),
         ));
         SceneRecipe {
-            windows: WindowSet::Adaptive,
-            visible: None,
-            window: Vec::new(),
-            opacity: Vec::new(),
-            colour: Vec::new(),
             classification: None,
-            camera: scene.camera,
-            effects: scene.effects,
-            step_voxels: scene.step_voxels,
-            jitter: scene.jitter,
-            background: scene.background,
-            curvature_strength: scene.curvature_strength,
-            intensity_window: scene.intensity_window,
+            ..SceneRecipe::from_scene(&scene)
         }
     }
 }
@@ -110,6 +99,11 @@ impl SceneRecipe {
     /// The recipe that makes `scene` again (its classification as it is).
     pub fn from_scene(scene: &Scene) -> SceneRecipe {
         SceneRecipe {
+            windows: WindowSet::Adaptive,
+            visible: None,
+            window: Vec::new(),
+            opacity: Vec::new(),
+            colour: Vec::new(),
             classification: Some(scene.classification),
             camera: scene.camera,
             effects: scene.effects,
@@ -118,7 +112,6 @@ impl SceneRecipe {
             background: scene.background,
             curvature_strength: scene.curvature_strength,
             intensity_window: scene.intensity_window,
-            ..SceneRecipe::default()
         }
     }
 
