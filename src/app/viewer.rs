@@ -7,6 +7,14 @@
 //!   within `--memory-budget` and `--profile`, whole or bricked (`--bricked`), exactly as
 //!   `render` does; the status bar shows the layout and the plan's degradations, and the
 //!   session log names them (`plan: ...`).
+//! - The plan is made again only when the scene's needs change: an effect that needs other
+//!   derived volumes is planned within the same budget (`Engine::replan`) and degraded as
+//!   `render` would degrade it; a plan that needs another layout or I_norm format, or a bricked
+//!   volume whose scene now sees bricks it does not hold (MIP, a tissue switched on), opens the
+//!   volume again for the scene on screen, keeping the controls. Once per scene: the same
+//!   failure twice is an error in the status line, never a loop. While a recomputation runs
+//!   the previous derived volumes stay on screen, so the viewer briefly holds both sets (the
+//!   engine's own `update_twin` frees first); the plan covers the larger set only.
 //! - The volume on screen is an `engine::Twin`, and derived volumes follow the twin's update
 //!   rule (`engine::twin_step`): a step that needs no GPU work (drop the normals, free all for
 //!   MIP) is applied at once (the raymarch has finished: `Engine::render` waits); a
