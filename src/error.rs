@@ -11,14 +11,9 @@ pub enum Error {
     /// Reading or decoding a NIfTI file (I/O errors name the path themselves).
     #[error(transparent)]
     Nifti(#[from] NiftiError),
-    /// Decoding the contents of a named file.
-    #[error("{file}: {source}")]
-    Input {
-        /// The file's name.
-        file: String,
-        /// What is wrong with it.
-        source: NiftiError,
-    },
+    /// Reading a volume source, whatever its format (see `volume::source`).
+    #[error(transparent)]
+    Input(#[from] crate::volume::source::InputError),
     /// Raw voxels that cannot form a volume.
     #[error(transparent)]
     Volume(#[from] crate::volume::VolumeError),
@@ -54,4 +49,17 @@ pub enum Error {
     /// Arguments that parse but do not make sense together.
     #[error("{0}")]
     Usage(String),
+}
+
+impl From<crate::engine::SessionError> for Error {
+    /// Each cause as the variant it always was, so messages do not depend on the path taken.
+    fn from(e: crate::engine::SessionError) -> Error {
+        use crate::engine::SessionError;
+        match e {
+            SessionError::Recipe(e) => Error::Usage(e.0),
+            SessionError::Input(e) => Error::Input(e),
+            SessionError::Gpu(e) => Error::Gpu(e),
+            SessionError::Open(e) => Error::Open(e),
+        }
+    }
 }

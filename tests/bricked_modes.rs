@@ -6,11 +6,10 @@
 mod common;
 
 use ash::vk;
-use morphray::analysis::TissueReport;
 use morphray::engine::{Engine, EngineConfig, OpenedVolume};
 use morphray::gpu::{DeviceConfig, Validation};
 use morphray::scene::plan::Layout;
-use morphray::scene::{Classification, RenderMode, Scene, TissueClass};
+use morphray::scene::{RenderMode, SceneRecipe, TissueClass};
 use morphray::volume::Samples;
 use morphray::volume::phantom::{PhantomSpec, generate};
 
@@ -25,6 +24,9 @@ fn bricking_engine() -> Engine {
         ..Default::default()
     };
     config.force_bricking = true;
+    // As `common::engine`, the whole volume's engine: both normalize by min/max (eq. 1), so the
+    // comparison is about bricking, not about the range.
+    config.normalize = morphray::analysis::NormalizeMode::MinMax;
     Engine::new(config).unwrap_or_else(|e| {
         panic!(
             "this test needs a Vulkan device with the validation layer \
@@ -44,20 +46,15 @@ fn ramp() -> morphray::volume::Volume {
     common::volumes::volume(dims, [1.0; 3], Samples::from_f32(&values))
 }
 
-fn scene_for(mode: RenderMode, visible: &'static [TissueClass]) -> impl Fn(&TissueReport) -> Scene {
-    move |report: &TissueReport| {
-        let mut scene = Scene::new(Classification::from_tissue_windows(
-            &report.adaptive_windows,
-        ));
-        if !visible.is_empty() {
-            scene.classification.show_only(visible);
-        }
-        scene.camera.azimuth_deg = 30.0;
-        scene.camera.elevation_deg = 20.0;
-        scene.effects.mode = mode;
-        scene.minip_floor = report.background_threshold as f32;
-        scene
+fn scene_for(mode: RenderMode, visible: &'static [TissueClass]) -> SceneRecipe {
+    let mut recipe = SceneRecipe::default();
+    if !visible.is_empty() {
+        recipe.visible = Some(visible.to_vec());
     }
+    recipe.camera.azimuth_deg = 30.0;
+    recipe.camera.elevation_deg = 20.0;
+    recipe.effects.mode = mode;
+    recipe
 }
 
 fn render(engine: &mut Engine, opened: &mut OpenedVolume) -> Vec<u8> {

@@ -305,9 +305,9 @@ fn a_bad_magic_without_an_image_is_reported_as_a_bad_magic() {
         bytes.extend(vec![1u8; 96]);
         let path = dir.join("scan.nii");
         std::fs::write(&path, &bytes).unwrap();
-        let e = morphray::cli::source::load(Some(&path), 0, false)
-            .err()
-            .expect("a damaged magic must not load");
+        let source = morphray::volume::source::VolumeSource::File(path.clone());
+        let e = morphray::volume::source::read(&source, &Default::default())
+            .expect_err("a damaged magic must not load");
         let text = e.to_string();
         assert!(text.contains("magic") && text.contains("damaged"), "{text}");
         assert!(!text.contains("no .img file was found"), "{text}");

@@ -4,10 +4,9 @@
 //! which the integrator's own validation messenger checks.
 
 use ash::vk;
-use morphray::analysis::TissueReport;
 use morphray::engine::{Engine, EngineConfig};
 use morphray::gpu::{AdoptedHandles, Device, DeviceConfig, KernelTuning, Validation};
-use morphray::scene::{Classification, Scene};
+use morphray::scene::SceneRecipe;
 use morphray::volume::phantom::{PhantomSpec, generate};
 use morphray::volume::{LinearMap, Volume};
 use std::ffi::c_void;
@@ -161,19 +160,17 @@ fn volume_from_memory() -> Volume {
     .unwrap()
 }
 
-fn scene(report: &TissueReport) -> Scene {
-    let mut scene = Scene::new(Classification::from_tissue_windows(
-        &report.adaptive_windows,
-    ));
-    scene.camera.azimuth_deg = 30.0;
-    scene.effects.curvature = true;
-    scene
+fn scene() -> SceneRecipe {
+    let mut recipe = SceneRecipe::default();
+    recipe.camera.azimuth_deg = 30.0;
+    recipe.effects.curvature = true;
+    recipe
 }
 
 const SIZE: [u32; 2] = [48, 36];
 
 fn render_into_owned_buffer(engine: &mut Engine, volume: &Volume) -> Vec<u8> {
-    let mut opened = engine.open_volume(volume, SIZE, &scene).unwrap();
+    let mut opened = engine.open_volume(volume, SIZE, &scene()).unwrap();
     let mut target = engine
         .render_target(SIZE[0], SIZE[1], vk::Format::R8G8B8A8_UNORM)
         .unwrap();
@@ -269,4 +266,72 @@ fn the_headless_example_renders_within_its_budget() {
     assert!(!tight.plan.degradations.is_empty());
     assert!(tight.plan.peak_bytes <= budget);
     assert!(lit(&tight.pixels) > 500, "{} lit", lit(&tight.pixels));
+}
+
+/// Issue 13: the library's open path for a file. `Session::open` reads it (any registered
+/// format) while the device starts, plans the recipe's effects, bricks when asked, and returns
+/// what renders; a file no reader can read is a format-independent input error naming it.
+#[test]
+fn a_file_opens_through_the_librarys_session_bricked_when_asked() {
+    use morphray::engine::{OpenOptions, Session, SessionError};
+    use morphray::scene::plan::Layout;
+    use morphray::volume::source::VolumeSource;
+    let dir = std::env::temp_dir().join(format!("morphray-session-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("head.nii.gz");
+    let spec = PhantomSpec {
+        dims: [40, 40, 32],
+        ..PhantomSpec::cohort_a()
+    };
+    let volume = generate(&spec).unwrap().volume;
+    morphray::volume::nifti::write_nifti1(&volume, &path, true).unwrap();
+    let mut config = EngineConfig {
+        device: DeviceConfig {
+            validation: Validation::Required,
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    config.force_bricking = true;
+    let options = OpenOptions {
+        image: [48, 40],
+        recipe: scene(),
+        ..Default::default()
+    };
+    let mut session = Session::open(&VolumeSource::File(path.clone()), config.clone(), &options)
+        .unwrap_or_else(|e| panic!("this test needs a Vulkan device: {e}"));
+    assert_eq!(session.source.label, "head.nii.gz");
+    assert!(matches!(session.plan.layout, Layout::Bricked { .. }));
+    // The recipe's scene around this volume's peaks, with the planned effects.
+    assert_eq!(session.scene.effects, session.plan.effects);
+    assert!(session.scene.effects.curvature);
+    assert!(
+        session
+            .scene
+            .classification
+            .style(morphray::scene::TissueClass::Wm)
+            .window
+            .is_some()
+    );
+    let mut target = session
+        .engine
+        .render_target(48, 40, vk::Format::R8G8B8A8_UNORM)
+        .unwrap();
+    let frame = session
+        .engine
+        .render_twin(&mut target, &mut session.twin, &session.scene)
+        .unwrap();
+    let lit = frame.rgba8.chunks_exact(4).filter(|p| p[0] > 20).count();
+    assert!(lit > 200, "{lit} lit pixels");
+
+    let missing = dir.join("missing.nii");
+    let e = Session::open(&VolumeSource::File(missing), config, &options)
+        .err()
+        .expect("a missing file cannot open");
+    match &e {
+        SessionError::Input(input) => assert!(input.nifti().is_some(), "{e}"),
+        other => panic!("an input error, not {other}"),
+    }
+    assert!(e.to_string().contains("missing.nii"), "{e}");
+    std::fs::remove_dir_all(&dir).unwrap();
 }

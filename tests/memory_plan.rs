@@ -6,11 +6,10 @@
 mod common;
 
 use ash::vk;
-use morphray::analysis::TissueReport;
 use morphray::engine::{Engine, EngineConfig, OpenError, OpenedVolume};
 use morphray::gpu::{DeviceConfig, ImageDesc, Validation};
 use morphray::scene::plan::Layout;
-use morphray::scene::{Classification, GradientSource, RenderMode, Scene, TissueClass};
+use morphray::scene::{GradientSource, RenderMode, Scene, SceneRecipe, TissueClass};
 use morphray::volume::phantom::{PhantomSpec, generate};
 use morphray::volume::{Samples, Volume};
 
@@ -21,6 +20,8 @@ fn engine_with_budget(budget: Option<u64>) -> Engine {
             ..Default::default()
         },
         memory_budget: budget,
+        // As `common::engine`, which the bricked renders are compared with: min/max (eq. 1).
+        normalize: morphray::analysis::NormalizeMode::MinMax,
         ..Default::default()
     };
     Engine::new(config).unwrap_or_else(|e| {
@@ -52,21 +53,17 @@ fn padded_phantom(n: usize, side: usize) -> Volume {
     volume
 }
 
-fn scene_with(effects: impl Fn(&mut Scene)) -> impl Fn(&TissueReport) -> Scene {
-    move |report: &TissueReport| {
-        let mut scene = Scene::new(Classification::from_tissue_windows(
-            &report.adaptive_windows,
-        ));
-        scene.camera.azimuth_deg = 30.0;
-        scene.camera.elevation_deg = 20.0;
-        effects(&mut scene);
-        scene
-    }
+fn scene_with(edit: impl Fn(&mut SceneRecipe)) -> SceneRecipe {
+    let mut recipe = SceneRecipe::default();
+    recipe.camera.azimuth_deg = 30.0;
+    recipe.camera.elevation_deg = 20.0;
+    edit(&mut recipe);
+    recipe
 }
 
 const IMAGE: [u32; 2] = [48, 40];
 
-fn open(engine: &mut Engine, volume: &Volume, edit: impl Fn(&mut Scene)) -> OpenedVolume {
+fn open(engine: &mut Engine, volume: &Volume, edit: impl Fn(&mut SceneRecipe)) -> OpenedVolume {
     engine
         .open_volume(volume, IMAGE, &scene_with(edit))
         .unwrap()
@@ -88,7 +85,7 @@ fn held(engine: &Engine) -> Vec<(String, u64)> {
 #[test]
 fn the_ledger_holds_exactly_the_planned_allocations() {
     let volume = generate(&PhantomSpec::cube(40)).unwrap().volume;
-    type SceneEdit = Box<dyn Fn(&mut Scene)>;
+    type SceneEdit = Box<dyn Fn(&mut SceneRecipe)>;
     let cases: Vec<(&str, SceneEdit)> = vec![
         ("dvr", Box::new(|_| {})),
         ("dvr+curvature", Box::new(|s| s.effects.curvature = true)),
@@ -248,7 +245,7 @@ fn a_volume_four_times_over_the_budget_renders_bricked_like_the_whole_volume() {
     let volume = padded_phantom(56, 144);
     let volume_bytes = 2 * volume.voxel_count() as u64;
     let budget = volume_bytes / 4;
-    let edit = |s: &mut Scene| s.effects.curvature = true;
+    let edit = |s: &mut SceneRecipe| s.effects.curvature = true;
 
     let mut small = engine_with_budget(Some(budget));
     let mut bricked = open(&mut small, &volume, edit);
@@ -312,7 +309,7 @@ fn stored_derivatives_of_a_bricked_volume_render_like_the_whole_volume() {
     // Forced bricking keeps every effect: |g|, k and normals are computed per atlas slot from
     // the halo, which must reproduce the whole volume's central differences at brick borders.
     let volume = padded_phantom(56, 100);
-    let edit = |s: &mut Scene| {
+    let edit = |s: &mut SceneRecipe| {
         s.effects.curvature = true;
         s.effects.shading = true;
     };
@@ -324,6 +321,8 @@ fn stored_derivatives_of_a_bricked_volume_render_like_the_whole_volume() {
         ..Default::default()
     };
     config.force_bricking = true;
+    // Compared with `common::engine`'s whole volume: the same normalization (min/max).
+    config.normalize = morphray::analysis::NormalizeMode::MinMax;
     let mut bricking = Engine::new(config).unwrap();
     let mut bricked = open(&mut bricking, &volume, edit);
     assert!(matches!(bricked.plan.layout, Layout::Bricked { .. }));

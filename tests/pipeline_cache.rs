@@ -7,7 +7,6 @@ mod common;
 use morphray::engine::{Engine, EngineConfig};
 use morphray::gpu::pipeline_cache::{CacheKey, decode_file, encode_file, file_name};
 use morphray::gpu::{DeviceConfig, PersistOutcome, PipelineCacheConfig, Validation};
-use morphray::scene::{Classification, Scene};
 use morphray::volume::phantom::{PhantomSpec, generate};
 use std::path::{Path, PathBuf};
 
@@ -41,10 +40,8 @@ fn temp_dir(name: &str) -> PathBuf {
 /// Opens a small phantom and renders one frame (creating every pipeline a first frame needs).
 fn render_once(engine: &mut Engine) {
     let volume = generate(&PhantomSpec::cube(20)).unwrap().volume;
-    let make_scene = |r: &morphray::analysis::TissueReport| {
-        Scene::new(Classification::from_tissue_windows(&r.adaptive_windows))
-    };
-    let mut opened = engine.open_volume(&volume, [16, 16], &make_scene).unwrap();
+    let recipe = morphray::scene::SceneRecipe::default();
+    let mut opened = engine.open_volume(&volume, [16, 16], &recipe).unwrap();
     let mut target = engine
         .render_target(16, 16, ash::vk::Format::R8G8B8A8_UNORM)
         .unwrap();

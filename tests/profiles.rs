@@ -6,12 +6,11 @@
 mod common;
 
 use ash::vk;
-use morphray::analysis::TissueReport;
 use morphray::engine::upload::UploadPath;
 use morphray::engine::{Engine, EngineConfig, OpenedVolume};
 use morphray::gpu::{DeviceConfig, DeviceProfile, KernelTuning, Validation};
+use morphray::scene::SceneRecipe;
 use morphray::scene::plan::Layout;
-use morphray::scene::{Classification, Scene};
 use morphray::volume::Volume;
 use morphray::volume::phantom::{PhantomSpec, generate};
 
@@ -27,15 +26,13 @@ fn engine(profile: Option<&str>, tuning: KernelTuning) -> morphray::gpu::GpuResu
     })
 }
 
-fn scene(report: &TissueReport) -> Scene {
-    let mut scene = Scene::new(Classification::from_tissue_windows(
-        &report.adaptive_windows,
-    ));
-    scene.camera.azimuth_deg = 20.0;
-    scene.camera.elevation_deg = 15.0;
-    scene.effects.curvature = true;
-    scene.effects.shading = true;
-    scene
+fn scene() -> SceneRecipe {
+    let mut recipe = SceneRecipe::default();
+    recipe.camera.azimuth_deg = 20.0;
+    recipe.camera.elevation_deg = 15.0;
+    recipe.effects.curvature = true;
+    recipe.effects.shading = true;
+    recipe
 }
 
 fn render(engine: &mut Engine, opened: &mut OpenedVolume, size: [u32; 2]) -> Vec<u8> {
@@ -89,7 +86,7 @@ fn past_the_gen12_3d_limit_a_volume_renders_bricked_like_the_whole_volume() {
     let size = [64, 48];
     let mut gen12 = engine(Some("gen12"), KernelTuning::default()).unwrap();
     assert_eq!(gen12.device().adapter().max_image_dimension_3d, 2048);
-    let mut bricked = gen12.open_volume(&volume, size, &scene).unwrap();
+    let mut bricked = gen12.open_volume(&volume, size, &scene()).unwrap();
     assert!(
         matches!(bricked.plan.layout, Layout::Bricked { grid, .. } if grid == [66, 2, 2]),
         "{:?}",
@@ -105,7 +102,7 @@ fn past_the_gen12_3d_limit_a_volume_renders_bricked_like_the_whole_volume() {
     // The device itself takes 2100 texels (lavapipe: 4096; the H100: 16384).
     let mut plain = engine(None, KernelTuning::default()).unwrap();
     assert!(plain.device().adapter().max_image_dimension_3d >= 2100);
-    let mut whole = plain.open_volume(&volume, size, &scene).unwrap();
+    let mut whole = plain.open_volume(&volume, size, &scene()).unwrap();
     assert_eq!(whole.plan.layout, Layout::Whole);
 
     // The middle, then zoomed onto each end (one end holds the bricks past x = 2048, the
@@ -185,7 +182,7 @@ fn workgroup_and_subgroup_variants_render_the_same_image() {
     let volume = generate(&PhantomSpec::cube(40)).unwrap().volume;
     let size = [40, 32];
     let mut base = engine(None, KernelTuning::default()).unwrap();
-    let mut opened = base.open_volume(&volume, size, &scene).unwrap();
+    let mut opened = base.open_volume(&volume, size, &scene()).unwrap();
     let reference = render(&mut base, &mut opened, size);
     let subgroup = base
         .device()
@@ -214,7 +211,7 @@ fn workgroup_and_subgroup_variants_render_the_same_image() {
     }
     for (label, tuning) in variants {
         let mut e = engine(None, tuning).unwrap();
-        let mut o = e.open_volume(&volume, size, &scene).unwrap();
+        let mut o = e.open_volume(&volume, size, &scene()).unwrap();
         let image = render(&mut e, &mut o, size);
         // The same arithmetic per voxel and per pixel whatever the grouping: bit-identical.
         assert!(image == reference, "{label}: the image changed");
@@ -249,7 +246,7 @@ fn impossible_tuning_is_a_typed_error() {
     let mut e = engine(None, tuning).unwrap();
     let volume = generate(&PhantomSpec::cube(16)).unwrap().volume;
     let err = e
-        .open_volume(&volume, [8, 8], &scene)
+        .open_volume(&volume, [8, 8], &scene())
         .err()
         .expect("a 1M-invocation workgroup is refused")
         .to_string();

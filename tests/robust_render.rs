@@ -5,10 +5,10 @@
 mod common;
 
 use ash::vk;
-use morphray::analysis::{NormalizeMode, TissueReport};
+use morphray::analysis::NormalizeMode;
 use morphray::engine::{Engine, EngineConfig};
 use morphray::gpu::{DeviceConfig, Validation};
-use morphray::scene::{Classification, Scene};
+use morphray::scene::SceneRecipe;
 use morphray::volume::phantom::{PhantomSpec, Tissue, generate};
 use morphray::volume::{Samples, Volume};
 
@@ -31,16 +31,10 @@ fn engine(normalize: NormalizeMode) -> Engine {
     })
 }
 
-/// The default scene of `morphray render`: adaptive windows, default tissues and camera.
-fn default_scene(report: &TissueReport) -> Scene {
-    Scene::new(Classification::from_tissue_windows(
-        &report.adaptive_windows,
-    ))
-}
-
 fn render(engine: &mut Engine, volume: &Volume) -> Vec<u8> {
     let mut opened = engine
-        .open_volume(volume, IMAGE, &default_scene)
+        // The default scene of `morphray render`: adaptive windows, default tissues and camera.
+        .open_volume(volume, IMAGE, &SceneRecipe::default())
         .expect("open");
     let mut target = engine
         .render_target(IMAGE[0], IMAGE[1], vk::Format::R8G8B8A8_UNORM)

@@ -583,3 +583,159 @@ fn a_fifo_named_as_the_script_is_refused_at_once() {
     assert_eq!(o.status.code(), Some(1), "{stderr}");
     assert!(stderr.contains("is a FIFO"), "{stderr}");
 }
+
+/// A 96x96x80 phantom (1 mm): large enough that a 4 MiB budget degrades its plan.
+fn mid_phantom(dir: &Path) -> PathBuf {
+    let spec = PhantomSpec {
+        dims: [96, 96, 80],
+        ..PhantomSpec::cohort_a()
+    };
+    let phantom = generate(&spec).unwrap();
+    let path = dir.join("mid.nii.gz");
+    write_nifti1(&phantom.volume, &path, true).unwrap();
+    path
+}
+
+/// Issue 13: the viewer used to open volumes its own way (no plan, no budget, no bricking).
+/// Now it opens them through the library's path, so `--memory-budget` and `--bricked` mean
+/// exactly what they mean to `render`: the same layout, the same degradations in the same
+/// order (the viewer's log line is what its status bar shows), and a volume on screen.
+#[test]
+fn the_viewer_bricks_and_degrades_within_the_budget_exactly_as_render_does() {
+    let dir = temp_dir("budget");
+    let volume = mid_phantom(&dir);
+    let shot = dir.join("bricked.png");
+    let common = ["--bricked", "--memory-budget", "4M", "--size", "640x480"];
+    let mut args = vec![volume.to_str().unwrap(), "--offscreen", "--frames", "2"];
+    args.extend(["--shading", "on", "--screenshot", shot.to_str().unwrap()]);
+    args.extend(common);
+    let o = view(&args, false);
+    assert_ok(&o);
+    let log = stdout(&o);
+    let plan = log
+        .lines()
+        .find_map(|l| l.strip_prefix("plan: "))
+        .unwrap_or_else(|| panic!("no plan line:\n{log}"));
+    assert!(plan.starts_with("bricked ("), "{plan}");
+    // What `render` says, note by note, with the same options.
+    let png = dir.join("render.png");
+    let render = Command::new(env!("CARGO_BIN_EXE_morphray"))
+        .args(["render", volume.to_str().unwrap(), "--shading", "on", "-o"])
+        .arg(&png)
+        .args(common)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&render.stderr);
+    assert!(render.status.success(), "{stderr}");
+    let render_degradations: Vec<&str> = stderr
+        .lines()
+        .filter_map(|l| l.strip_prefix("morphray: note: to fit 4 MiB of GPU memory: "))
+        .filter_map(|l| l.split(" (saves ").next())
+        .collect();
+    assert!(render_degradations.len() >= 2, "render degrades: {stderr}");
+    let viewer_degradations: Vec<&str> = plan
+        .split_once("degraded: ")
+        .map(|(_, list)| list.split("; ").collect())
+        .unwrap_or_default();
+    assert_eq!(viewer_degradations, render_degradations, "{log}");
+    // The bricked volume is on screen.
+    let view_rect = layout_rect(&log, "view");
+    let lit = lit(&Png::read(&shot), view_rect);
+    assert!(lit > 2000, "the bricked volume is shown: {lit} lit pixels");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Issue 13: a bricked volume holds the bricks its scene can see. Switching to MIP (which sees
+/// every brick above 0) used to be an error in the viewer ("open it again with this scene");
+/// now the viewer opens it again for the scene on screen, keeps the controls, and shows it.
+#[test]
+fn a_bricked_volume_is_opened_again_when_the_scene_needs_other_bricks() {
+    let dir = temp_dir("rebrick");
+    let volume = mid_phantom(&dir);
+    let script = dir.join("mip.txt");
+    let shot = dir.join("mip.png");
+    std::fs::write(
+        &script,
+        format!("wait 1\nmode mip\nwait 2\nscreenshot {}\n", shot.display()),
+    )
+    .unwrap();
+    let o = view(
+        &[
+            volume.to_str().unwrap(),
+            "--bricked",
+            "--offscreen",
+            "--size",
+            "640x480",
+            "--frames",
+            "4",
+            "--script",
+            script.to_str().unwrap(),
+        ],
+        false,
+    );
+    assert_ok(&o);
+    let log = stdout(&o);
+    let plans: Vec<&str> = log.lines().filter(|l| l.starts_with("plan: ")).collect();
+    assert_eq!(plans.len(), 2, "opened once, then again for MIP:\n{log}");
+    assert!(plans.iter().all(|p| p.contains("bricked (")), "{plans:?}");
+    assert_ne!(plans[0], plans[1], "MIP keeps other bricks:\n{log}");
+    assert!(
+        log.contains("opening the volume again for this scene"),
+        "{log}"
+    );
+    assert!(!log.contains("error shown"), "{log}");
+    let lit = lit(&Png::read(&shot), layout_rect(&log, "view"));
+    assert!(
+        lit > 2000,
+        "the MIP of the bricked volume is shown: {lit} lit pixels"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Issue 13: an effect switched on in the viewer is planned within the budget as `render`
+/// plans it. Before, `shading on` under an 8 MiB budget computed stored gradients and normals
+/// beyond it; now the plan degrades the effect the way `render --shading on` does.
+#[test]
+fn an_effect_switched_on_is_planned_within_the_budget_as_render_plans_it() {
+    let dir = temp_dir("replan");
+    let volume = mid_phantom(&dir);
+    let script = dir.join("shading.txt");
+    std::fs::write(&script, "wait 1\nshading on\nwait 2\n").unwrap();
+    let common = ["--memory-budget", "8M", "--size", "640x480"];
+    let mut args = vec![volume.to_str().unwrap(), "--offscreen", "--frames", "3"];
+    args.extend(["--script", script.to_str().unwrap()]);
+    args.extend(common);
+    let o = view(&args, false);
+    assert_ok(&o);
+    let log = stdout(&o);
+    let plans: Vec<&str> = log
+        .lines()
+        .filter_map(|l| l.strip_prefix("plan: "))
+        .collect();
+    assert_eq!(
+        plans.len(),
+        2,
+        "opened, then planned again for shading:\n{log}"
+    );
+    assert!(!plans[0].contains("degraded"), "{plans:?}");
+    let render = Command::new(env!("CARGO_BIN_EXE_morphray"))
+        .args(["render", volume.to_str().unwrap(), "--shading", "on", "-o"])
+        .arg(dir.join("render.png"))
+        .args(common)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&render.stderr);
+    assert!(render.status.success(), "{stderr}");
+    let render_degradations: Vec<&str> = stderr
+        .lines()
+        .filter_map(|l| l.strip_prefix("morphray: note: to fit 8 MiB of GPU memory: "))
+        .filter_map(|l| l.split(" (saves ").next())
+        .collect();
+    assert!(!render_degradations.is_empty(), "render degrades: {stderr}");
+    let viewer_degradations: Vec<&str> = plans[1]
+        .split_once("degraded: ")
+        .map(|(_, list)| list.split("; ").collect())
+        .unwrap_or_default();
+    assert_eq!(viewer_degradations, render_degradations, "{log}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -1,5 +1,7 @@
-//! The loader thread: reads and decodes files, uploads and analyses them, and computes derived
-//! volumes, so the interface thread only ever records the raymarch and draws.
+//! The loader thread: opens volumes through the library's open path (`Engine::open_with`: one
+//! plan within the memory budget and the device profile, whole or bricked, analysis, the
+//! recipe's scene, derived volumes) and computes derived volumes later asked for, so the
+//! interface thread only ever records the raymarch and draws.
 //!
 //! Decisions:
 //! - One worker thread with its own [`Engine`] on the interface's device (the queue is shared
@@ -7,18 +9,22 @@
 //!   device, and the window must keep drawing (spinner, camera on the previous volume) meanwhile.
 //! - Jobs run in order; results and progress come back on a channel that the interface polls
 //!   once per frame (never blocks on).
-//! - The first load starts before the device exists (decoding overlaps Vulkan start-up, as in
-//!   `cli::session`); the device is handed over when the window has made it.
+//! - The first load starts before the device exists (reading overlaps Vulkan start-up, as in
+//!   `engine::Session::open`); the device is handed over when the window has made it. The read
+//!   is the library's (`volume::source::read`), the rest is `Engine::open_with`, so `render`
+//!   and the viewer open a file the same way (budget, `--bricked`, `--profile`).
 //! - A cancel flag is checked between phases, so closing the window during a load ends the
 //!   worker at the next phase boundary (a phase is at most one inflate or one GPU submission).
 //! - Brick ranges for empty-space skipping are computed here right after preparing, so the
 //!   first frame already runs the raymarch alone.
 
 use crate::analysis::TissueReport;
-use crate::cli::source;
-use crate::engine::{Derived, Engine, EngineConfig, PreparedVolume};
+use crate::engine::{Derived, Engine, EngineConfig, OpenOptions, PreparedVolume, Twin};
 use crate::gpu::{Device, GpuError, PassTiming};
 use crate::passes::derivatives::DerivativeOutputs;
+use crate::scene::Scene;
+use crate::scene::plan::Plan;
+use crate::volume::source::{self, VolumeSource};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, Sender, channel};
@@ -38,18 +44,20 @@ pub struct LoadedVolume {
     pub sha256: String,
     /// Voxel spacing along the three index axes, millimetres.
     pub spacing_mm: [f64; 3],
-    /// The volume on the GPU.
-    pub prepared: Arc<PreparedVolume>,
+    /// The volume on the GPU (whole or bricked) with the derived volumes the requested
+    /// effects need (part of the load, so the first frame already shows them).
+    pub twin: Twin,
     /// Histogram peaks and windows.
     pub report: TissueReport,
-    /// GPU passes that preparing ran (min/max, normalize, histogram), plus the brick ranges'
-    /// host wall time.
+    /// The requested scene around this volume, with the planned (possibly degraded) effects.
+    pub scene: Scene,
+    /// The plan it was opened with (layout, degradations).
+    pub plan: Plan,
+    /// GPU passes that opening ran (min/max, normalize, histogram, derivatives), plus the
+    /// brick ranges' host wall time.
     pub passes: Vec<PassTiming>,
     /// When the request was made (start of time to first pixel).
     pub requested_at: Instant,
-    /// Derived volumes the scene needed when the load was requested (part of the load, so the
-    /// first frame already shows the requested effects).
-    pub derived: Option<Derived>,
     /// The loader's repairs and warnings about the file (shown on stderr, kept in screenshots'
     /// provenance).
     pub warnings: Vec<String>,
@@ -61,7 +69,7 @@ enum Job {
         id: u64,
         path: Option<PathBuf>,
         requested_at: Instant,
-        outputs: Option<DerivativeOutputs>,
+        options: Box<OpenOptions>,
     },
     Derive {
         id: u64,
@@ -165,20 +173,21 @@ impl Loader {
         }
     }
 
-    /// Queues loading `path` (None: the phantom) and computing its derived `outputs`.
+    /// Queues opening `path` (None: the phantom) with `options` (the recipe's effects are
+    /// planned for and derived).
     pub fn load(
         &self,
         id: u64,
         path: Option<PathBuf>,
         requested_at: Instant,
-        outputs: Option<DerivativeOutputs>,
+        options: OpenOptions,
     ) {
         if let Some(jobs) = &self.jobs {
             let _ = jobs.send(Job::Load {
                 id,
                 path,
                 requested_at,
-                outputs,
+                options: Box::new(options),
             });
         }
     }
@@ -239,8 +248,8 @@ impl Worker {
                     id,
                     path,
                     requested_at,
-                    outputs,
-                } => match self.load(id, path, requested_at, outputs) {
+                    options,
+                } => match self.load(id, path, requested_at, &options) {
                     Ok(Some(loaded)) => self.send(Reply::Loaded(Box::new(loaded))),
                     Ok(None) => return,
                     Err(message) => self.send(Reply::LoadFailed { id, message }),
@@ -289,7 +298,7 @@ impl Worker {
         id: u64,
         path: Option<PathBuf>,
         requested_at: Instant,
-        outputs: Option<DerivativeOutputs>,
+        options: &OpenOptions,
     ) -> Result<Option<LoadedVolume>, String> {
         self.send(Reply::Progress {
             id,
@@ -299,8 +308,8 @@ impl Worker {
                 "generating the phantom"
             },
         });
-        let source =
-            source::load(path.as_deref(), 0, true).map_err(|e| one_line(&e.to_string()))?;
+        let input = VolumeSource::file_or_phantom(path.as_deref());
+        let read = source::read(&input, &options.read).map_err(|e| one_line(&e.to_string()))?;
         if self.cancelled() {
             return Ok(None);
         }
@@ -319,54 +328,44 @@ impl Worker {
         }
         let _ = self.replies.send(Reply::Progress {
             id,
-            stage: "uploading; min/max, normalization and histogram on the GPU",
+            stage: "planning; preparing the volume (whole or bricked), histogram, derived volumes",
         });
-        let prepared = engine
-            .prepare(&source.volume)
+        let opened = engine
+            .open_with(&read.volume, options)
             .map_err(|e| one_line(&e.to_string()))?;
         if self.cancel.load(Ordering::SeqCst) {
             return Ok(None);
         }
         let before = Instant::now();
+        // Cached already for a bricked volume (its ranges come from the host preparation).
         engine
-            .brick_ranges(&prepared)
+            .brick_ranges(&opened.twin.prepared)
             .map_err(|e| one_line(&e.to_string()))?;
         let occupancy_ms = before.elapsed().as_secs_f64() * 1e3;
-        let report = engine.analyze(&prepared);
-        let linear = prepared.linear_part;
+        let linear = opened.twin.prepared.linear_part;
         let spacing_mm =
             [0, 1, 2].map(|c| (0..3).map(|r| linear[r][c].powi(2)).sum::<f64>().sqrt());
-        let mut passes = prepared.gpu_timings.clone();
+        let mut passes = opened.twin.prepared.gpu_timings.clone();
         passes.push(PassTiming {
             name: "occupancy (brick ranges; host wall time)".into(),
             gpu_ms: occupancy_ms,
         });
-        let derived = match outputs {
-            Some(outputs) => {
-                let _ = self.replies.send(Reply::Progress {
-                    id,
-                    stage: "computing derived volumes on the GPU",
-                });
-                let derived = engine
-                    .derive(&prepared, outputs)
-                    .map_err(|e| one_line(&e.to_string()))?;
-                passes.extend(derived.gpu_timings.iter().cloned());
-                Some(derived)
-            }
-            None => None,
-        };
+        if let Some(derived) = opened.twin.derived() {
+            passes.extend(derived.gpu_timings.iter().cloned());
+        }
         Ok(Some(LoadedVolume {
             id,
-            warnings: source.volume.warnings.clone(),
-            label: source.label,
+            warnings: read.volume.warnings.clone(),
+            label: read.label,
             path,
-            sha256: source.sha256.unwrap_or_default(),
+            sha256: read.sha256.unwrap_or_default(),
             spacing_mm,
-            prepared: Arc::new(prepared),
-            report,
+            twin: opened.twin,
+            report: opened.report,
+            scene: opened.scene,
+            plan: opened.plan,
             passes,
             requested_at,
-            derived,
         }))
     }
 

@@ -10,11 +10,14 @@
 //! ui.rs              panels: tissues, rendering, view, file, status bar; view input/overlays
 //! histogram.rs       the I_norm histogram with peaks and draggable tissue windows
 //! camera_control.rs  mouse/keys -> camera, six standard views, orientation letters
-//! loader.rs          worker thread: decode, upload, analyse, derive (never the UI thread)
+//! loader.rs          worker thread: opens volumes the library's way (plan, whole or bricked,
+//!                    analyse, derive), derives later effects (never the UI thread)
 //! script.rs          scripted actions for tests and demos
 //! frame_log.rs       per-frame passes and action -> first-frame latencies
-//! status.rs          status line: file, dims, spacing, device, first pixel, FPS, GPU passes
-//! viewer.rs          the frame loop tying these together, window or offscreen
+//! status.rs          status line: file, dims, spacing, device, first pixel, FPS, GPU passes,
+//!                    the memory plan (layout, degradations)
+//! viewer/mod.rs      the frame loop tying these together, window or offscreen
+//! viewer/opening.rs  volumes adopted, the twin's rule, plans made again, volumes reopened
 //! ```
 //!
 //! Decisions:

@@ -1,5 +1,6 @@
 //! What the status line says: file, dims, spacing, device, time to first pixel of this load,
-//! frame rate, GPU time per pass, and one-line notes and errors.
+//! frame rate, GPU time per pass, the memory plan (layout, degradations), and one-line notes
+//! and errors.
 //!
 //! Decisions: the frame rate is the number of frames presented in the last second of wall
 //! time (not 1 / last frame time, which jumps); GPU times are the last complete frame's
@@ -71,6 +72,8 @@ pub struct Status {
     pub loading: Option<Loading>,
     /// A derived-volume computation in progress.
     pub deriving: Option<String>,
+    /// The current volume's memory plan: layout and degradations (one line).
+    pub plan: Option<String>,
 }
 
 impl Status {

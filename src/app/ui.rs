@@ -516,6 +516,15 @@ fn status_bar(ui: &mut Ui, status: &Status) {
             ui.label(RichText::new(deriving.as_str()).small());
         });
     }
+    if let Some(plan) = &status.plan {
+        // What the memory plan did (layout, degradations), as `render` says on stderr.
+        let colour = if plan.contains("degraded") {
+            Color32::from_rgb(255, 200, 90)
+        } else {
+            Color32::GRAY
+        };
+        ui.label(RichText::new(format!("Plan: {plan}")).small().color(colour));
+    }
     if let Some(note) = &status.note {
         ui.label(
             RichText::new(note.as_str())

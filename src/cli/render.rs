@@ -24,19 +24,15 @@ use crate::error::Error;
 use crate::files::write::{OutputKind, check_output};
 use crate::scene::visibility::{EmptyScene, pixels_off_background, predict_empty};
 use crate::scene::{
-    Camera, Classification, DerivedPrecision, GradientSource, Projection, RenderMode, Scene,
-    TissueClass,
+    Camera, DerivedPrecision, GradientSource, Projection, RenderMode, Scene, SceneRecipe,
+    TissueClass, WindowSet,
 };
 use ash::vk;
 use std::path::{Path, PathBuf};
 
-/// Builds the scene the arguments describe, around a histogram analysis.
-pub fn scene_from_args(args: &SceneArgs, report: &TissueReport) -> Result<Scene, Error> {
-    let windows = match args.windows {
-        WindowsArg::Adaptive => &report.adaptive_windows,
-        WindowsArg::Paper => &report.paper_windows,
-    };
-    let mut classification = Classification::from_tissue_windows(windows);
+/// The scene recipe the arguments describe (the library builds the scene from it around each
+/// volume's analysis). Fails on an unknown tissue name and on what `SceneRecipe::check` refuses.
+pub fn recipe_from_args(args: &SceneArgs) -> Result<SceneRecipe, Error> {
     let mut visible = Vec::new();
     for name in &args.tissues {
         if name.trim().is_empty() {
@@ -49,61 +45,52 @@ pub fn scene_from_args(args: &SceneArgs, report: &TissueReport) -> Result<Scene,
         })?;
         visible.push(tissue);
     }
-    classification.show_only(&visible);
-    // Appearance by hand, in the viewer's vocabulary; later flags win over earlier ones.
-    for &(tissue, lo, hi) in &args.window {
-        classification.set_window(tissue, lo, hi);
-    }
-    for &(tissue, opacity) in &args.opacity {
-        classification.style_mut(tissue).opacity = opacity;
-    }
-    for &(tissue, colour) in &args.color {
-        classification.style_mut(tissue).colour = colour;
-    }
-    let mut scene = Scene::new(classification);
-    scene.camera = Camera {
-        azimuth_deg: args.azimuth,
-        elevation_deg: args.elevation,
-        zoom: args.zoom,
-        pan_mm: [args.pan.0, args.pan.1],
-        projection: match args.projection {
-            ProjectionArg::Perspective => Projection::Perspective { fov_y_deg: 30.0 },
-            ProjectionArg::Orthographic => Projection::Orthographic,
+    let mut effects = crate::scene::Effects {
+        mode: match args.mode {
+            ModeArg::Dvr => RenderMode::Dvr,
+            ModeArg::Mip => RenderMode::Mip,
+            ModeArg::Minip => RenderMode::MinIp,
         },
+        curvature: args.curvature.on(),
+        shading: args.shading.on(),
+        gradient_source: match args.gradient {
+            GradientArg::Precomputed => GradientSource::Precomputed,
+            GradientArg::OnTheFly => GradientSource::OnTheFly,
+        },
+        ..Default::default()
     };
-    scene.effects.mode = match args.mode {
-        ModeArg::Dvr => RenderMode::Dvr,
-        ModeArg::Mip => RenderMode::Mip,
-        ModeArg::Minip => RenderMode::MinIp,
-    };
-    scene.effects.curvature = args.curvature.on();
-    scene.effects.shading = args.shading.on();
-    scene.effects.gradient_source = match args.gradient {
-        GradientArg::Precomputed => GradientSource::Precomputed,
-        GradientArg::OnTheFly => GradientSource::OnTheFly,
-    };
-    scene.effects.quality.derived_precision = match args.derived_precision {
+    effects.quality.derived_precision = match args.derived_precision {
         PrecisionArg::Snorm8 => DerivedPrecision::Snorm8,
         PrecisionArg::F16 => DerivedPrecision::F16,
         PrecisionArg::F32 => DerivedPrecision::F32,
     };
-    if !(args.step.is_finite() && args.step > 0.0 && args.step <= 16.0) {
-        return Err(Error::Usage(format!(
-            "--step {} must be a number of voxels in (0, 16]",
-            args.step
-        )));
-    }
-    if !(args.zoom.is_finite() && args.zoom > 0.0) {
-        return Err(Error::Usage(format!(
-            "--zoom {} must be a positive number",
-            args.zoom
-        )));
-    }
-    scene.step_voxels = args.step;
-    scene.jitter = !args.no_jitter;
-    scene.background = args.background;
-    scene.minip_floor = report.background_threshold as f32;
-    Ok(scene)
+    let recipe = SceneRecipe {
+        windows: match args.windows {
+            WindowsArg::Adaptive => WindowSet::Adaptive,
+            WindowsArg::Paper => WindowSet::Paper,
+        },
+        visible: Some(visible),
+        window: args.window.clone(),
+        opacity: args.opacity.clone(),
+        colour: args.color.clone(),
+        camera: Camera {
+            azimuth_deg: args.azimuth,
+            elevation_deg: args.elevation,
+            zoom: args.zoom,
+            pan_mm: [args.pan.0, args.pan.1],
+            projection: match args.projection {
+                ProjectionArg::Perspective => Projection::Perspective { fov_y_deg: 30.0 },
+                ProjectionArg::Orthographic => Projection::Orthographic,
+            },
+        },
+        effects,
+        step_voxels: args.step,
+        jitter: !args.no_jitter,
+        background: args.background,
+        ..SceneRecipe::default()
+    };
+    recipe.check().map_err(|e| Error::Usage(e.0))?;
+    Ok(recipe)
 }
 
 /// Tissues the user asked to see that this volume has no window for (peak not found).

@@ -37,7 +37,7 @@ pub fn run(args: &ViewArgs, global: &super::GlobalOptions) -> Result<(), Error> 
     let scripted = args.frames.is_some() || !steps.is_empty();
     let config = ViewerConfig {
         file: args.file.clone(),
-        scene: args.scene.clone(),
+        recipe: super::render::recipe_from_args(&args.scene)?,
         size: [width, height],
         vsync: !args.no_vsync,
         frames: args.frames,

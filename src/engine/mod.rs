@@ -23,6 +23,7 @@ mod probe;
 pub mod readback;
 mod render;
 mod robust;
+pub mod session;
 mod twin;
 pub mod upload;
 
@@ -32,7 +33,8 @@ pub use open::{OpenError, OpenTimings, OpenedVolume};
 pub use pipelines::PipelineTimes;
 pub use prepare::{BrickAtlas, PrepareTimings, PreparedVolume, VolumeLayout};
 pub use render::{FRAMES_IN_FLIGHT, Frame, MAX_OCCUPANCY_FOR_SKIPPING, RenderTarget, SampleCounts};
-pub use twin::{Twin, TwinUpdate};
+pub use session::{OpenOptions, Session, SessionError, SessionTimings};
+pub use twin::{Twin, TwinStep, TwinUpdate, twin_step};
 
 use crate::gpu::pipeline_cache::PersistError;
 use crate::gpu::{
@@ -289,10 +291,22 @@ impl Engine {
         image: [u32; 2],
         occupied_fraction: f64,
     ) -> crate::scene::plan::PlanInput {
+        let dims = volume.dims.map(|d| u32::try_from(d).unwrap_or(u32::MAX));
+        self.plan_input_for(dims, volume.samples.kind(), image, occupied_fraction)
+    }
+
+    /// [`Engine::plan_input`] from a volume's size and sample kind (a volume that is open).
+    pub fn plan_input_for(
+        &self,
+        dims: [u32; 3],
+        sample_kind: crate::volume::SampleKind,
+        image: [u32; 2],
+        occupied_fraction: f64,
+    ) -> crate::scene::plan::PlanInput {
         let a = self.device.adapter();
         crate::scene::plan::PlanInput {
-            dims: volume.dims.map(|d| u32::try_from(d).unwrap_or(u32::MAX)),
-            sample_kind: volume.samples.kind(),
+            dims,
+            sample_kind,
             image,
             max_image_dimension_3d: a.max_image_dimension_3d,
             max_storage_buffer_range: a.max_storage_buffer_range as u64,

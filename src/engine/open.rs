@@ -9,17 +9,21 @@
 //!   the GPU kernels read is exactly what does not fit; the histogram then comes from the host,
 //!   the scene decides which bricks are resident (its tissue windows in DVR, the values MIP and
 //!   MinIP can show otherwise), and the plan is made again with that occupancy.
-//! - The caller builds the scene from the histogram analysis (adaptive windows need the peaks),
-//!   so `open_volume` takes a function from the analysis to the scene.
+//! - The caller gives a [`SceneRecipe`] (adaptive windows need the peaks, so the scene itself
+//!   can only be built after the analysis). Its effects are known up front, so a whole volume is
+//!   planned exactly once; a bricked one is planned once more when its occupancy is known (the
+//!   scene's windows decide which bricks are resident), which is a change of the scene's needs,
+//!   not a second guess. [`Engine::open_planned`] takes a plan made earlier (the library's open
+//!   path plans before the file is read, to start the right pipelines).
 
 use super::Engine;
 use super::bricked::HostPrepared;
 use super::prepare::{PrepareTimings, PreparedVolume};
 use super::twin::Twin;
-use crate::analysis::{TissueReport, analyze, analyze_with};
+use crate::analysis::{TissueReport, analyze_with};
 use crate::gpu::GpuError;
-use crate::scene::Scene;
 use crate::scene::plan::{DoesNotFit, Layout, Plan, STORAGE_BRICK, STORAGE_HALO};
+use crate::scene::{Scene, SceneRecipe};
 use crate::volume::Volume;
 use ash::vk;
 use std::time::Instant;
@@ -38,7 +42,7 @@ pub enum OpenError {
 /// Host times of [`Engine::open_volume`], milliseconds, in the order they ran.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct OpenTimings {
-    /// Planning the scene against the budget (twice when bricked).
+    /// Planning the scene against the budget (once more when bricked, with the occupancy).
     pub plan_ms: f64,
     /// Upload, min/max, normalization and histogram (or the host preparation and brick upload
     /// of a bricked volume), with their own breakdown.
@@ -74,22 +78,38 @@ pub struct OpenedVolume {
 }
 
 impl Engine {
-    /// Plans the scene `make_scene` builds for `volume` at an `image`-pixel target within the
-    /// memory budget, prepares the volume the way the plan says, and derives what the scene
-    /// needs. `make_scene` is called with the histogram analysis (and once, earlier, with an
-    /// empty one to learn the effects to plan for).
+    /// Plans `recipe`'s effects for `volume` at an `image`-pixel target within the memory
+    /// budget, prepares the volume the way the plan says, analyses its histogram, builds the
+    /// recipe's scene, and derives what the scene needs.
     pub fn open_volume(
         &mut self,
         volume: &Volume,
         image: [u32; 2],
-        make_scene: &dyn Fn(&TissueReport) -> Scene,
+        recipe: &SceneRecipe,
+    ) -> Result<OpenedVolume, OpenError> {
+        // The library's open path for a volume in memory, without pipelines ahead of time.
+        let options = super::OpenOptions {
+            image,
+            recipe: recipe.clone(),
+            first_frame: false,
+            ..Default::default()
+        };
+        self.open_with(volume, &options)
+    }
+
+    /// [`Engine::open_volume`] with the first plan made by the caller: `first` is
+    /// `self.plan(recipe.effects, volume, image, 1.0)` (its time is the caller's).
+    pub fn open_planned(
+        &mut self,
+        volume: &Volume,
+        image: [u32; 2],
+        recipe: &SceneRecipe,
+        first: Result<Plan, DoesNotFit>,
     ) -> Result<OpenedVolume, OpenError> {
         let start = Instant::now();
         let pipelines_before = self.pipeline_times.caller_ms;
         let mut timings = OpenTimings::default();
-        let effects = make_scene(&analyze(&[0; 256], 0.0, 1.0, 0, 0)).effects;
-        let first = self.plan(effects, volume, image, 1.0);
-        timings.plan_ms = ms(start);
+        let effects = recipe.effects;
         let (prepared, report, mut scene, plan) = match first {
             Ok(plan) if plan.layout == Layout::Whole => {
                 let format = if plan.normalized_format == "R8_UNORM" {
@@ -102,7 +122,7 @@ impl Engine {
                 timings.prepare = prepared.timings.clone();
                 let before_peaks = Instant::now();
                 let report = self.analyze(&prepared);
-                let scene = make_scene(&report);
+                let scene = recipe.scene_for(&report);
                 timings.peaks_ms = ms(before_peaks);
                 (prepared, report, scene, plan)
             }
@@ -117,7 +137,7 @@ impl Engine {
                 let host = self.prepare_on_host(volume, vk::Format::R16_UNORM)?;
                 let before_peaks = Instant::now();
                 let report = self.analyze_host(&host);
-                let scene = make_scene(&report);
+                let scene = recipe.scene_for(&report);
                 timings.peaks_ms = ms(before_peaks);
                 let fraction = host
                     .brick_ranges(STORAGE_BRICK, STORAGE_HALO)

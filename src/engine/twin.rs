@@ -11,6 +11,10 @@
 //!   of each variant stays cached in the engine, so switching back costs one dispatch, not a
 //!   compile.
 //! - The twin reports what each update did ([`TwinUpdate`]) so integrators and tests can check it.
+//! - The rule itself is [`twin_step`], a pure function, so a client that computes derived volumes
+//!   elsewhere (the viewer, on its loader thread) follows the same rule: it applies the steps
+//!   that need no GPU work at once ([`Twin::apply`]) and installs a recomputation's result when
+//!   it arrives ([`Twin::install`]). The prepared volume is shared (`Arc`) for that.
 
 use super::Engine;
 use super::derive::Derived;
@@ -19,11 +23,12 @@ use super::render::{Frame, RenderTarget};
 use crate::gpu::GpuResult;
 use crate::passes::derivatives::DerivativeOutputs;
 use crate::scene::{Effects, Scene};
+use std::sync::Arc;
 
 /// A prepared volume and the derived volumes of its current effects.
 pub struct Twin {
-    /// The normalized volume with its histogram.
-    pub prepared: PreparedVolume,
+    /// The normalized volume with its histogram (shared with a thread that derives from it).
+    pub prepared: Arc<PreparedVolume>,
     derived: Option<Derived>,
 }
 
@@ -38,9 +43,9 @@ pub struct TwinUpdate {
 
 impl Twin {
     /// A twin of `prepared` with no derived volumes yet.
-    pub fn new(prepared: PreparedVolume) -> Twin {
+    pub fn new(prepared: impl Into<Arc<PreparedVolume>>) -> Twin {
         Twin {
-            prepared,
+            prepared: prepared.into(),
             derived: None,
         }
     }
@@ -56,6 +61,30 @@ impl Twin {
     }
 }
 
+/// What the update rule does to bring held derived volumes in line with wanted ones.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TwinStep {
+    /// They are equal already (or neither exists).
+    Keep,
+    /// Free every derived volume (MIP / MinIP need none).
+    FreeAll,
+    /// Free the normals image only (shading turned off).
+    DropNormals,
+    /// Compute these outputs (after freeing what is held).
+    Recompute(DerivativeOutputs),
+}
+
+/// The twin's update rule (module decisions): the least that makes `held` equal `wanted`.
+pub fn twin_step(held: Option<DerivativeOutputs>, wanted: Option<DerivativeOutputs>) -> TwinStep {
+    match (held, wanted) {
+        (h, w) if h == w => TwinStep::Keep,
+        (Some(_), None) => TwinStep::FreeAll,
+        (Some(h), Some(w)) if only_normals_dropped(h, w) => TwinStep::DropNormals,
+        (_, Some(w)) => TwinStep::Recompute(w),
+        (None, None) => TwinStep::Keep,
+    }
+}
+
 /// True when `held` can serve `wanted` by dropping the normals image only.
 fn only_normals_dropped(held: DerivativeOutputs, wanted: DerivativeOutputs) -> bool {
     held.normal
@@ -65,41 +94,71 @@ fn only_normals_dropped(held: DerivativeOutputs, wanted: DerivativeOutputs) -> b
         && held.precision == wanted.precision
 }
 
+impl Twin {
+    /// Applies a step that needs no GPU work (`Keep`, `FreeAll`, `DropNormals`); a
+    /// `Recompute` frees what is held (the result comes with [`Twin::install`]).
+    pub fn apply(&mut self, step: TwinStep) -> TwinUpdate {
+        let held = self.derived.is_some();
+        match step {
+            TwinStep::Keep => TwinUpdate::default(),
+            TwinStep::FreeAll | TwinStep::Recompute(_) => {
+                self.derived = None;
+                TwinUpdate {
+                    recomputed: false,
+                    freed: held,
+                }
+            }
+            TwinStep::DropNormals => {
+                if let Some(d) = &mut self.derived {
+                    d.volumes.normal = None;
+                    d.volumes.outputs.normal = false;
+                }
+                TwinUpdate {
+                    recomputed: false,
+                    freed: held,
+                }
+            }
+        }
+    }
+
+    /// Installs derived volumes of this twin's prepared volume computed elsewhere (the result
+    /// of a `Recompute` step), replacing what was held.
+    pub fn install(&mut self, derived: Derived) {
+        self.derived = None;
+        self.derived = Some(derived);
+    }
+
+    /// True when the held derived volumes can render `effects` as they are: the raymarch
+    /// reads only what the effects use, so a superset of the same precision serves.
+    pub fn serves(&self, effects: &Effects) -> bool {
+        let Some(need) = effects.derivative_outputs() else {
+            return true;
+        };
+        self.outputs().is_some_and(|have| {
+            have.precision == need.precision
+                && (have.magnitude || !need.magnitude)
+                && (have.curvature || !need.curvature)
+                && (have.normal || !need.normal)
+        })
+    }
+}
+
 impl Engine {
     /// Brings `twin`'s derived volumes in line with `effects`: computes what is missing and frees
     /// what is no longer needed (see the module's decisions).
     pub fn update_twin(&mut self, twin: &mut Twin, effects: &Effects) -> GpuResult<TwinUpdate> {
-        let wanted = effects.derivative_outputs();
         let held = twin.outputs();
-        match (held, wanted) {
-            (h, w) if h == w => Ok(TwinUpdate::default()),
-            (Some(_), None) => {
-                twin.derived = None;
-                Ok(TwinUpdate {
-                    recomputed: false,
-                    freed: true,
-                })
-            }
-            (Some(h), Some(w)) if only_normals_dropped(h, w) => {
-                if let Some(d) = &mut twin.derived {
-                    d.volumes.normal = None;
-                    d.volumes.outputs.normal = false;
-                }
-                Ok(TwinUpdate {
-                    recomputed: false,
-                    freed: true,
-                })
-            }
-            (h, Some(w)) => {
+        match twin_step(held, effects.derivative_outputs()) {
+            TwinStep::Recompute(w) => {
                 // Free first: the old and new derived volumes are never held together.
-                twin.derived = None;
+                twin.apply(TwinStep::FreeAll);
                 twin.derived = Some(self.derive(&twin.prepared, w)?);
                 Ok(TwinUpdate {
                     recomputed: true,
-                    freed: h.is_some(),
+                    freed: held.is_some(),
                 })
             }
-            (None, None) => Ok(TwinUpdate::default()),
+            step => Ok(twin.apply(step)),
         }
     }
 
@@ -125,5 +184,47 @@ impl Engine {
     ) -> GpuResult<Frame> {
         self.update_twin(twin, &scene.effects)?;
         self.render_into(target, &twin.prepared, twin.derived.as_ref(), scene, out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::DerivedPrecision;
+
+    fn o(magnitude: bool, curvature: bool, normal: bool) -> DerivativeOutputs {
+        DerivativeOutputs {
+            magnitude,
+            curvature,
+            normal,
+            precision: DerivedPrecision::Snorm8,
+        }
+    }
+
+    #[test]
+    fn the_rule_does_the_least_that_makes_held_equal_wanted() {
+        let all = o(true, true, true);
+        assert_eq!(twin_step(Some(all), Some(all)), TwinStep::Keep);
+        assert_eq!(twin_step(None, None), TwinStep::Keep);
+        assert_eq!(twin_step(Some(all), None), TwinStep::FreeAll);
+        assert_eq!(
+            twin_step(Some(all), Some(o(true, true, false))),
+            TwinStep::DropNormals
+        );
+        // Curvature off frees its memory by recomputing the smaller set (never both held).
+        let magnitude = o(true, false, false);
+        assert_eq!(
+            twin_step(Some(o(true, true, false)), Some(magnitude)),
+            TwinStep::Recompute(magnitude)
+        );
+        assert_eq!(
+            twin_step(None, Some(magnitude)),
+            TwinStep::Recompute(magnitude)
+        );
+        let f16 = DerivativeOutputs {
+            precision: DerivedPrecision::F16,
+            ..all
+        };
+        assert_eq!(twin_step(Some(all), Some(f16)), TwinStep::Recompute(f16));
     }
 }

@@ -10,12 +10,14 @@ pub mod classification;
 pub mod geometry;
 pub mod occupancy;
 pub mod plan;
+pub mod recipe;
 pub mod uniforms;
 pub mod visibility;
 
 pub use camera::{Camera, Projection};
 pub use classification::{Classification, TissueClass, TissueStyle, Window};
 pub use geometry::VolumeGeometry;
+pub use recipe::{RecipeError, SceneRecipe, WindowSet};
 
 /// The path length a tissue's opacity refers to: 1 mm, so opacities mean the same on a 0.5 mm
 /// and a 3 mm grid (a per-voxel definition would make finer grids look denser).

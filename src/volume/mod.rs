@@ -17,6 +17,7 @@ pub mod host_memory;
 pub mod nifti;
 pub mod phantom;
 pub mod samples;
+pub mod source;
 pub mod stats;
 
 pub use samples::{SampleKind, Samples};

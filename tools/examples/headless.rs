@@ -7,12 +7,16 @@
 //! An integrator with their own Vulkan instance and device would create the engine with
 //! `Engine::with_device(unsafe { Device::adopt(handles) }?, config)` instead of `Engine::new`
 //! (see `morphray::gpu::AdoptedHandles` and tests/integrator.rs).
+//!
+//! A volume in memory opens with `Engine::open_volume(volume, size, &recipe)`; a file (NIfTI,
+//! ANALYZE, or any format `morphray::volume::source` registers) opens with
+//! `Session::open(&VolumeSource::File(path), config, &OpenOptions { recipe, .. })`, which reads
+//! it while the device starts. Both are the path every morphray command and the viewer use.
 
 use ash::vk;
-use morphray::analysis::TissueReport;
 use morphray::engine::{Engine, EngineConfig};
 use morphray::scene::plan::Plan;
-use morphray::scene::{Classification, RenderMode, Scene};
+use morphray::scene::{RenderMode, SceneRecipe};
 use morphray::volume::{LinearMap, Samples, Volume};
 
 /// What one headless frame produced.
@@ -101,17 +105,14 @@ pub fn render_one_frame(
         ..Default::default()
     })?;
     // The scene is built once the histogram analysis has found the tissue peaks.
-    let make_scene = |report: &TissueReport| {
-        let mut scene = Scene::new(Classification::from_tissue_windows(
-            &report.adaptive_windows,
-        ));
-        scene.effects.mode = RenderMode::Dvr;
-        scene.effects.curvature = true;
-        scene.camera.azimuth_deg = 35.0;
-        scene.camera.elevation_deg = 20.0;
-        scene
-    };
-    let mut opened = engine.open_volume(volume, size, &make_scene)?;
+    // The scene is a recipe: the engine plans its effects once, then builds the scene around
+    // the volume's own histogram peaks (adaptive windows).
+    let mut recipe = SceneRecipe::default();
+    recipe.effects.mode = RenderMode::Dvr;
+    recipe.effects.curvature = true;
+    recipe.camera.azimuth_deg = 35.0;
+    recipe.camera.elevation_deg = 20.0;
+    let mut opened = engine.open_volume(volume, size, &recipe)?;
     let mut target = engine.render_target(size[0], size[1], vk::Format::R8G8B8A8_UNORM)?;
     let mut pixels = vec![0u8; (size[0] * size[1] * 4) as usize];
     let frame =

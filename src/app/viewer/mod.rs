@@ -3,13 +3,27 @@
 //! composition, screenshots, status and the session log.
 //!
 //! Decisions:
+//! - Every volume is opened the library's way (the loader calls `Engine::open_with`): one plan
+//!   within `--memory-budget` and `--profile`, whole or bricked (`--bricked`), exactly as
+//!   `render` does; the status bar shows the layout and the plan's degradations, and the
+//!   session log names them (`plan: ...`).
+//! - The plan is made again only when the scene's needs change: an effect that needs other
+//!   derived volumes is planned within the same budget (`Engine::replan`) and degraded as
+//!   `render` would degrade it; a plan that needs another layout or I_norm format, or a bricked
+//!   volume whose scene now sees bricks it does not hold (MIP, a tissue switched on), opens the
+//!   volume again for the scene on screen, keeping the controls. Once per scene: the same
+//!   failure twice is an error in the status line, never a loop. While a recomputation runs
+//!   the previous derived volumes stay on screen, so the viewer briefly holds both sets (the
+//!   engine's own `update_twin` frees first); the plan covers the larger set only.
+//! - The volume on screen is an `engine::Twin`, and derived volumes follow the twin's update
+//!   rule (`engine::twin_step`): a step that needs no GPU work (drop the normals, free all for
+//!   MIP) is applied at once (the raymarch has finished: `Engine::render` waits); a
+//!   recomputation runs on the loader thread while the previous effects stay on screen (the
+//!   held volumes serve them: `Twin::serves`) and the status line says what is being computed.
+//!   A result that arrives after the effects changed again is dropped.
 //! - Interaction cost: a slider, toggle or camera move changes [`Controls::scene`]; the frame
 //!   renders it with `Engine::render`, which writes the uniform buffer (and the host-written
-//!   occupancy bits) and records the raymarch only. An effect that needs a derived volume the
-//!   current one lacks (curvature, shading, the gradient after MIP) is requested from the loader
-//!   thread once, for the union of what was computed and what is needed, so switching it off
-//!   and on again costs nothing; until it arrives the previous effects stay on screen and the
-//!   status line says what is being computed.
+//!   occupancy bits) and records the raymarch only.
 //! - Two raymarch targets alternate, so frame N+1's raymarch never writes the image frame N's
 //!   composition may still be copying; a target is reused only after every frame that read it
 //!   has finished. The 3D view is rendered at its own pixel size (the central rectangle), so
@@ -20,6 +34,8 @@
 //!   one-line message in the window (the volume stays); a lost device drops every GPU object,
 //!   creates a new device (and surface, swapchain) and reloads the current file, with a message.
 
+mod opening;
+
 use super::AppError;
 use super::frame_log::{FrameLog, FrameRecord, Pending, Until};
 use super::loader::{LoadedVolume, Loader, Reply, one_line};
@@ -28,14 +44,12 @@ use super::script::{Action, Runner, Step};
 use super::status::{Loading, Status};
 use super::swapchain::{Surface, Swapchain};
 use super::ui::{self, Controls, Request};
-use crate::cli::args::SceneArgs;
 use crate::cli::png::{PngError, Provenance, write_rgba8};
-use crate::cli::render::scene_from_args;
-use crate::engine::{Derived, Engine, EngineConfig, RenderTarget};
+use crate::engine::{Engine, EngineConfig, RenderTarget, TwinStep, twin_step};
 use crate::files::write::{OutputKind, check_output};
 use crate::gpu::{Device, GpuError, PassTiming, Presentation};
 use crate::passes::derivatives::DerivativeOutputs;
-use crate::scene::{Effects, Scene};
+use crate::scene::{Effects, Scene, SceneRecipe, WindowSet};
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Instant;
@@ -44,8 +58,8 @@ use std::time::Instant;
 pub struct ViewerConfig {
     /// File to open first (None: the phantom).
     pub file: Option<PathBuf>,
-    /// Initial scene options (as for `render`).
-    pub scene: SceneArgs,
+    /// How to build each volume's scene (as for `render`); checked by [`Viewer::new`].
+    pub recipe: SceneRecipe,
     /// Window or offscreen image size, pixels.
     pub size: [u32; 2],
     /// Wait for vertical sync when presenting.
@@ -125,8 +139,8 @@ impl Gpu {
 
 /// The volume on screen.
 struct Current {
+    /// The twin, report, plan and provenance of the volume.
     loaded: LoadedVolume,
-    derived: Option<Derived>,
     /// First frame of this volume done (time to first pixel measured).
     shown: bool,
 }
@@ -187,8 +201,14 @@ pub struct Viewer {
     unapplied: egui::TexturesDelta,
     /// Host copies of egui's textures (re-sent to a new painter after a device loss).
     mirror: super::painter::TextureMirror,
-    /// Why the last raymarch was refused (out of memory), so it is not retried every frame.
+    /// Why the last raymarch was refused (out of memory, or bricks of another scene), so it is
+    /// not retried every frame.
     render_blocked: Option<(Scene, [u32; 4])>,
+    /// A load that opens the volume on screen again for its scene: its adoption keeps the
+    /// controls as they are.
+    keep_scene: Option<u64>,
+    /// The scene the bricked volume was last opened again for.
+    reopened_for: Option<SceneRecipe>,
 }
 
 /// What the last raymarch rendered.
@@ -206,13 +226,16 @@ impl Viewer {
     pub fn new(config: ViewerConfig) -> Result<Viewer, AppError> {
         // The scene before any volume: options from the command line, no windows yet (they
         // come from each volume's histogram).
+        config
+            .recipe
+            .check()
+            .map_err(|e| AppError::Failed(e.to_string()))?;
         let empty = crate::analysis::analyze(&[0; 256], 0.0, 0.0, 0, 0);
-        let scene = scene_from_args(&config.scene, &empty)
-            .map_err(|e| AppError::Failed(one_line(&e.to_string())))?;
+        let scene = config.recipe.scene_for(&empty);
         let mut controls = Controls::new(scene);
-        controls.windows = match config.scene.windows {
-            crate::cli::args::WindowsArg::Adaptive => ui::WindowSource::Adaptive,
-            crate::cli::args::WindowsArg::Paper => ui::WindowSource::Paper,
+        controls.windows = match config.recipe.windows {
+            WindowSet::Adaptive => ui::WindowSource::Adaptive,
+            WindowSet::Paper => ui::WindowSource::Paper,
         };
         let loader = Loader::spawn(config.engine.clone());
         if !loader.is_running() {
@@ -225,11 +248,13 @@ impl Viewer {
             stage: "starting".into(),
             since: config.started,
         });
+        let mut recipe = config.recipe.clone();
+        recipe.effects = scene.effects;
         loader.load(
             1,
             config.file.clone(),
             config.started,
-            scene.effects.derivative_outputs(),
+            opening::open_options(recipe, config.size),
         );
         let log = FrameLog::new(config.log);
         let runner = Runner::new(config.script.clone());
@@ -265,6 +290,8 @@ impl Viewer {
             idle_frames: 0,
             mirror: Default::default(),
             render_blocked: None,
+            keep_scene: None,
+            reopened_for: None,
             config,
         })
     }
@@ -416,6 +443,13 @@ impl Viewer {
                     }
                     self.pending_derive = None;
                     self.status.deriving = None;
+                    // The twin's rule decides whether this result is still what is wanted.
+                    let wanted = self.controls.scene.effects.derivative_outputs();
+                    if twin_step(current.loaded.twin.outputs(), wanted)
+                        != TwinStep::Recompute(outputs)
+                    {
+                        continue;
+                    }
                     let ms: f64 = derived.gpu_timings.iter().map(|t| t.gpu_ms).sum();
                     let what = describe(outputs);
                     self.status.note = Some(format!(
@@ -425,7 +459,7 @@ impl Viewer {
                         format!("derived volume ({what}), computed once"),
                         derived.gpu_timings.clone(),
                     ));
-                    current.derived = Some(*derived);
+                    current.loaded.twin.install(*derived);
                 }
                 Reply::DeriveFailed {
                     id,
@@ -449,111 +483,6 @@ impl Viewer {
                     }
                 }
             }
-        }
-    }
-
-    fn adopt(&mut self, loaded: LoadedVolume) {
-        self.pending_load = None;
-        self.status.loading = None;
-        self.status.error = None;
-        let prepared = &loaded.prepared;
-        let extent_mm = (0..3)
-            .map(|i| prepared.dims[i] as f64 * loaded.spacing_mm[i])
-            .fold(0.0, f64::max);
-        self.controls
-            .adopt_volume(loaded.report.clone(), prepared.histogram, extent_mm);
-        self.status.file = loaded.label.clone();
-        self.status.dims = prepared.dims;
-        self.status.spacing_mm = loaded.spacing_mm;
-        self.status.ttfp_ms = None;
-        // As every command does: a view of a repaired file must not look like a clean one.
-        for warning in &loaded.warnings {
-            eprintln!("morphray: warning: {}: {warning}", loaded.label);
-        }
-        self.arrived
-            .push((format!("load {}", loaded.label), loaded.passes.clone()));
-        self.log.say(&format!(
-            "loaded {} ({}x{}x{}); peaks CSF {} GM {} WM {}",
-            loaded.label,
-            prepared.dims[0],
-            prepared.dims[1],
-            prepared.dims[2],
-            peak_text(loaded.report.peaks.csf),
-            peak_text(loaded.report.peaks.gm),
-            peak_text(loaded.report.peaks.wm)
-        ));
-        let mut loaded = loaded;
-        let derived = loaded.derived.take();
-        self.current = Some(Current {
-            loaded,
-            derived,
-            shown: false,
-        });
-        self.request_derived();
-    }
-
-    /// Asks the loader for the derived volumes the requested effects need (once), and picks
-    /// the effects to render now.
-    fn request_derived(&mut self) {
-        let Some(current) = &self.current else { return };
-        let wanted = self.controls.scene.effects;
-        let have = current.derived.as_ref().map(|d| d.volumes.outputs);
-        let covered = |e: &Effects| match e.derivative_outputs() {
-            None => true,
-            Some(need) => have.is_some_and(|h| covers(h, need)),
-        };
-        if covered(&wanted) {
-            self.active_effects = wanted;
-            return;
-        }
-        if self.pending_derive.is_none()
-            && let Some(need) = wanted.derivative_outputs()
-        {
-            let outputs = match have {
-                Some(h) if h.precision == need.precision => DerivativeOutputs {
-                    magnitude: h.magnitude || need.magnitude,
-                    curvature: h.curvature || need.curvature,
-                    normal: h.normal || need.normal,
-                    precision: need.precision,
-                },
-                _ => need,
-            };
-            let what = describe(outputs);
-            self.status.deriving = Some(format!("Computing the {what} (once)..."));
-            self.log.say(&format!("requesting derived volumes: {what}"));
-            self.loader
-                .derive(current.loaded.id, current.loaded.prepared.clone(), outputs);
-            self.pending_derive = Some(outputs);
-        }
-        if !covered(&self.active_effects) {
-            // Nothing renderable yet with derived volumes: MIP needs none.
-            self.active_effects.mode = crate::scene::RenderMode::Mip;
-        }
-    }
-
-    fn open(&mut self, path: Option<PathBuf>, label_for_log: Option<String>) {
-        let id = self.next_id;
-        self.next_id += 1;
-        let label = label_of(path.as_ref());
-        let now = Instant::now();
-        self.status.loading = Some(Loading {
-            label: label.clone(),
-            stage: "queued".into(),
-            since: now,
-        });
-        self.loader.load(
-            id,
-            path.clone(),
-            now,
-            self.controls.scene.effects.derivative_outputs(),
-        );
-        self.pending_load = Some((id, label, path));
-        if let Some(text) = label_for_log {
-            self.log.pending.push(Pending {
-                label: text,
-                since: now,
-                until: Until::VolumeShown(id),
-            });
         }
     }
 
@@ -718,7 +647,7 @@ impl Viewer {
         let constant_volume = self
             .current
             .as_ref()
-            .is_some_and(|c| c.loaded.prepared.normalization.constant);
+            .is_some_and(|c| c.loaded.twin.prepared.normalization.constant);
         let shown = ui::Shown {
             status: &self.status,
             has_volume: self.current.is_some(),
@@ -843,6 +772,9 @@ impl Viewer {
                     one_line(&e.to_string())
                 ));
             }
+            Err(FrameError::Gpu(GpuError::InvalidRequest(_))) if self.bricked_now() => {
+                self.reopen_for_scene("the bricked volume holds the bricks of another scene");
+            }
             Err(FrameError::Gpu(e)) => {
                 self.status.error = Some(one_line(&e.to_string()));
             }
@@ -931,14 +863,19 @@ impl Viewer {
                 let Some(target) = gpu.targets[index].as_mut() else {
                     return Ok(());
                 };
-                let derived = current.derived.as_ref();
+                let twin = &current.loaded.twin;
                 match gpu
                     .engine
-                    .render(target, &current.loaded.prepared, derived, &scene)
+                    .render(target, &twin.prepared, twin.derived(), &scene)
                 {
                     Ok(frame) => raymarch = frame.gpu_timings,
                     Err(e) => {
-                        if matches!(e, GpuError::OutOfDeviceMemory { .. }) {
+                        // Out of memory, or a scene a bricked volume's resident bricks cannot
+                        // show: retrying the same scene every frame would fail the same way.
+                        if matches!(
+                            e,
+                            GpuError::OutOfDeviceMemory { .. } | GpuError::InvalidRequest(_)
+                        ) {
                             self.render_blocked = Some((scene, view_rect));
                         }
                         return Err(FrameError::Gpu(e));
@@ -1242,14 +1179,6 @@ impl From<AppError> for FrameError {
     }
 }
 
-/// True when derived volumes `have` include everything `need` asks for.
-fn covers(have: DerivativeOutputs, need: DerivativeOutputs) -> bool {
-    have.precision == need.precision
-        && (have.magnitude || !need.magnitude)
-        && (have.curvature || !need.curvature)
-        && (have.normal || !need.normal)
-}
-
 /// What a set of derived volumes is, for the status line.
 fn describe(outputs: DerivativeOutputs) -> String {
     let mut parts = Vec::new();
@@ -1297,16 +1226,13 @@ mod tests {
     use super::*;
 
     #[test]
-    fn derived_volumes_cover_what_effects_need() {
+    fn derived_volumes_are_described_for_the_status_line() {
         let o = |magnitude, curvature, normal| DerivativeOutputs {
             magnitude,
             curvature,
             normal,
             precision: Default::default(),
         };
-        assert!(covers(o(true, true, false), o(true, false, false)));
-        assert!(!covers(o(true, false, false), o(true, true, false)));
-        assert!(covers(o(true, true, true), o(true, true, true)));
         assert_eq!(
             describe(o(true, true, false)),
             "gradient magnitude + curvature volume"

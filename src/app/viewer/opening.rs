@@ -1,0 +1,266 @@
+//! Opening volumes and keeping their plan and derived volumes in line with the scene: the
+//! loader's results adopted, the twin's update rule applied, the plan made again when the
+//! scene's needs change, and the volume opened again when a new plan needs another layout (see
+//! the decisions in the parent module).
+
+use super::super::loader::LoadedVolume;
+use super::super::status::Loading;
+use super::{Current, Viewer, describe, label_of, one_line, peak_text};
+use crate::app::frame_log::{Pending, Until};
+use crate::engine::{OpenOptions, TwinStep, twin_step};
+use crate::scene::plan::{Layout, Plan};
+use crate::scene::{Scene, SceneRecipe};
+use crate::volume::source::ReadOptions;
+use std::path::PathBuf;
+use std::time::Instant;
+
+impl Viewer {
+    pub(super) fn adopt(&mut self, loaded: LoadedVolume) {
+        self.pending_load = None;
+        self.status.loading = None;
+        self.status.error = None;
+        let prepared = &loaded.twin.prepared;
+        let extent_mm = (0..3)
+            .map(|i| prepared.dims[i] as f64 * loaded.spacing_mm[i])
+            .fold(0.0, f64::max);
+        let keep = (self.keep_scene == Some(loaded.id))
+            .then_some((self.controls.scene, self.controls.windows));
+        self.controls
+            .adopt_volume(loaded.report.clone(), prepared.histogram, extent_mm);
+        if let Some((scene, windows)) = keep {
+            self.controls.scene = scene;
+            self.controls.windows = windows;
+        }
+        self.render_blocked = None;
+        self.status.file = loaded.label.clone();
+        self.status.dims = prepared.dims;
+        self.status.spacing_mm = loaded.spacing_mm;
+        self.status.ttfp_ms = None;
+        // As every command does: a view of a repaired file must not look like a clean one.
+        for warning in &loaded.warnings {
+            eprintln!("morphray: warning: {}: {warning}", loaded.label);
+        }
+        self.arrived
+            .push((format!("load {}", loaded.label), loaded.passes.clone()));
+        self.log.say(&format!(
+            "loaded {} ({}x{}x{}); peaks CSF {} GM {} WM {}",
+            loaded.label,
+            prepared.dims[0],
+            prepared.dims[1],
+            prepared.dims[2],
+            peak_text(loaded.report.peaks.csf),
+            peak_text(loaded.report.peaks.gm),
+            peak_text(loaded.report.peaks.wm)
+        ));
+        // The plan may have degraded the requested effects to fit the budget: show what fits.
+        if !loaded.plan.degradations.is_empty() {
+            self.controls.scene.effects = loaded.scene.effects;
+        }
+        self.status.plan = Some(plan_text(&loaded.plan));
+        self.log.say(&format!("plan: {}", plan_text(&loaded.plan)));
+        self.current = Some(Current {
+            loaded,
+            shown: false,
+        });
+        self.request_derived();
+    }
+
+    /// Brings the twin in line with the requested effects by the twin's rule (module
+    /// decisions): steps without GPU work at once, a recomputation on the loader thread (one at
+    /// a time); then picks the effects to render now (what the held volumes serve).
+    pub(super) fn request_derived(&mut self) {
+        if self.pending_derive.is_none() && self.pending_load.is_none() {
+            self.replan_for_wanted();
+        }
+        let Some(current) = &mut self.current else {
+            return;
+        };
+        let twin = &mut current.loaded.twin;
+        let wanted = self.controls.scene.effects;
+        match twin_step(twin.outputs(), wanted.derivative_outputs()) {
+            TwinStep::Recompute(outputs) => {
+                if self.pending_derive.is_none() {
+                    let what = describe(outputs);
+                    self.status.deriving = Some(format!("Computing the {what} (once)..."));
+                    self.log.say(&format!("requesting derived volumes: {what}"));
+                    self.loader
+                        .derive(current.loaded.id, twin.prepared.clone(), outputs);
+                    self.pending_derive = Some(outputs);
+                }
+            }
+            step => {
+                twin.apply(step);
+            }
+        }
+        if twin.serves(&wanted) {
+            self.active_effects = wanted;
+        } else if !twin.serves(&self.active_effects) {
+            // Nothing renderable yet with derived volumes: MIP needs none.
+            self.active_effects.mode = crate::scene::RenderMode::Mip;
+        }
+    }
+
+    /// When the requested effects need other derived volumes, plans them again as the open
+    /// did, within the same budget: what fits with the same layout and format is adopted (the
+    /// effects possibly degraded, as `render` would degrade them); another layout or format
+    /// opens the volume again for them; nothing that fits keeps the effects that were shown.
+    pub(super) fn replan_for_wanted(&mut self) {
+        let wanted = self.controls.scene.effects;
+        let (Some(current), Some(gpu)) = (&self.current, &self.gpu) else {
+            return;
+        };
+        let twin = &current.loaded.twin;
+        if !matches!(
+            twin_step(twin.outputs(), wanted.derivative_outputs()),
+            TwinStep::Recompute(_)
+        ) {
+            return;
+        }
+        let old = &current.loaded.plan;
+        let replanned = gpu.engine.replan(twin, old, wanted, self.size);
+        let same_layout = |new: &Plan| {
+            std::mem::discriminant(&new.layout) == std::mem::discriminant(&old.layout)
+                && new.normalized_format == old.normalized_format
+        };
+        match replanned {
+            Ok(new) if same_layout(&new) => {
+                let text = plan_text(&new);
+                if new.effects != wanted {
+                    self.controls.scene.effects = new.effects;
+                    self.status.note = Some(format!("To fit the memory budget: {text}"));
+                }
+                if self.status.plan.as_deref() != Some(text.as_str()) {
+                    self.log.say(&format!("plan: {text}"));
+                    self.status.plan = Some(text);
+                }
+                if let Some(current) = &mut self.current {
+                    current.loaded.plan = new;
+                }
+            }
+            Ok(_) => {
+                let scene = self.controls.scene;
+                self.reopen(
+                    scene,
+                    "the memory plan for these effects needs another layout",
+                );
+            }
+            Err(e) => {
+                self.controls.scene.effects = self.active_effects;
+                self.status.error = Some(format!(
+                    "Cannot show that within the memory budget: {}",
+                    one_line(&e.to_string())
+                ));
+            }
+        }
+    }
+
+    pub(super) fn open(&mut self, path: Option<PathBuf>, label_for_log: Option<String>) {
+        let mut recipe = self.config.recipe.clone();
+        recipe.effects = self.controls.scene.effects;
+        self.open_recipe(path, recipe, label_for_log);
+    }
+
+    /// Queues opening `path` with `recipe` (its effects planned for); returns the request's id.
+    pub(super) fn open_recipe(
+        &mut self,
+        path: Option<PathBuf>,
+        recipe: SceneRecipe,
+        label_for_log: Option<String>,
+    ) -> u64 {
+        let id = self.next_id;
+        self.next_id += 1;
+        let label = label_of(path.as_ref());
+        let now = Instant::now();
+        self.status.loading = Some(Loading {
+            label: label.clone(),
+            stage: "queued".into(),
+            since: now,
+        });
+        self.loader
+            .load(id, path.clone(), now, open_options(recipe, self.size));
+        self.pending_load = Some((id, label, path));
+        if let Some(text) = label_for_log {
+            self.log.pending.push(Pending {
+                label: text,
+                since: now,
+                until: Until::VolumeShown(id),
+            });
+        }
+        id
+    }
+
+    /// The bricked volume on screen holds the bricks of another scene (tissues or mode changed
+    /// what can be seen): opens it again for the scene shown now, once per scene (the same
+    /// failure twice is an error in the status line, never a loop).
+    pub(super) fn reopen_for_scene(&mut self, message: &str) {
+        if let Some(scene) = self.rendered_scene() {
+            self.reopen(scene, message);
+        }
+    }
+
+    /// Opens the volume on screen again for `scene` (see [`Viewer::reopen_for_scene`]);
+    /// `message` is the error shown when that was tried for this scene already.
+    pub(super) fn reopen(&mut self, scene: Scene, message: &str) {
+        let Some(current) = &self.current else {
+            return;
+        };
+        if self.pending_load.is_some() {
+            // The volume is being opened (again): the next one shows this scene.
+            return;
+        }
+        // Compared as recipes: the frame counter (jitter seed) changes every scripted frame.
+        let recipe = SceneRecipe::from_scene(&scene);
+        if self.reopened_for.as_ref() == Some(&recipe) {
+            self.status.error = Some(one_line(message));
+            return;
+        }
+        let path = current.loaded.path.clone();
+        self.reopened_for = Some(recipe.clone());
+        self.log.say(&format!(
+            "{message}: opening the volume again for this scene"
+        ));
+        let id = self.open_recipe(path, recipe, None);
+        self.keep_scene = Some(id);
+    }
+
+    /// True when the volume on screen is bricked.
+    pub(super) fn bricked_now(&self) -> bool {
+        self.current
+            .as_ref()
+            .is_some_and(|c| matches!(c.loaded.plan.layout, Layout::Bricked { .. }))
+    }
+}
+
+/// How the viewer opens a volume: planned for the window's size, hashed for screenshots'
+/// provenance, pipelines ahead of time.
+pub(super) fn open_options(recipe: SceneRecipe, size: [u32; 2]) -> OpenOptions {
+    OpenOptions {
+        read: ReadOptions {
+            frame: 0,
+            hash: true,
+        },
+        image: size,
+        recipe,
+        first_frame: true,
+    }
+}
+
+/// The plan for the status bar and the log: layout, then each degradation.
+fn plan_text(plan: &Plan) -> String {
+    let layout = match plan.layout {
+        Layout::Whole => "whole volume".to_string(),
+        Layout::Bricked { grid, resident, .. } => format!(
+            "bricked ({resident} of {} bricks resident)",
+            grid[0] * grid[1] * grid[2]
+        ),
+    };
+    let budget = plan.budget / (1 << 20);
+    if plan.degradations.is_empty() {
+        return format!("{layout} within {budget} MiB");
+    }
+    let what: Vec<&str> = plan.degradations.iter().map(|d| d.what.as_str()).collect();
+    format!(
+        "{layout} within {budget} MiB; degraded: {}",
+        what.join("; ")
+    )
+}

@@ -1,0 +1,239 @@
+//! A scene recipe: how to turn a volume's histogram analysis into a [`Scene`], given before the
+//! volume is read, so every client (the CLI's commands, the viewer, an integrator) builds its
+//! scenes the same way and the engine knows the effects to plan for up front.
+//!
+//! Decisions:
+//! - The recipe is plain data in the library's vocabulary (tissue classes, windows, camera,
+//!   effects); the command line only maps its arguments into it, the viewer's panels start
+//!   from it.
+//! - Everything that can be wrong with a recipe is found by [`SceneRecipe::check`] before any
+//!   work; after that, [`SceneRecipe::scene_for`] cannot fail, whatever the analysis found (a
+//!   tissue without a peak simply has no window).
+//! - The effects are part of the recipe, not of the analysis: opening a volume plans for
+//!   `recipe.effects` once, before the file is read, and the scene gets the planned (possibly
+//!   degraded) effects afterwards.
+
+use super::{Camera, Classification, Effects, Scene, TissueClass};
+use crate::analysis::TissueReport;
+
+/// Which tissue windows a scene starts from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum WindowSet {
+    /// Around this volume's histogram peaks.
+    #[default]
+    Adaptive,
+    /// The paper's fixed constants.
+    Paper,
+}
+
+/// How to build a scene from a histogram analysis.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SceneRecipe {
+    /// Adaptive or paper windows.
+    pub windows: WindowSet,
+    /// The visible tissues; None keeps the classification's default (all but pathology).
+    pub visible: Option<Vec<TissueClass>>,
+    /// Windows set by hand (I_norm), applied in order after `windows`.
+    pub window: Vec<(TissueClass, f64, f64)>,
+    /// Opacities per mm, in order.
+    pub opacity: Vec<(TissueClass, f32)>,
+    /// Colours (RGB 0..1), in order.
+    pub colour: Vec<(TissueClass, [f32; 3])>,
+    /// A classification to use as it is, instead of `windows`, `visible`, `window`, `opacity`
+    /// and `colour` (a client opening a volume again for the scene it shows).
+    pub classification: Option<Classification>,
+    /// Camera.
+    pub camera: Camera,
+    /// Mode and effects (what the engine plans for).
+    pub effects: Effects,
+    /// Sampling distance in voxels of the finest axis, in (0, 16].
+    pub step_voxels: f64,
+    /// Jittered ray starts.
+    pub jitter: bool,
+    /// Background colour, RGB 0..1.
+    pub background: [f32; 3],
+    /// Strength of the curvature weight.
+    pub curvature_strength: f32,
+    /// MIP/MinIP display window in I_norm.
+    pub intensity_window: [f32; 2],
+}
+
+impl Default for SceneRecipe {
+    /// [`Scene::new`]'s defaults around adaptive windows.
+    fn default() -> Self {
+        // Scene::new's defaults; the classification is rebuilt per volume anyway.
+        let scene = Scene::new(Classification::from_tissue_windows(
+            &crate::analysis::TissueWindows::paper(),
+        ));
+        SceneRecipe {
+            classification: None,
+            ..SceneRecipe::from_scene(&scene)
+        }
+    }
+}
+
+/// A recipe that cannot make a scene (the message names the setting and its valid range).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{0}")]
+pub struct RecipeError(pub String);
+
+impl SceneRecipe {
+    /// Fails on settings no scene can have (a step outside (0, 16] voxels, a zoom that is not
+    /// positive); the message uses the command line's names, which are the viewer's too.
+    pub fn check(&self) -> Result<(), RecipeError> {
+        let step = self.step_voxels;
+        if !(step.is_finite() && step > 0.0 && step <= 16.0) {
+            return Err(RecipeError(format!(
+                "--step {step} must be a number of voxels in (0, 16]"
+            )));
+        }
+        let zoom = self.camera.zoom;
+        if !(zoom.is_finite() && zoom > 0.0) {
+            return Err(RecipeError(format!(
+                "--zoom {zoom} must be a positive number"
+            )));
+        }
+        Ok(())
+    }
+
+    /// The recipe that makes `scene` again (its classification as it is).
+    pub fn from_scene(scene: &Scene) -> SceneRecipe {
+        SceneRecipe {
+            windows: WindowSet::Adaptive,
+            visible: None,
+            window: Vec::new(),
+            opacity: Vec::new(),
+            colour: Vec::new(),
+            classification: Some(scene.classification),
+            camera: scene.camera,
+            effects: scene.effects,
+            step_voxels: scene.step_voxels,
+            jitter: scene.jitter,
+            background: scene.background,
+            curvature_strength: scene.curvature_strength,
+            intensity_window: scene.intensity_window,
+        }
+    }
+
+    /// The scene this recipe makes around `report` (windows from its peaks, MinIP's floor from
+    /// its background threshold).
+    pub fn scene_for(&self, report: &TissueReport) -> Scene {
+        let mut scene = Scene::new(self.classification_for(report));
+        scene.camera = self.camera;
+        scene.effects = self.effects;
+        scene.step_voxels = self.step_voxels;
+        scene.jitter = self.jitter;
+        scene.background = self.background;
+        scene.curvature_strength = self.curvature_strength;
+        scene.intensity_window = self.intensity_window;
+        scene.minip_floor = report.background_threshold as f32;
+        scene
+    }
+
+    fn classification_for(&self, report: &TissueReport) -> Classification {
+        if let Some(classification) = self.classification {
+            return classification;
+        }
+        let windows = match self.windows {
+            WindowSet::Adaptive => &report.adaptive_windows,
+            WindowSet::Paper => &report.paper_windows,
+        };
+        let mut classification = Classification::from_tissue_windows(windows);
+        if let Some(visible) = &self.visible {
+            classification.show_only(visible);
+        }
+        // Later settings win over earlier ones, as on the command line.
+        for &(tissue, lo, hi) in &self.window {
+            classification.set_window(tissue, lo, hi);
+        }
+        for &(tissue, opacity) in &self.opacity {
+            classification.style_mut(tissue).opacity = opacity;
+        }
+        for &(tissue, colour) in &self.colour {
+            classification.style_mut(tissue).colour = colour;
+        }
+        classification
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::analysis::analyze;
+
+    fn report() -> TissueReport {
+        // Three modes, as a T1 brain has: CSF low, GM middle, WM high.
+        let mut histogram = [0u32; 256];
+        for (centre, height) in [(40usize, 3000u32), (150, 5000), (210, 8000)] {
+            for d in 0..12usize {
+                let h = height / (1 + d as u32);
+                histogram[centre + d] += h;
+                histogram[centre - d] += h;
+            }
+        }
+        histogram[0] = 20000;
+        let voxels = histogram.iter().sum::<u32>() as usize;
+        analyze(&histogram, 0.0, 1000.0, voxels, 0)
+    }
+
+    #[test]
+    fn the_default_recipe_is_the_default_scene_around_adaptive_windows() {
+        let report = report();
+        let scene = SceneRecipe::default().scene_for(&report);
+        let mut expected = Scene::new(Classification::from_tissue_windows(
+            &report.adaptive_windows,
+        ));
+        expected.minip_floor = report.background_threshold as f32;
+        assert_eq!(scene, expected);
+    }
+
+    #[test]
+    fn settings_apply_in_order_over_the_chosen_windows() {
+        let report = report();
+        let recipe = SceneRecipe {
+            windows: WindowSet::Paper,
+            visible: Some(vec![TissueClass::Wm]),
+            window: vec![(TissueClass::Wm, 0.7, 0.9), (TissueClass::Wm, 0.6, 0.8)],
+            opacity: vec![(TissueClass::Wm, 0.25)],
+            ..SceneRecipe::default()
+        };
+        let scene = recipe.scene_for(&report);
+        let wm = scene.classification.style(TissueClass::Wm);
+        assert!(wm.visible);
+        assert!(!scene.classification.style(TissueClass::Gm).visible);
+        let window = wm.window.unwrap();
+        assert_eq!((window.lo, window.hi), (0.6, 0.8));
+        assert_eq!(wm.opacity, 0.25);
+        let paper = Classification::from_tissue_windows(&report.paper_windows);
+        assert_eq!(
+            scene.classification.style(TissueClass::Csf).window,
+            paper.style(TissueClass::Csf).window
+        );
+    }
+
+    #[test]
+    fn a_recipe_from_a_scene_makes_that_scene_again() {
+        let report = report();
+        let mut scene = SceneRecipe::default().scene_for(&report);
+        scene.classification.set_window(TissueClass::Gm, 0.3, 0.45);
+        scene.classification.style_mut(TissueClass::Csf).visible = false;
+        scene.camera.azimuth_deg = 75.0;
+        scene.effects.shading = true;
+        assert_eq!(SceneRecipe::from_scene(&scene).scene_for(&report), scene);
+    }
+
+    #[test]
+    fn check_refuses_steps_and_zooms_no_scene_can_have() {
+        assert!(SceneRecipe::default().check().is_ok());
+        for step in [0.0, -1.0, 16.5, f64::NAN] {
+            let recipe = SceneRecipe {
+                step_voxels: step,
+                ..SceneRecipe::default()
+            };
+            assert!(recipe.check().unwrap_err().0.starts_with("--step"));
+        }
+        let mut recipe = SceneRecipe::default();
+        recipe.camera.zoom = 0.0;
+        assert!(recipe.check().unwrap_err().0.starts_with("--zoom"));
+    }
+}
