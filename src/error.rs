@@ -1,6 +1,6 @@
 //! The library's top-level error: one variant per layer, each a sentence a person can act on.
 
-use crate::cli::png::PngError;
+use crate::files::png::PngError;
 use crate::gpu::GpuError;
 use crate::volume::nifti::NiftiError;
 use crate::volume::phantom::PhantomError;
@@ -43,9 +43,6 @@ pub enum Error {
     /// No plan of the scene fits the memory budget, even fully degraded.
     #[error(transparent)]
     DoesNotFit(#[from] crate::scene::plan::DoesNotFit),
-    /// The interactive viewer (window system, script, interface).
-    #[error(transparent)]
-    App(#[from] crate::app::AppError),
     /// Arguments that parse but do not make sense together.
     #[error("{0}")]
     Usage(String),

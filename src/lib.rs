@@ -24,6 +24,7 @@
 )]
 
 pub mod analysis;
+#[cfg(feature = "viewer")]
 pub mod app;
 pub mod cli;
 pub mod engine;

@@ -185,7 +185,7 @@ fn render_writes_a_png_with_provenance_and_unmasks_pathology() {
         "30",
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let chunks = morphray::cli::png::read_text_chunks(&out).unwrap();
+    let chunks = morphray::files::png::read_text_chunks(&out).unwrap();
     let get = |k: &str| {
         chunks
             .iter()
@@ -196,7 +196,7 @@ fn render_writes_a_png_with_provenance_and_unmasks_pathology() {
     assert_eq!(get("morphray:input"), "phantom48.nii.gz");
     assert_eq!(
         get("morphray:input-sha256"),
-        morphray::cli::png::sha256_hex(&std::fs::read(&input).unwrap())
+        morphray::files::png::sha256_hex(&std::fs::read(&input).unwrap())
     );
     let parameters: serde_json::Value = serde_json::from_str(&get("morphray:parameters")).unwrap();
     assert_eq!(parameters["arguments"]["azimuth"], 30.0);
@@ -865,7 +865,7 @@ fn windows_opacities_and_colours_are_set_by_hand_and_recorded() {
         stderr(&o)
     );
     assert!(lit_pixels(&out) > 100, "the manual window shows the ramp");
-    let chunks = morphray::cli::png::read_text_chunks(&out).unwrap();
+    let chunks = morphray::files::png::read_text_chunks(&out).unwrap();
     let parameters = &chunks
         .iter()
         .find(|(k, _)| k.contains("parameters"))

@@ -275,7 +275,7 @@ fn loader_warnings_reach_stderr_json_and_the_png_provenance() {
         "{}",
         stderr(&o)
     );
-    let chunks = morphray::cli::png::read_text_chunks(&image).unwrap();
+    let chunks = morphray::files::png::read_text_chunks(&image).unwrap();
     let warnings = chunks
         .iter()
         .find(|(k, _)| k == "morphray:warnings")
@@ -317,7 +317,7 @@ fn a_clean_file_has_an_empty_warnings_chunk_and_list() {
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(!stderr(&o).contains("warning"), "{}", stderr(&o));
-    let chunks = morphray::cli::png::read_text_chunks(&image).unwrap();
+    let chunks = morphray::files::png::read_text_chunks(&image).unwrap();
     assert!(chunks.contains(&("morphray:warnings".into(), "[]".into())));
     let _ = std::fs::remove_dir_all(dir);
 }
@@ -397,7 +397,7 @@ fn the_viewer_shows_warnings_and_keeps_them_in_its_screenshot() {
         "{}",
         stderr(&o)
     );
-    let chunks = morphray::cli::png::read_text_chunks(&shot).unwrap();
+    let chunks = morphray::files::png::read_text_chunks(&shot).unwrap();
     assert!(
         chunks
             .iter()

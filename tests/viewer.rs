@@ -207,7 +207,7 @@ fn scripted_window_session_shows_histogram_volume_and_reacts_to_a_toggle() {
     );
 
     // Provenance as `morphray render` writes it.
-    let chunks = morphray::cli::png::read_text_chunks(&last).unwrap();
+    let chunks = morphray::files::png::read_text_chunks(&last).unwrap();
     let input = chunks.iter().find(|(k, _)| k == "morphray:input").unwrap();
     assert_eq!(input.1, "small.nii.gz");
     assert!(

@@ -133,7 +133,7 @@ impl FrameLog {
     /// Prints a line when printing.
     pub fn say(&self, text: &str) {
         if self.print {
-            crate::cli::output::print_line(text);
+            crate::files::stdout::print_line(text);
         }
     }
 

@@ -80,14 +80,14 @@ pub fn run(
         window::run(viewer, size)?
     };
     if log {
-        crate::cli::output::print_line(&viewer.layout_line());
+        crate::files::stdout::print_line(&viewer.layout_line());
         for line in viewer.summary() {
-            crate::cli::output::print_line(&line);
+            crate::files::stdout::print_line(&line);
         }
     }
     let errors = viewer.validation_errors();
     if viewer.validation_enabled() {
-        crate::cli::output::print_line(&format!("validation layer: {} error(s)", errors.len()));
+        crate::files::stdout::print_line(&format!("validation layer: {} error(s)", errors.len()));
     }
     viewer.shutdown()?;
     if let Some(message) = viewer.fatal_error() {

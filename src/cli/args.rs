@@ -135,6 +135,7 @@ pub enum Command {
     Render(RenderArgs),
     /// Open the interactive viewer: tissue windows on the histogram, toggles, camera, status;
     /// scriptable (--frames, --script, --screenshot) for tests and demos.
+    #[cfg(feature = "viewer")]
     View(ViewArgs),
     /// What accuracy costs in time: every quality knob against the f64 reference, with the
     /// Pareto frontier, an SVG plot and recommended defaults.

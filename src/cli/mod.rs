@@ -12,11 +12,11 @@ mod info;
 pub mod output;
 mod peaks;
 mod plan;
-pub mod png;
 pub mod render;
 pub mod session;
 pub mod source;
 mod ttfp;
+#[cfg(feature = "viewer")]
 mod view;
 
 use crate::error::Error;
@@ -107,8 +107,21 @@ fn pipeline_cache_config(option: Option<&str>) -> crate::gpu::PipelineCacheConfi
     }
 }
 
+/// What a command fails with: the library's errors, or (for `view`) the viewer's. The library's
+/// own [`Error`] knows nothing of the viewer, so the engine builds without it.
+#[derive(Debug, thiserror::Error)]
+pub enum CommandError {
+    /// Loading, the GPU, the plan, outputs, arguments.
+    #[error(transparent)]
+    Library(#[from] Error),
+    /// The interactive viewer (window system, script, interface).
+    #[cfg(feature = "viewer")]
+    #[error(transparent)]
+    Viewer(#[from] crate::app::AppError),
+}
+
 /// Dispatches a parsed command line.
-pub fn run(cli: &Cli) -> Result<(), Error> {
+pub fn run(cli: &Cli) -> Result<(), CommandError> {
     let mut tuning = crate::gpu::KernelTuning {
         subgroup_size: cli.subgroup,
         ..Default::default()
@@ -127,18 +140,30 @@ pub fn run(cli: &Cli) -> Result<(), Error> {
             .profile
             .as_deref()
             .map(crate::gpu::DeviceProfile::load)
-            .transpose()?,
+            .transpose()
+            .map_err(Error::from)?,
         tuning,
         pipeline_cache: pipeline_cache_config(cli.pipeline_cache.as_deref()),
         normalize: cli.normalize.into(),
         contrast: cli.contrast.into(),
     };
     let global = &global;
-    match &cli.command {
+    let result = match &cli.command {
+        #[cfg(feature = "viewer")]
+        Command::View(args) => return view::run(args, global),
+        other => run_engine_command(other, global),
+    };
+    Ok(result?)
+}
+
+/// Every command but `view`: they fail only with the library's errors.
+fn run_engine_command(command: &Command, global: &GlobalOptions) -> Result<(), Error> {
+    match command {
         Command::Info(args) => info::run(args),
         Command::Peaks(args) => peaks::run(args, global),
         Command::Render(args) => render::run(args, global),
-        Command::View(args) => view::run(args, global),
+        #[cfg(feature = "viewer")]
+        Command::View(_) => Ok(()),
         Command::Bench(args) => bench::run(args, global),
         Command::Accuracy(args) => accuracy::run(args, global),
         Command::Devices => devices::run(),

@@ -8,11 +8,7 @@
 
 use std::io::Write;
 
-/// Prints `text` and a newline; a closed pipe ends output quietly instead of panicking.
-pub fn print_line(text: &str) {
-    let mut out = std::io::stdout().lock();
-    let _ = writeln!(out, "{text}");
-}
+pub use crate::files::stdout::print_line;
 
 /// Pretty JSON of `value` (serialization of the engine's own types cannot fail; if it ever
 /// did, the error text is printed instead of a panic).

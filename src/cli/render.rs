@@ -17,7 +17,7 @@ use super::args::{
     GradientArg, ModeArg, PrecisionArg, ProjectionArg, RenderArgs, SceneArgs, WindowsArg,
 };
 use super::output::{ms, print_line, print_warnings};
-use super::png::{Provenance, write_rgba8};
+use crate::files::png::{Provenance, write_rgba8};
 use super::session;
 use crate::analysis::{Contrast, ContrastBasis, TissueReport};
 use crate::error::Error;

@@ -7,7 +7,7 @@ use crate::gpu::Validation;
 use std::time::Instant;
 
 /// Runs the command.
-pub fn run(args: &ViewArgs, global: &super::GlobalOptions) -> Result<(), Error> {
+pub fn run(args: &ViewArgs, global: &super::GlobalOptions) -> Result<(), super::CommandError> {
     let started = Instant::now();
     let steps = match &args.script {
         Some(path) => script::load(path).map_err(crate::app::AppError::from)?,
@@ -16,10 +16,11 @@ pub fn run(args: &ViewArgs, global: &super::GlobalOptions) -> Result<(), Error> 
     if args.offscreen && args.frames.is_none() && steps.is_empty() {
         return Err(Error::Usage(
             "--offscreen has no window to close: give --frames N or --script FILE".into(),
-        ));
+        )
+        .into());
     }
     if args.frames == Some(0) {
-        return Err(Error::Usage("--frames needs at least 1 frame".into()));
+        return Err(Error::Usage("--frames needs at least 1 frame".into()).into());
     }
     if let Some(path) = &args.screenshot {
         // Before the window and the GPU: a screenshot that cannot be written fails now.
@@ -29,7 +30,8 @@ pub fn run(args: &ViewArgs, global: &super::GlobalOptions) -> Result<(), Error> 
             crate::files::write::OutputKind::Png,
             &inputs,
             false,
-        )?;
+        )
+        .map_err(Error::from)?;
     }
     let engine = global.engine_config();
     let fail_on_validation = engine.device.validation == Validation::Required;

@@ -9,5 +9,7 @@
 //! over the target only when complete, and [`write::check_output`] checks an output path before
 //! any work is done.
 
+pub mod png;
 pub mod read;
+pub mod stdout;
 pub mod write;

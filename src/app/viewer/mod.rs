@@ -44,7 +44,7 @@ use super::script::{Action, Runner, Step};
 use super::status::{Loading, Status};
 use super::swapchain::{Surface, Swapchain};
 use super::ui::{self, Controls, Request};
-use crate::cli::png::{PngError, Provenance, write_rgba8};
+use crate::files::png::{PngError, Provenance, write_rgba8};
 use crate::engine::{Engine, EngineConfig, RenderTarget, TwinStep, twin_step};
 use crate::files::write::{OutputKind, check_output};
 use crate::gpu::{Device, GpuError, PassTiming, Presentation};
