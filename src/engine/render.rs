@@ -6,6 +6,11 @@
 //!   memory the GPU may still read.
 //! - Empty-space skipping writes the frame's occupancy bits (classified on the CPU from the
 //!   volume's brick ranges, computed once) into a host-visible buffer per frame in flight.
+//! - Recording and submitting are separate (issue 13 item 5): [`Engine::record_render`] records
+//!   the raymarch (and the copies back, when the target reads back) into a caller's
+//!   [`Recording`], so a caller can put it into its own submission with other work (the viewer's
+//!   composition); [`Engine::finish_frame`] reads the results after that submission's wait.
+//!   [`Engine::render`] is the two with a submission of its own in between.
 //! - Rendering checks that the derived volumes the scene needs exist (the caller derives them
 //!   from `Effects::derivative_outputs`), and fails with a typed error instead of sampling a
 //!   placeholder by mistake.
@@ -61,6 +66,16 @@ pub struct SampleCounts {
     pub marched: u64,
     /// Samples that passed classification (each also fetched the derived volumes).
     pub classified: u64,
+}
+
+/// A raymarch recorded by [`Engine::record_render`], to be read with [`Engine::finish_frame`]
+/// after its submission completed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[must_use = "finish the frame after the submission's wait to read its pixels and counts"]
+pub struct RecordedFrame {
+    read_back: bool,
+    count: bool,
+    skipped_empty_space: bool,
 }
 
 /// One rendered frame, read back.
@@ -202,6 +217,39 @@ impl Engine {
         out: Option<&mut [u8]>,
     ) -> GpuResult<Frame> {
         let read_back = target.read_back || out.is_some();
+        let mut rec = Recording::new(&self.device, "raymarch")?;
+        let recorded = self.record_frame(&mut rec, target, prepared, derived, scene, read_back)?;
+        let gpu_timings = rec.submit()?.wait()?;
+        self.finish_frame(target, recorded, gpu_timings, out)
+    }
+
+    /// Records the raymarch of `scene` into `rec`, a recording the caller submits (with other
+    /// work of its own, before or after), and, when `target.read_back`, the copy of the image to
+    /// host memory. After the submission's `wait`, [`Engine::finish_frame`] reads the frame.
+    /// Without readback the image is left in `Access::ComputeWriteImage` for the caller's next
+    /// barrier. The target's uniforms alternate between two buffers, so at most
+    /// [`FRAMES_IN_FLIGHT`] recordings of one target may be in flight at once.
+    pub fn record_render(
+        &mut self,
+        rec: &mut Recording,
+        target: &mut RenderTarget,
+        prepared: &PreparedVolume,
+        derived: Option<&Derived>,
+        scene: &Scene,
+    ) -> GpuResult<RecordedFrame> {
+        let read_back = target.read_back;
+        self.record_frame(rec, target, prepared, derived, scene, read_back)
+    }
+
+    fn record_frame(
+        &mut self,
+        rec: &mut Recording,
+        target: &mut RenderTarget,
+        prepared: &PreparedVolume,
+        derived: Option<&Derived>,
+        scene: &Scene,
+        read_back: bool,
+    ) -> GpuResult<RecordedFrame> {
         self.counters.frames += 1;
         let effects = scene.effects;
         let needed = effects.derivative_outputs();
@@ -310,7 +358,6 @@ impl Engine {
         let uniforms = target.uniforms[frame_slot].clone();
         uniforms.write(0, bytemuck::bytes_of(&block))?;
 
-        let device = self.device.clone();
         let linear = self.linear.clone();
         let gradient = gradient.unwrap_or_else(|| self.placeholders.gradient.clone());
         let normal = normal.unwrap_or_else(|| self.placeholders.normal.clone());
@@ -323,7 +370,6 @@ impl Engine {
             brick_table: &brick_table,
             sampler: &linear,
         };
-        let mut rec = Recording::new(&device, "raymarch")?;
         if count {
             rec.fill_buffer(&target.counters, 0, (COUNTER_WORDS * 4) as u64, 0);
             // Orders the zeroing before the shader's counter atomics.
@@ -337,13 +383,7 @@ impl Engine {
             );
         }
         rec.begin_pass("raymarch");
-        pass.record(
-            &mut rec,
-            &inputs,
-            &uniforms,
-            &target.image,
-            &target.counters,
-        )?;
+        pass.record(rec, &inputs, &uniforms, &target.image, &target.counters)?;
         rec.end_pass();
         if count {
             // Orders the counter atomics before the copy to host memory, and the copy before
@@ -388,10 +428,47 @@ impl Engine {
             );
         }
         rec.keep(uniforms);
-        let gpu_timings = rec.submit()?.wait()?;
+        Ok(RecordedFrame {
+            read_back,
+            count,
+            skipped_empty_space: variant.skip_empty,
+        })
+    }
 
+    /// Reads the frame `recorded` into `target` once the submission that carried it has been
+    /// waited on; `gpu_timings` are that wait's pass times (they go into the frame as they are).
+    /// `out`, when given, receives the pixels instead of the frame's vectors (it must have the
+    /// target's size, and the recording must have read back).
+    pub fn finish_frame(
+        &self,
+        target: &RenderTarget,
+        recorded: RecordedFrame,
+        gpu_timings: Vec<PassTiming>,
+        out: Option<&mut [u8]>,
+    ) -> GpuResult<Frame> {
+        let RecordedFrame {
+            read_back,
+            count,
+            skipped_empty_space,
+        } = recorded;
+        if out.is_some() && !read_back {
+            return Err(GpuError::InvalidRequest(
+                "an output buffer was given for a frame recorded without readback (set \
+                 RenderTarget::read_back before recording)"
+                    .into(),
+            ));
+        }
         let mut bytes = Vec::new();
         if let Some(out) = out {
+            let needed = target.readback.size() as usize;
+            if out.len() != needed {
+                return Err(GpuError::InvalidRequest(format!(
+                    "the output buffer has {} bytes; a {}x{} frame needs {needed}",
+                    out.len(),
+                    target.width,
+                    target.height
+                )));
+            }
             target.readback.read(0, out)?;
         } else if read_back {
             bytes = vec![0u8; target.readback.size() as usize];
@@ -430,7 +507,7 @@ impl Engine {
             values,
             gpu_timings,
             samples,
-            skipped_empty_space: variant.skip_empty,
+            skipped_empty_space,
         })
     }
 }
