@@ -25,6 +25,8 @@ pub mod pipeline;
 pub mod pipeline_cache;
 pub mod profile;
 pub mod recycler;
+#[cfg(test)]
+mod reuse_tests;
 pub mod sampler;
 pub mod shaders;
 pub mod sync;
