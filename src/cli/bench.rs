@@ -137,6 +137,9 @@ struct BenchReport<'a> {
     full_study: bool,
     /// Live allocations after the frames, from the memory ledger.
     held_bytes_while_rendering: u64,
+    /// Submissions' command pools, fences, query pools and breadcrumb buffers created and
+    /// reused over the whole run (per-queue reuse: `gpu/recycler.rs`).
+    recycler: crate::gpu::RecyclerCounts,
     /// The device profile applied, if any.
     device_profile: Option<crate::gpu::DeviceProfile>,
     /// Workgroup and subgroup choices of the tunable kernels.
@@ -514,6 +517,7 @@ pub fn run(args: &BenchArgs, global: &super::GlobalOptions) -> Result<(), Error>
         plan: &opened.plan,
         full_study,
         held_bytes_while_rendering: opened.engine.device().ledger().total_bytes(),
+        recycler: opened.engine.device().recycler_counts(),
         device_profile: opened.engine.device().profile().cloned(),
         tuning: opened.engine.device().tuning().clone(),
         timestamp_valid_bits: adapter.timestamp_valid_bits,

@@ -24,7 +24,7 @@ impl Engine {
         self.occupancy_pass()?;
         self.counters.occupancy_runs += 1;
         let Some(pass) = &self.occupancy_pass else {
-            return Err(crate::gpu::GpuError::InvalidRequest(
+            return Err(crate::gpu::GpuError::Internal(
                 "occupancy pass missing".into(),
             ));
         };

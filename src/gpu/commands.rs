@@ -36,7 +36,8 @@ pub struct Recording {
     // Some until submitted (then the submission holds it) or dropped (then given back).
     lease: Option<Lease>,
     cmd: vk::CommandBuffer,
-    crumbs: vk::Buffer,
+    // The device's breadcrumb buffer and the byte offset of this recording's slot in it.
+    crumbs: Option<(vk::Buffer, u64)>,
     keep_alive: Vec<Arc<dyn Any + Send + Sync>>,
     timestamps: Option<TimestampPool>,
     pass_names: Vec<String>,
@@ -51,7 +52,9 @@ impl Recording {
         let lease = shared.recycler.lease(&shared)?;
         let recording = Recording {
             cmd: lease.cmd,
-            crumbs: lease.crumbs,
+            crumbs: lease
+                .crumbs
+                .map(|(buffer, slot)| (buffer, Lease::crumb_offset(slot))),
             timestamps: TimestampPool::new(&shared, lease.queries),
             lease: Some(lease),
             device: shared,
@@ -110,13 +113,16 @@ impl Recording {
             t.end(&self.device, self.cmd);
         }
         let index = self.pass_names.len() as u64 - 1;
-        if index < MAX_PASSES as u64 {
-            // SAFETY: the breadcrumb buffer is this recording's lease's; each pass writes
-            // only its own 4-byte slot, so the fills never overlap.
+        if let Some((buffer, base)) = self.crumbs
+            && index < MAX_PASSES as u64
+        {
+            // SAFETY: the breadcrumb buffer lives as long as the device; this recording's lease
+            // owns the slot at `base`, and each pass writes only its own 4-byte word of it, so
+            // the fills never overlap.
             unsafe {
                 self.device
                     .raw
-                    .cmd_fill_buffer(self.cmd, self.crumbs, 4 * index, 4, 1)
+                    .cmd_fill_buffer(self.cmd, buffer, base + 4 * index, 4, 1)
             };
         }
     }

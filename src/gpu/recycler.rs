@@ -12,10 +12,14 @@
 //!   pool, reuse buffers) and we follow it in resetting the fence when it comes back, not when it
 //!   is taken, so a leased fence is always unsignalled.
 //! - One queue per device (see `device.rs`), so the recycler is per device, which is per queue.
-//! - The breadcrumb buffer is a raw buffer with memory from the allocator, not a [`super::Buffer`]:
-//!   a `Buffer` holds an `Arc` of the device, and the device holds the free list, so that would be
-//!   a reference cycle and the device would never be destroyed. It is zeroed on the host when
-//!   leased (the GPU is done with it then).
+//! - Breadcrumbs live in one host-visible buffer per device, [`CRUMB_SLOTS`] slots of one
+//!   recording's breadcrumbs each; a lease keeps its slot for its lifetime and zeroes it on the
+//!   host when leased (the GPU is done with it then). One buffer, created at the first lease and
+//!   freed with the device, so the memory ledger holds one fixed "pass breadcrumbs" allocation
+//!   the plan lists, not a number that depends on how many submissions were once in flight. A
+//!   lease beyond the slots records without breadcrumbs (a lost device is then reported without
+//!   the pass name). It is a raw buffer, not a [`super::Buffer`]: a `Buffer` holds an `Arc` of
+//!   the device, which holds the recycler: a reference cycle that would never be freed.
 //! - The free list is bounded ([`MAX_FREE`]): a burst of submissions in flight creates more
 //!   leases, and those beyond the bound are destroyed when they come back, so memory stays
 //!   bounded. A lease whose work was lost or timed out is leaked, never reused or destroyed
@@ -33,8 +37,14 @@ use std::sync::atomic::{AtomicU64, Ordering};
 /// Free leases kept per device; more in flight at once are created and destroyed on return.
 pub const MAX_FREE: usize = 8;
 
-/// Bytes of the breadcrumb buffer: one 32-bit slot per timed pass.
+/// Bytes of one recording's breadcrumbs: one 32-bit word per timed pass.
 const CRUMB_BYTES: u64 = 4 * MAX_PASSES as u64;
+
+/// Recordings that can have breadcrumbs at once (leases alive, free or in flight).
+pub const CRUMB_SLOTS: u32 = 64;
+
+/// Bytes of a device's breadcrumb buffer (the plan lists it as "pass breadcrumbs").
+pub const CRUMB_BUFFER_BYTES: u64 = CRUMB_BYTES * CRUMB_SLOTS as u64;
 
 /// What one submission records with: owned by a recording, then by its submission, then back
 /// in the free list.
@@ -44,18 +54,24 @@ pub(crate) struct Lease {
     pub(crate) fence: vk::Fence,
     /// Null when the queue has no timestamps.
     pub(crate) queries: vk::QueryPool,
-    pub(crate) crumbs: vk::Buffer,
-    crumbs_memory: Option<TrackedAllocation>,
+    /// The device's breadcrumb buffer and this lease's slot in it (None: no slot was free).
+    pub(crate) crumbs: Option<(vk::Buffer, u32)>,
     crumbs_ptr: Option<NonNull<u8>>,
 }
 
-// SAFETY: the handles are plain Vulkan handles; the mapped pointer is only written (zeroes) or
-// read through `zero_crumbs`/`read_crumbs` by the lease's one owner, ordered by its fence.
+// SAFETY: the handles are plain Vulkan handles; the mapped pointer points at this lease's own
+// slot and is only written (zeroes) or read through `zero_crumbs`/`read_crumbs` by the lease's
+// one owner, ordered by its fence.
 unsafe impl Send for Lease {}
 // SAFETY: as above.
 unsafe impl Sync for Lease {}
 
 impl Lease {
+    /// Byte offset of this lease's breadcrumbs in the device's breadcrumb buffer.
+    pub(crate) fn crumb_offset(slot: u32) -> u64 {
+        slot as u64 * CRUMB_BYTES
+    }
+
     /// Copies the first `out.len()` breadcrumb bytes (call after the fence or on device loss).
     pub(crate) fn read_crumbs(&self, out: &mut [u8]) {
         let len = out.len().min(CRUMB_BYTES as usize);
@@ -79,10 +95,22 @@ impl Lease {
     }
 }
 
+/// The device's breadcrumb buffer and its free slots.
+struct Crumbs {
+    buffer: vk::Buffer,
+    memory: Option<TrackedAllocation>,
+    mapped: Option<NonNull<u8>>,
+    free_slots: Vec<u32>,
+}
+
+// SAFETY: the mapped pointer is only offset into slots handed to one lease each.
+unsafe impl Send for Crumbs {}
+
 /// The device's free list of leases, with counts for tests and reports.
 #[derive(Default)]
 pub struct Recycler {
     free: Mutex<Vec<Lease>>,
+    crumbs: Mutex<Option<Crumbs>>,
     created: AtomicU64,
     reused: AtomicU64,
     destroyed: AtomicU64,
@@ -111,7 +139,7 @@ impl Recycler {
                 lease
             }
             None => {
-                let lease = create(device)?;
+                let lease = self.create(device)?;
                 self.created.fetch_add(1, Ordering::Relaxed);
                 lease
             }
@@ -158,15 +186,21 @@ impl Recycler {
         Ok(())
     }
 
-    /// Destroys every free lease (device shutdown, after the queue is idle).
+    /// Destroys every free lease and the breadcrumb buffer (device shutdown, after the queue
+    /// is idle).
     pub(crate) fn destroy_all(&self, device: &DeviceShared) {
-        let leases = match self.free.lock() {
-            Ok(mut free) => std::mem::take(&mut *free),
-            // The list is a plain Vec; a panic while holding it cannot leave a half-made lease.
-            Err(poisoned) => std::mem::take(&mut *poisoned.into_inner()),
-        };
+        // The list is a plain Vec; a panic while holding it cannot leave a half-made lease.
+        let leases = std::mem::take(&mut *self.free.lock().unwrap_or_else(|p| p.into_inner()));
         for lease in leases {
             self.destroy(device, lease);
+        }
+        let crumbs = self.crumbs.lock().unwrap_or_else(|p| p.into_inner()).take();
+        if let Some(crumbs) = crumbs {
+            // SAFETY: the queue is idle; no lease is left to use the buffer.
+            unsafe { device.raw.destroy_buffer(crumbs.buffer, None) };
+            if let Some(tracked) = crumbs.memory {
+                device.free_memory(tracked);
+            }
         }
     }
 
@@ -190,27 +224,58 @@ impl Recycler {
 
     fn destroy(&self, device: &DeviceShared, lease: Lease) {
         self.destroyed.fetch_add(1, Ordering::Relaxed);
+        self.release(device, lease);
+    }
+
+    /// Destroys a lease's objects and frees its breadcrumb slot.
+    fn release(&self, device: &DeviceShared, lease: Lease) {
+        if let Some((_, slot)) = lease.crumbs {
+            let mut crumbs = self.crumbs.lock().unwrap_or_else(|p| p.into_inner());
+            if let Some(c) = crumbs.as_mut() {
+                c.free_slots.push(slot);
+            }
+        }
         destroy(device, lease);
     }
-}
 
-/// Creates a lease; on failure destroys what was made.
-fn create(device: &DeviceShared) -> GpuResult<Lease> {
-    let mut lease = Lease {
-        pool: vk::CommandPool::null(),
-        cmd: vk::CommandBuffer::null(),
-        fence: vk::Fence::null(),
-        queries: vk::QueryPool::null(),
-        crumbs: vk::Buffer::null(),
-        crumbs_memory: None,
-        crumbs_ptr: None,
-    };
-    match fill(device, &mut lease) {
-        Ok(()) => Ok(lease),
-        Err(e) => {
-            destroy(device, lease);
-            Err(e)
+    /// Creates a lease; on failure destroys what was made.
+    fn create(&self, device: &DeviceShared) -> GpuResult<Lease> {
+        let mut lease = Lease {
+            pool: vk::CommandPool::null(),
+            cmd: vk::CommandBuffer::null(),
+            fence: vk::Fence::null(),
+            queries: vk::QueryPool::null(),
+            crumbs: None,
+            crumbs_ptr: None,
+        };
+        let made = fill(device, &mut lease).and_then(|()| self.take_slot(device, &mut lease));
+        match made {
+            Ok(()) => Ok(lease),
+            Err(e) => {
+                self.release(device, lease);
+                Err(e)
+            }
         }
+    }
+
+    /// Gives `lease` a breadcrumb slot if one is free (creating the buffer at the first lease).
+    fn take_slot(&self, device: &DeviceShared, lease: &mut Lease) -> GpuResult<()> {
+        let mut crumbs = self.crumbs.lock().map_err(|_| {
+            GpuError::Internal("the breadcrumb slots were poisoned by a panic".into())
+        })?;
+        if crumbs.is_none() {
+            *crumbs = Some(create_crumbs(device)?);
+        }
+        let Some(c) = crumbs.as_mut() else {
+            return Ok(());
+        };
+        if let (Some(slot), Some(base)) = (c.free_slots.pop(), c.mapped) {
+            lease.crumbs = Some((c.buffer, slot));
+            // SAFETY: slot < CRUMB_SLOTS, so the offset lies inside the mapped buffer.
+            lease.crumbs_ptr =
+                NonNull::new(unsafe { base.as_ptr().add(Lease::crumb_offset(slot) as usize) });
+        }
+        Ok(())
     }
 }
 
@@ -219,7 +284,7 @@ fn fill(device: &DeviceShared, lease: &mut Lease) -> GpuResult<()> {
     let pool_info =
         vk::CommandPoolCreateInfo::default().queue_family_index(device.adapter.queue_family);
     // SAFETY: valid create infos on a live device; every handle made is stored in `lease`, which
-    // the caller destroys on error.
+    // the caller releases on error.
     unsafe {
         lease.pool = raw
             .create_command_pool(&pool_info, None)
@@ -245,36 +310,68 @@ fn fill(device: &DeviceShared, lease: &mut Lease) -> GpuResult<()> {
                 .create_query_pool(&info, None)
                 .map_err(vk_err("vkCreateQueryPool"))?;
         }
-        let info = vk::BufferCreateInfo::default()
-            .size(CRUMB_BYTES)
-            .usage(vk::BufferUsageFlags::TRANSFER_DST)
-            .sharing_mode(vk::SharingMode::EXCLUSIVE);
-        lease.crumbs = raw
-            .create_buffer(&info, None)
-            .map_err(vk_err("vkCreateBuffer"))?;
-        let requirements = raw.get_buffer_memory_requirements(lease.crumbs);
-        let tracked = memory::allocate(
-            &device.allocator,
-            &device.ledger,
-            &device.memory_properties,
-            "pass breadcrumbs",
-            requirements,
-            MemoryIntent::Readback,
-            true,
-        )?;
-        let memory = tracked.allocation.memory();
-        let offset = tracked.allocation.offset();
-        lease.crumbs_ptr = tracked.allocation.mapped_ptr().map(|p| p.cast::<u8>());
-        lease.crumbs_memory = Some(tracked);
-        raw.bind_buffer_memory(lease.crumbs, memory, offset)
-            .map_err(vk_err("vkBindBufferMemory"))?;
-    }
-    if lease.crumbs_ptr.is_none() {
-        return Err(GpuError::Unsupported(
-            "host-visible memory for the pass breadcrumbs could not be mapped".into(),
-        ));
     }
     Ok(())
+}
+
+/// The device's breadcrumb buffer, every slot free.
+fn create_crumbs(device: &DeviceShared) -> GpuResult<Crumbs> {
+    let raw = &device.raw;
+    let info = vk::BufferCreateInfo::default()
+        .size(CRUMB_BUFFER_BYTES)
+        .usage(vk::BufferUsageFlags::TRANSFER_DST)
+        .sharing_mode(vk::SharingMode::EXCLUSIVE);
+    // SAFETY: valid create info on a live device.
+    let buffer = unsafe { raw.create_buffer(&info, None) }.map_err(vk_err("vkCreateBuffer"))?;
+    let destroy_buffer = || {
+        // SAFETY: never bound or used.
+        unsafe { raw.destroy_buffer(buffer, None) }
+    };
+    // SAFETY: the buffer was just created on this device.
+    let requirements = unsafe { raw.get_buffer_memory_requirements(buffer) };
+    let tracked = match memory::allocate(
+        &device.allocator,
+        &device.ledger,
+        &device.memory_properties,
+        "pass breadcrumbs",
+        requirements,
+        MemoryIntent::Readback,
+        true,
+    ) {
+        Ok(t) => t,
+        Err(e) => {
+            destroy_buffer();
+            return Err(e);
+        }
+    };
+    let mapped = tracked.allocation.mapped_ptr().map(|p| p.cast::<u8>());
+    // SAFETY: memory and offset come from an allocation made for these requirements.
+    let bound = unsafe {
+        raw.bind_buffer_memory(
+            buffer,
+            tracked.allocation.memory(),
+            tracked.allocation.offset(),
+        )
+    };
+    let failure = match (bound, mapped) {
+        (Err(e), _) => Some(GpuError::from_vk("vkBindBufferMemory", e)),
+        (Ok(()), None) => Some(GpuError::Unsupported(
+            "host-visible memory for the pass breadcrumbs could not be mapped".into(),
+        )),
+        (Ok(()), Some(_)) => None,
+    };
+    if let Some(e) = failure {
+        device.free_memory(tracked);
+        destroy_buffer();
+        return Err(e);
+    }
+    Ok(Crumbs {
+        buffer,
+        memory: Some(tracked),
+        mapped,
+        // Popped from the end: slot 0 first.
+        free_slots: (0..CRUMB_SLOTS).rev().collect(),
+    })
 }
 
 fn destroy(device: &DeviceShared, lease: Lease) {
@@ -284,9 +381,5 @@ fn destroy(device: &DeviceShared, lease: Lease) {
         device.raw.destroy_command_pool(lease.pool, None);
         device.raw.destroy_fence(lease.fence, None);
         device.raw.destroy_query_pool(lease.queries, None);
-        device.raw.destroy_buffer(lease.crumbs, None);
-    }
-    if let Some(tracked) = lease.crumbs_memory {
-        device.free_memory(tracked);
     }
 }

@@ -3,7 +3,7 @@
 //! reused only after its fence was waited on, never while in flight, and everything it holds is
 //! fresh (timestamps, breadcrumbs) when it records again.
 
-use super::recycler::MAX_FREE;
+use super::recycler::{CRUMB_BUFFER_BYTES, CRUMB_SLOTS, MAX_FREE};
 use super::shaders::table;
 use super::{
     Access, Buffer, BufferDesc, ComputePipeline, DescriptorSet, Device, DeviceConfig, Recording,
@@ -145,9 +145,36 @@ fn the_free_list_is_bounded() {
     let counts = device.recycler_counts();
     assert_eq!(counts.created, MAX_FREE as u64 + 3);
     assert_eq!((counts.free, counts.destroyed), (MAX_FREE, 3), "{counts:?}");
-    // Everything the leases held is freed with the device: only what is kept is live.
+    // The leases share one breadcrumb buffer: one fixed allocation, whatever the burst.
     let live = device.ledger().live();
-    assert_eq!(live.len(), MAX_FREE, "{live:?}");
+    assert_eq!(live.len(), 1, "{live:?}");
+    assert_eq!(live[0].name, "pass breadcrumbs");
+    assert!(live[0].bytes >= CRUMB_BUFFER_BYTES);
+    assert_clean(&device);
+}
+
+#[test]
+fn more_recordings_in_flight_than_breadcrumb_slots_still_run() {
+    let device = device();
+    let pipeline = pipeline(&device);
+    let in_flight: Vec<_> = (0..CRUMB_SLOTS + 2)
+        .map(|i| {
+            let mut rec = Recording::new(&device, &format!("burst {i}")).unwrap();
+            copy_work(&device, &pipeline, &mut rec);
+            rec.submit().unwrap()
+        })
+        .collect();
+    for submission in in_flight {
+        assert_eq!(submission.wait().unwrap().len(), 1);
+    }
+    // Slots of destroyed leases are free again: a new lease gets one.
+    let lease = device.shared.recycler.lease(&device.shared).unwrap();
+    assert!(lease.crumbs.is_some());
+    device
+        .shared
+        .recycler
+        .give_back(&device.shared, lease)
+        .unwrap();
     assert_clean(&device);
 }
 
