@@ -741,3 +741,43 @@ fn a_raymarch_recorded_into_the_callers_submission_equals_a_render_of_its_own() 
     );
     common::assert_no_validation_errors(&engine);
 }
+
+#[test]
+fn a_target_reused_across_classifications_renders_each_like_a_fresh_target() {
+    // The target caches the occupancy bits per classification (issue 13 item 5); a changed
+    // classification on either frame slot must never draw with the old bits.
+    let mut engine = common::engine();
+    let (volume, _) = phantom(48);
+    let p = prepare(&mut engine, &volume, |_| {});
+    let mut pathology = p.scene;
+    pathology
+        .classification
+        .show_only(&[TissueClass::Pathology]);
+    let mut gm = p.scene;
+    gm.classification.show_only(&[TissueClass::Gm]);
+    let scenes = [
+        &p.scene, &p.scene, &pathology, &gm, &pathology, &p.scene, &gm,
+    ];
+    let mut shared = engine
+        .render_target(32, 32, vk::Format::R8G8B8A8_UNORM)
+        .unwrap();
+    let mut skipped = false;
+    for (i, scene) in scenes.iter().enumerate() {
+        let reused = engine
+            .render(&mut shared, &p.prepared, p.derived.as_ref(), scene)
+            .unwrap();
+        let mut fresh_target = engine
+            .render_target(32, 32, vk::Format::R8G8B8A8_UNORM)
+            .unwrap();
+        let fresh = engine
+            .render(&mut fresh_target, &p.prepared, p.derived.as_ref(), scene)
+            .unwrap();
+        assert!(reused.rgba8 == fresh.rgba8, "frame {i} differs");
+        skipped |= reused.skipped_empty_space;
+    }
+    assert!(
+        skipped,
+        "no frame skipped empty space: the cache was not exercised"
+    );
+    common::assert_no_validation_errors(&engine);
+}

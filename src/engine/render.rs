@@ -5,7 +5,11 @@
 //!   alternately (one per frame in flight), so writing the next frame's parameters never touches
 //!   memory the GPU may still read.
 //! - Empty-space skipping writes the frame's occupancy bits (classified on the CPU from the
-//!   volume's brick ranges, computed once) into a host-visible buffer per frame in flight.
+//!   volume's brick ranges, computed once) into a host-visible buffer per frame in flight. The
+//!   bits depend only on the volume and the classification, so the target keeps the last ones
+//!   and a frame with the same classification (an orbit) neither classifies again nor rewrites
+//!   a buffer that already holds them: on a 136 M-voxel volume that is 266 k bricks a frame of
+//!   host work the per-frame overhead does not need (issue 13 item 5).
 //! - Recording and submitting are separate (issue 13 item 5): [`Engine::record_render`] records
 //!   the raymarch (and the copies back, when the target reads back) into a caller's
 //!   [`Recording`], so a caller can put it into its own submission with other work (the viewer's
@@ -17,6 +21,7 @@
 
 use super::Engine;
 use super::derive::Derived;
+use super::occupancy::OccupancyCache;
 use super::prepare::PreparedVolume;
 use super::prepare::VolumeLayout;
 use crate::gpu::{
@@ -52,6 +57,9 @@ pub struct RenderTarget {
     counters: Arc<Buffer>,
     counters_host: Arc<Buffer>,
     occupancy: Vec<Option<Arc<Buffer>>>,
+    // The last classified bits, and which of them each frame slot's buffer holds.
+    occupancy_cache: Option<OccupancyCache>,
+    occupancy_written: [u64; FRAMES_IN_FLIGHT],
     /// Compile in and read the benchmark counters (samples marched / classified) each frame.
     pub count_samples: bool,
     /// Copy each frame back to the host (off for frame-rate measurements: `Frame` is then
@@ -168,6 +176,8 @@ impl Engine {
             counters,
             counters_host,
             occupancy: vec![None; FRAMES_IN_FLIGHT],
+            occupancy_cache: None,
+            occupancy_written: [0; FRAMES_IN_FLIGHT],
             count_samples: false,
             read_back: true,
         })
@@ -312,13 +322,13 @@ impl Engine {
         let mut bricks = [1, 1, 1, BRICK_SIDE];
         let occupancy = if variant.skip_empty {
             let ranges = self.brick_ranges(prepared)?;
-            let bits = ranges.occupancy_bits(&scene.classification);
-            let occupied = bits.iter().map(|w| w.count_ones() as u64).sum::<u64>() as f64
-                / ranges.ranges.len().max(1) as f64;
+            let cache = OccupancyCache::update(&mut target.occupancy_cache, &ranges, scene)
+                .ok_or_else(|| GpuError::Internal("the occupancy cache is empty".into()))?;
+            let (generation, occupied) = (cache.generation, cache.occupied);
             // Nothing to skip: the lookups would only cost (lossless either way).
             variant.skip_empty = occupied <= MAX_OCCUPANCY_FOR_SKIPPING;
             bricks = [ranges.grid[0], ranges.grid[1], ranges.grid[2], ranges.side];
-            let bytes: &[u8] = bytemuck::cast_slice(&bits);
+            let bytes: &[u8] = bytemuck::cast_slice(&cache.bits);
             let buffer = match &target.occupancy[frame_slot] {
                 Some(b) if b.size() >= bytes.len() as u64 => b.clone(),
                 _ => {
@@ -327,13 +337,17 @@ impl Engine {
                         BufferDesc::host_storage("occupancy bits", bytes.len() as u64),
                     )?;
                     target.occupancy[frame_slot] = Some(b.clone());
+                    target.occupancy_written[frame_slot] = 0;
                     b
                 }
             };
             // Written before the submission that reads it; the buffer of the other frame in
             // flight is untouched. (Written even when this frame does not skip, so the buffers
             // a scene with skipping holds do not depend on the view: the plan lists them.)
-            buffer.write(0, bytes)?;
+            if target.occupancy_written[frame_slot] != generation {
+                buffer.write(0, bytes)?;
+                target.occupancy_written[frame_slot] = generation;
+            }
             if variant.skip_empty {
                 buffer
             } else {
