@@ -119,7 +119,7 @@ pub struct Recycler {
 /// How often leases were created and reused on a device.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
 pub struct RecyclerCounts {
-    /// Leases created (command pool, fence, query pool, breadcrumb buffer each).
+    /// Leases created (command pool and buffer, fence, query pool, breadcrumb slot each).
     pub created: u64,
     /// Recordings that took a lease from the free list instead.
     pub reused: u64,
