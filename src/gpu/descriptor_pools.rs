@@ -6,9 +6,9 @@
 //! - Each pool holds exactly one set, so a set gives its pool back on its own: when the last
 //!   `Arc` of a [`super::DescriptorSet`] drops, which is after every submission that bound it has
 //!   completed (submissions keep their sets until their fence signals), the pool is reset with
-//!   `vkResetDescriptorPool` and kept for the next set of this pipeline's layout. This is
-//!   Granite's per-layout descriptor allocator (reset, never freed per set) and wgpu-hal's
-//!   reuse of pools, made safe by ownership instead of frame counting.
+//!   `vkResetDescriptorPool` and kept for the next set of this pipeline's layout: pools per
+//!   layout, reset rather than sets freed, as Granite's descriptor-set allocator does, but
+//!   returned by ownership (screen-13's leases) instead of by frame counting.
 //! - The free list is bounded ([`MAX_FREE_POOLS`]); pools beyond it are destroyed. A pool that
 //!   fails to reset is destroyed and the fault recorded in the device's fault log.
 

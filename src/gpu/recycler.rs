@@ -4,13 +4,15 @@
 //! Decisions:
 //! - Taken from Granite's per-frame context (`vulkan/device.cpp`, `command_pool.cpp`): a command
 //!   pool is reset as a whole (`vkResetCommandPool`) once the fence of the work recorded from it
-//!   has signalled, and then records again; nothing is created per frame. From screen-13's leases
-//!   (`pool/lease.rs`): a [`Lease`] is taken by [`super::Recording::new`] and goes back to the
-//!   free list only from the [`super::Submission`] after its fence was waited on, or from a
-//!   recording that was never submitted; so a lease is never handed out while the GPU may still
-//!   use it. wgpu-hal's Vulkan encoder does the same with its command-buffer free list (reset
-//!   pool, reuse buffers) and we follow it in resetting the fence when it comes back, not when it
-//!   is taken, so a leased fence is always unsignalled.
+//!   has signalled, and then records again; nothing is created per frame. wgpu-hal's Vulkan
+//!   command encoder does the same with its pool (`reset_all`: reset the pool, the buffers go back
+//!   to its free list).
+//! - From screen-13 (`src/pool/mod.rs`): a [`Lease`] goes back to a bounded cache when its owner
+//!   is done, and a command buffer is leased only when its fence has signalled
+//!   (`can_lease_command_buffer` queries the fence at lease time). Here the lease is returned
+//!   only by the [`super::Submission`] after its fence was waited on, or by a recording that was
+//!   never submitted, so everything in the free list is idle and leasing needs no fence query;
+//!   the fence is reset when the lease comes back, so a leased fence is always unsignalled.
 //! - One queue per device (see `device.rs`), so the recycler is per device, which is per queue.
 //! - Breadcrumbs live in one host-visible buffer per device, [`CRUMB_SLOTS`] slots of one
 //!   recording's breadcrumbs each; a lease keeps its slot for its lifetime and zeroes it on the
