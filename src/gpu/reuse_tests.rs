@@ -232,3 +232,26 @@ fn a_reused_lease_has_zeroed_breadcrumbs_and_an_unsignalled_fence() {
     shared.recycler.give_back(shared, reused).unwrap();
     assert_clean(&device);
 }
+
+#[test]
+fn a_poisoned_allocator_is_an_internal_fault_reported_not_skipped() {
+    // Issue 13 item 6: before, a free under a poisoned allocator lock was silently skipped and
+    // an allocation reported as the caller's invalid request.
+    let device = device();
+    let buffer = Buffer::new(&device, BufferDesc::gpu_storage("victim", 256)).unwrap();
+    let shared = device.shared.clone();
+    let _ = std::thread::spawn(move || {
+        let _guard = shared.allocator.lock();
+        panic!("poison the allocator");
+    })
+    .join();
+    drop(buffer);
+    let faults = device.internal_faults();
+    assert_eq!(faults.len(), 1, "{faults:?}");
+    assert!(faults[0].contains("`victim` was not freed"), "{faults:?}");
+    match Buffer::new(&device, BufferDesc::gpu_storage("next", 256)) {
+        Err(super::GpuError::Internal(_)) => {}
+        Err(other) => panic!("expected an internal fault, got {other}"),
+        Ok(_) => panic!("expected an internal fault, got a buffer"),
+    }
+}
