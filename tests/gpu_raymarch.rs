@@ -669,3 +669,116 @@ fn empty_space_skipping_is_used_only_where_there_is_empty_space() {
     assert!(!frame.skipped_empty_space);
     common::assert_no_validation_errors(&engine);
 }
+
+#[test]
+fn a_raymarch_recorded_into_the_callers_submission_equals_a_render_of_its_own() {
+    // Issue 13 item 5: a caller (the viewer) puts the raymarch into its own submission with
+    // other work; the pixels must be exactly those of `render`, which submits on its own.
+    let mut engine = common::engine();
+    let (volume, _) = phantom(24);
+    let p = prepare(&mut engine, &volume, |s| s.effects.shading = true);
+    let mut alone = engine
+        .render_target(32, 24, vk::Format::R8G8B8A8_UNORM)
+        .unwrap();
+    let expected = engine
+        .render(&mut alone, &p.prepared, p.derived.as_ref(), &p.scene)
+        .unwrap();
+
+    let mut target = engine
+        .render_target(32, 24, vk::Format::R8G8B8A8_UNORM)
+        .unwrap();
+    let scratch = morphray::gpu::Buffer::new(
+        engine.device(),
+        morphray::gpu::BufferDesc::gpu_storage("caller's own work", 1024),
+    )
+    .unwrap();
+    let mut rec = morphray::gpu::Recording::new(engine.device(), "caller's frame").unwrap();
+    rec.begin_pass("caller's work");
+    rec.fill_buffer(&scratch, 0, 1024, 3);
+    rec.end_pass();
+    let recorded = engine
+        .record_render(
+            &mut rec,
+            &mut target,
+            &p.prepared,
+            p.derived.as_ref(),
+            &p.scene,
+        )
+        .unwrap();
+    let timings = rec.submit().unwrap().wait().unwrap();
+    let names: Vec<&str> = timings.iter().map(|t| t.name.as_str()).collect();
+    assert_eq!(names, ["caller's work", "raymarch"]);
+    let frame = engine
+        .finish_frame(&target, recorded, timings, None)
+        .unwrap();
+    assert_eq!(frame.rgba8.len(), 32 * 24 * 4);
+    assert!(frame.rgba8 == expected.rgba8, "pixels differ from render's");
+    assert!(
+        frame.rgba8.iter().any(|&b| b != 0),
+        "an empty frame proves nothing"
+    );
+
+    // Asking for pixels that were not read back is the caller's misuse, named as such.
+    target.read_back = false;
+    let mut rec = morphray::gpu::Recording::new(engine.device(), "no readback").unwrap();
+    let recorded = engine
+        .record_render(
+            &mut rec,
+            &mut target,
+            &p.prepared,
+            p.derived.as_ref(),
+            &p.scene,
+        )
+        .unwrap();
+    let timings = rec.submit().unwrap().wait().unwrap();
+    let mut out = vec![0u8; 32 * 24 * 4];
+    let err = engine
+        .finish_frame(&target, recorded, timings, Some(&mut out))
+        .unwrap_err();
+    assert!(
+        matches!(err, morphray::gpu::GpuError::InvalidRequest(_)),
+        "{err}"
+    );
+    common::assert_no_validation_errors(&engine);
+}
+
+#[test]
+fn a_target_reused_across_classifications_renders_each_like_a_fresh_target() {
+    // The target caches the occupancy bits per classification (issue 13 item 5); a changed
+    // classification on either frame slot must never draw with the old bits.
+    let mut engine = common::engine();
+    let (volume, _) = phantom(48);
+    let p = prepare(&mut engine, &volume, |_| {});
+    let mut pathology = p.scene;
+    pathology
+        .classification
+        .show_only(&[TissueClass::Pathology]);
+    let mut gm = p.scene;
+    gm.classification.show_only(&[TissueClass::Gm]);
+    // Pathology first: its bits are a subset of the others', so stale bits would cut holes.
+    let scenes = [
+        &pathology, &pathology, &p.scene, &gm, &pathology, &p.scene, &gm,
+    ];
+    let mut shared = engine
+        .render_target(32, 32, vk::Format::R8G8B8A8_UNORM)
+        .unwrap();
+    let mut skipped = false;
+    for (i, scene) in scenes.iter().enumerate() {
+        let reused = engine
+            .render(&mut shared, &p.prepared, p.derived.as_ref(), scene)
+            .unwrap();
+        let mut fresh_target = engine
+            .render_target(32, 32, vk::Format::R8G8B8A8_UNORM)
+            .unwrap();
+        let fresh = engine
+            .render(&mut fresh_target, &p.prepared, p.derived.as_ref(), scene)
+            .unwrap();
+        assert!(reused.rgba8 == fresh.rgba8, "frame {i} differs");
+        skipped |= reused.skipped_empty_space;
+    }
+    assert!(
+        skipped,
+        "no frame skipped empty space: the cache was not exercised"
+    );
+    common::assert_no_validation_errors(&engine);
+}

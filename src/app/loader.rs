@@ -166,9 +166,13 @@ impl Loader {
     /// Hands the device to the thread (its engine is created on it). A second call replaces
     /// the device after a device loss.
     pub fn provide_device(&self, device: Device) {
-        if let Ok(guard) = self.device.lock()
-            && let Some(tx) = guard.as_ref()
-        {
+        // A poisoned lock is recovered, not skipped: the slot holds only a sender, which a
+        // panic elsewhere cannot leave half-written, and skipping would lose the device.
+        let guard = self
+            .device
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner());
+        if let Some(tx) = guard.as_ref() {
             let _ = tx.send(device);
         }
     }
@@ -214,9 +218,12 @@ impl Loader {
     pub fn shutdown(&mut self) {
         self.cancel.store(true, Ordering::SeqCst);
         self.jobs = None;
-        if let Ok(mut guard) = self.device.lock() {
-            *guard = None;
-        }
+        // Recovered when poisoned (see provide_device): the sender must be dropped for the
+        // thread to end.
+        *self
+            .device
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner()) = None;
         if let Some(thread) = self.thread.take() {
             let _ = thread.join();
         }

@@ -5,7 +5,9 @@
 //! is compared with its floor (bytes read + written once over the device-copy bandwidth measured
 //! in the same run, and texture fetches over the texel rate), and the same counts are projected
 //! onto an Intel Xe-LP as a model. The raymarch is timed over an orbit of frames without
-//! readback; a second, untimed pass over the same frames counts the samples each frame took.
+//! readback (the per-frame CPU wall minus GPU time, the host overhead, is reported), then again
+//! with readback (its overhead reported separately); a last, untimed pass over the same frames
+//! counts the samples each frame took.
 //! Time to first pixel is measured first, over fresh processes (`ttfp.rs`), before this process
 //! opens a device; without a file the input is the phantom written as .nii.gz, so reading and
 //! inflating are part of it.
@@ -67,10 +69,40 @@ struct PassReport {
     xe_lp_bound: &'static str,
 }
 
+/// Host overhead of a frame: CPU wall time (recording, submission, waiting, and the copy out
+/// when reading back) minus the raymarch's GPU time, per frame.
+#[derive(Clone, Debug, serde::Serialize)]
+struct FrameOverhead {
+    cpu_wall_ms: Spread,
+    gpu_ms: Spread,
+    cpu_minus_gpu_ms: Spread,
+}
+
+impl FrameOverhead {
+    /// `frames`: (CPU wall, GPU time if the queue has timestamps) of each frame.
+    fn of(frames: &[(f64, Option<f64>)]) -> FrameOverhead {
+        let cpu: Vec<f64> = frames.iter().map(|f| f.0).collect();
+        let gpu: Vec<f64> = frames.iter().filter_map(|f| f.1).collect();
+        let gap: Vec<f64> = frames
+            .iter()
+            .filter_map(|(c, g)| g.map(|g| c - g))
+            .collect();
+        FrameOverhead {
+            cpu_wall_ms: Spread::of(&cpu),
+            gpu_ms: Spread::of(&gpu),
+            cpu_minus_gpu_ms: Spread::of(&gap),
+        }
+    }
+}
+
 #[derive(Clone, Debug, serde::Serialize)]
 struct RaymarchReport {
     gpu_ms: Spread,
     cpu_wall_ms: Spread,
+    /// Per-frame CPU wall minus GPU time of the timed frames (no readback).
+    cpu_minus_gpu_ms: Spread,
+    /// The same orbit with each frame copied back to the host, measured separately.
+    with_readback: FrameOverhead,
     fps_from_gpu_median: f64,
     samples_per_frame: Spread,
     classified_per_frame: Spread,
@@ -105,6 +137,9 @@ struct BenchReport<'a> {
     full_study: bool,
     /// Live allocations after the frames, from the memory ledger.
     held_bytes_while_rendering: u64,
+    /// Submissions' command pools, fences, query pools and breadcrumb buffers created and
+    /// reused over the whole run (per-queue reuse: `gpu/recycler.rs`).
+    recycler: crate::gpu::RecyclerCounts,
     /// The device profile applied, if any.
     device_profile: Option<crate::gpu::DeviceProfile>,
     /// Workgroup and subgroup choices of the tunable kernels.
@@ -389,15 +424,30 @@ pub fn run(args: &BenchArgs, global: &super::GlobalOptions) -> Result<(), Error>
             .engine
             .render_twin(&mut target, &mut opened.twin, &frame_scene(i))?;
     }
-    let (mut gpu, mut cpu) = (Vec::new(), Vec::new());
+    let mut timed = Vec::new();
     for i in 0..args.frames {
         let start = Instant::now();
         let frame = opened
             .engine
             .render_twin(&mut target, &mut opened.twin, &frame_scene(i))?;
-        cpu.push(start.elapsed().as_secs_f64() * 1e3);
-        gpu.extend(times_of(&frame.gpu_timings, "raymarch"));
+        let cpu = start.elapsed().as_secs_f64() * 1e3;
+        timed.push((cpu, times_of(&frame.gpu_timings, "raymarch")));
     }
+    let overhead = FrameOverhead::of(&timed);
+    let gpu: Vec<f64> = timed.iter().filter_map(|f| f.1).collect();
+    // The same frames read back, separately: the copy and the host read are not part of the
+    // no-readback gap.
+    target.read_back = true;
+    let mut read_back = Vec::new();
+    for i in 0..args.frames {
+        let start = Instant::now();
+        let frame = opened
+            .engine
+            .render_twin(&mut target, &mut opened.twin, &frame_scene(i))?;
+        let cpu = start.elapsed().as_secs_f64() * 1e3;
+        read_back.push((cpu, times_of(&frame.gpu_timings, "raymarch")));
+    }
+    target.read_back = false;
     target.count_samples = true;
     let (mut marched, mut classified) = (Vec::new(), Vec::new());
     for i in 0..args.frames {
@@ -432,7 +482,9 @@ pub fn run(args: &BenchArgs, global: &super::GlobalOptions) -> Result<(), Error>
     let raymarch_pass = pass_report("raymarch", &gpu, raymarch_cost, copy, documented);
     let raymarch = RaymarchReport {
         gpu_ms,
-        cpu_wall_ms: Spread::of(&cpu),
+        cpu_wall_ms: overhead.cpu_wall_ms,
+        cpu_minus_gpu_ms: overhead.cpu_minus_gpu_ms,
+        with_readback: FrameOverhead::of(&read_back),
         fps_from_gpu_median: 1e3 / gpu_ms.median.max(1e-9),
         samples_per_frame: samples,
         classified_per_frame: classified_spread,
@@ -465,6 +517,7 @@ pub fn run(args: &BenchArgs, global: &super::GlobalOptions) -> Result<(), Error>
         plan: &opened.plan,
         full_study,
         held_bytes_while_rendering: opened.engine.device().ledger().total_bytes(),
+        recycler: opened.engine.device().recycler_counts(),
         device_profile: opened.engine.device().profile().cloned(),
         tuning: opened.engine.device().tuning().clone(),
         timestamp_valid_bits: adapter.timestamp_valid_bits,
@@ -548,6 +601,17 @@ fn print_text(r: &BenchReport<'_>) {
         rm.samples_per_frame.median / 1e6,
         rm.classified_per_frame.median / 1e6,
         rm.samples_per_second / 1e9
+    ));
+    let rb = &rm.with_readback;
+    print_line(&format!(
+        "frame overhead (CPU wall - GPU, per frame): {:.3} ms median ({:.3}..{:.3}) without readback; with readback {:.3} ms ({:.3}..{:.3}), CPU wall {:.3} ms",
+        rm.cpu_minus_gpu_ms.median,
+        rm.cpu_minus_gpu_ms.p5,
+        rm.cpu_minus_gpu_ms.p95,
+        rb.cpu_minus_gpu_ms.median,
+        rb.cpu_minus_gpu_ms.p5,
+        rb.cpu_minus_gpu_ms.p95,
+        rb.cpu_wall_ms.median
     ));
     if let (Some(d), Some(f)) = (
         &r.documented_device,

@@ -17,10 +17,10 @@ use super::args::{
     GradientArg, ModeArg, PrecisionArg, ProjectionArg, RenderArgs, SceneArgs, WindowsArg,
 };
 use super::output::{ms, print_line, print_warnings};
-use crate::files::png::{Provenance, write_rgba8};
 use super::session;
 use crate::analysis::{Contrast, ContrastBasis, TissueReport};
 use crate::error::Error;
+use crate::files::png::{Provenance, write_rgba8};
 use crate::files::write::{OutputKind, check_output};
 use crate::scene::visibility::{EmptyScene, pixels_off_background, predict_empty};
 use crate::scene::{

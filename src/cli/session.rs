@@ -118,6 +118,13 @@ pub fn persist_pipeline_cache(
 
 /// Fails when the validation layer reported errors (used with `--validation`).
 pub fn check_validation(engine: &crate::engine::Engine) -> Result<(), Error> {
+    let faults = engine.device().internal_faults();
+    if let Some(first) = faults.first() {
+        return Err(Error::Gpu(crate::gpu::GpuError::Internal(format!(
+            "{} internal fault(s) during the run; first: {first}",
+            faults.len()
+        ))));
+    }
     let errors = engine.device().validation_log().errors();
     if errors.is_empty() {
         return Ok(());

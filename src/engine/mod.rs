@@ -32,7 +32,9 @@ pub use derive::Derived;
 pub use open::{OpenError, OpenTimings, OpenedVolume};
 pub use pipelines::PipelineTimes;
 pub use prepare::{BrickAtlas, PrepareTimings, PreparedVolume, VolumeLayout};
-pub use render::{FRAMES_IN_FLIGHT, Frame, MAX_OCCUPANCY_FOR_SKIPPING, RenderTarget, SampleCounts};
+pub use render::{
+    FRAMES_IN_FLIGHT, Frame, MAX_OCCUPANCY_FOR_SKIPPING, RecordedFrame, RenderTarget, SampleCounts,
+};
 pub use session::{OpenOptions, Session, SessionError, SessionTimings};
 pub use twin::{Twin, TwinStep, TwinUpdate, twin_step};
 

@@ -1,10 +1,12 @@
-//! Brick ranges of a prepared volume, computed once on the GPU and kept with the volume.
+//! Brick ranges of a prepared volume, computed once on the GPU and kept with the volume, and a
+//! render target's cache of the occupancy bits classified from them (`render.rs` says why).
 
 use super::Engine;
 use super::prepare::PreparedVolume;
 use crate::gpu::{Access, Buffer, BufferDesc, GpuResult, PassTiming, Recording};
 use crate::passes::occupancy::{BRICK_SIDE, brick_grid};
 use crate::scene::occupancy::BrickRanges;
+use crate::scene::{Classification, Scene};
 use std::sync::Arc;
 
 impl Engine {
@@ -24,7 +26,7 @@ impl Engine {
         self.occupancy_pass()?;
         self.counters.occupancy_runs += 1;
         let Some(pass) = &self.occupancy_pass else {
-            return Err(crate::gpu::GpuError::InvalidRequest(
+            return Err(crate::gpu::GpuError::Internal(
                 "occupancy pass missing".into(),
             ));
         };
@@ -69,5 +71,42 @@ impl Engine {
             prepared.brick_ranges.get_or_init(|| ranges).clone(),
             timings,
         ))
+    }
+}
+
+/// The occupancy bits of one volume (its brick ranges) under one classification.
+pub(super) struct OccupancyCache {
+    pub(super) ranges: Arc<BrickRanges>,
+    pub(super) classification: Classification,
+    pub(super) bits: Vec<u32>,
+    pub(super) occupied: f64,
+    // Starts at 1 and grows with every recomputation (0: a slot holds nothing yet).
+    pub(super) generation: u64,
+}
+
+impl OccupancyCache {
+    /// The cached bits when volume and classification are unchanged, else recomputed.
+    pub(super) fn update<'a>(
+        slot: &'a mut Option<OccupancyCache>,
+        ranges: &Arc<BrickRanges>,
+        scene: &Scene,
+    ) -> Option<&'a OccupancyCache> {
+        let fresh = slot.as_ref().is_some_and(|c| {
+            Arc::ptr_eq(&c.ranges, ranges) && c.classification == scene.classification
+        });
+        if !fresh {
+            let bits = ranges.occupancy_bits(&scene.classification);
+            let occupied = bits.iter().map(|w| w.count_ones() as u64).sum::<u64>() as f64
+                / ranges.ranges.len().max(1) as f64;
+            let generation = slot.as_ref().map_or(1, |c| c.generation + 1);
+            *slot = Some(OccupancyCache {
+                ranges: ranges.clone(),
+                classification: scene.classification,
+                bits,
+                occupied,
+                generation,
+            });
+        }
+        slot.as_ref()
     }
 }

@@ -112,7 +112,7 @@ fn build(
                 let normalize = scope.spawn(|| NormalizePass::new(device, kind, raw));
                 let fine = scope.spawn(|| FineHistogramPass::new(device, kind, raw));
                 let histogram = HistogramPass::new(device, kind, raw);
-                let stopped = || GpuError::InvalidRequest("a pipeline thread stopped".into());
+                let stopped = || GpuError::Internal("a pipeline thread stopped".into());
                 (
                     minmax.join().map_err(|_| stopped()).and_then(|r| r),
                     normalize.join().map_err(|_| stopped()).and_then(|r| r),
@@ -264,7 +264,7 @@ impl Engine {
                         }
                         built
                     }
-                    Err(_) => Err(GpuError::InvalidRequest(
+                    Err(_) => Err(GpuError::Internal(
                         "a pipeline-creation thread stopped unexpectedly".into(),
                     )),
                 }
@@ -327,7 +327,12 @@ impl Engine {
         self.workers_cancelled.store(true, Ordering::Relaxed);
         self.pending.clear();
         for worker in self.workers.drain(..) {
-            let _ = worker.join();
+            // A worker that panicked is a fault to report, not to skip (issue 13 item 6).
+            if worker.join().is_err() {
+                self.device.shared.faults.record(&GpuError::Internal(
+                    "a pipeline-creation thread panicked".into(),
+                ));
+            }
         }
     }
 }
@@ -341,5 +346,5 @@ fn count(key: PipelineKey) -> u32 {
 }
 
 fn lost() -> GpuError {
-    GpuError::InvalidRequest("pass cache lost an entry".into())
+    GpuError::Internal("pass cache lost an entry".into())
 }

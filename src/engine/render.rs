@@ -5,13 +5,23 @@
 //!   alternately (one per frame in flight), so writing the next frame's parameters never touches
 //!   memory the GPU may still read.
 //! - Empty-space skipping writes the frame's occupancy bits (classified on the CPU from the
-//!   volume's brick ranges, computed once) into a host-visible buffer per frame in flight.
+//!   volume's brick ranges, computed once) into a host-visible buffer per frame in flight. The
+//!   bits depend only on the volume and the classification, so the target keeps the last ones
+//!   and a frame with the same classification (an orbit) neither classifies again nor rewrites
+//!   a buffer that already holds them: on a 136 M-voxel volume that is 266 k bricks a frame of
+//!   host work the per-frame overhead does not need (issue 13 item 5).
+//! - Recording and submitting are separate (issue 13 item 5): [`Engine::record_render`] records
+//!   the raymarch (and the copies back, when the target reads back) into a caller's
+//!   [`Recording`], so a caller can put it into its own submission with other work (the viewer's
+//!   composition); [`Engine::finish_frame`] reads the results after that submission's wait.
+//!   [`Engine::render`] is the two with a submission of its own in between.
 //! - Rendering checks that the derived volumes the scene needs exist (the caller derives them
 //!   from `Effects::derivative_outputs`), and fails with a typed error instead of sampling a
 //!   placeholder by mistake.
 
 use super::Engine;
 use super::derive::Derived;
+use super::occupancy::OccupancyCache;
 use super::prepare::PreparedVolume;
 use super::prepare::VolumeLayout;
 use crate::gpu::{
@@ -47,6 +57,9 @@ pub struct RenderTarget {
     counters: Arc<Buffer>,
     counters_host: Arc<Buffer>,
     occupancy: Vec<Option<Arc<Buffer>>>,
+    // The last classified bits, and which of them each frame slot's buffer holds.
+    occupancy_cache: Option<OccupancyCache>,
+    occupancy_written: [u64; FRAMES_IN_FLIGHT],
     /// Compile in and read the benchmark counters (samples marched / classified) each frame.
     pub count_samples: bool,
     /// Copy each frame back to the host (off for frame-rate measurements: `Frame` is then
@@ -61,6 +74,16 @@ pub struct SampleCounts {
     pub marched: u64,
     /// Samples that passed classification (each also fetched the derived volumes).
     pub classified: u64,
+}
+
+/// A raymarch recorded by [`Engine::record_render`], to be read with [`Engine::finish_frame`]
+/// after its submission completed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[must_use = "finish the frame after the submission's wait to read its pixels and counts"]
+pub struct RecordedFrame {
+    read_back: bool,
+    count: bool,
+    skipped_empty_space: bool,
 }
 
 /// One rendered frame, read back.
@@ -153,6 +176,8 @@ impl Engine {
             counters,
             counters_host,
             occupancy: vec![None; FRAMES_IN_FLIGHT],
+            occupancy_cache: None,
+            occupancy_written: [0; FRAMES_IN_FLIGHT],
             count_samples: false,
             read_back: true,
         })
@@ -202,6 +227,39 @@ impl Engine {
         out: Option<&mut [u8]>,
     ) -> GpuResult<Frame> {
         let read_back = target.read_back || out.is_some();
+        let mut rec = Recording::new(&self.device, "raymarch")?;
+        let recorded = self.record_frame(&mut rec, target, prepared, derived, scene, read_back)?;
+        let gpu_timings = rec.submit()?.wait()?;
+        self.finish_frame(target, recorded, gpu_timings, out)
+    }
+
+    /// Records the raymarch of `scene` into `rec`, a recording the caller submits (with other
+    /// work of its own, before or after), and, when `target.read_back`, the copy of the image to
+    /// host memory. After the submission's `wait`, [`Engine::finish_frame`] reads the frame.
+    /// Without readback the image is left in `Access::ComputeWriteImage` for the caller's next
+    /// barrier. The target's uniforms alternate between two buffers, so at most
+    /// [`FRAMES_IN_FLIGHT`] recordings of one target may be in flight at once.
+    pub fn record_render(
+        &mut self,
+        rec: &mut Recording,
+        target: &mut RenderTarget,
+        prepared: &PreparedVolume,
+        derived: Option<&Derived>,
+        scene: &Scene,
+    ) -> GpuResult<RecordedFrame> {
+        let read_back = target.read_back;
+        self.record_frame(rec, target, prepared, derived, scene, read_back)
+    }
+
+    fn record_frame(
+        &mut self,
+        rec: &mut Recording,
+        target: &mut RenderTarget,
+        prepared: &PreparedVolume,
+        derived: Option<&Derived>,
+        scene: &Scene,
+        read_back: bool,
+    ) -> GpuResult<RecordedFrame> {
         self.counters.frames += 1;
         let effects = scene.effects;
         let needed = effects.derivative_outputs();
@@ -264,13 +322,13 @@ impl Engine {
         let mut bricks = [1, 1, 1, BRICK_SIDE];
         let occupancy = if variant.skip_empty {
             let ranges = self.brick_ranges(prepared)?;
-            let bits = ranges.occupancy_bits(&scene.classification);
-            let occupied = bits.iter().map(|w| w.count_ones() as u64).sum::<u64>() as f64
-                / ranges.ranges.len().max(1) as f64;
+            let cache = OccupancyCache::update(&mut target.occupancy_cache, &ranges, scene)
+                .ok_or_else(|| GpuError::Internal("the occupancy cache is empty".into()))?;
+            let (generation, occupied) = (cache.generation, cache.occupied);
             // Nothing to skip: the lookups would only cost (lossless either way).
             variant.skip_empty = occupied <= MAX_OCCUPANCY_FOR_SKIPPING;
             bricks = [ranges.grid[0], ranges.grid[1], ranges.grid[2], ranges.side];
-            let bytes: &[u8] = bytemuck::cast_slice(&bits);
+            let bytes: &[u8] = bytemuck::cast_slice(&cache.bits);
             let buffer = match &target.occupancy[frame_slot] {
                 Some(b) if b.size() >= bytes.len() as u64 => b.clone(),
                 _ => {
@@ -279,13 +337,17 @@ impl Engine {
                         BufferDesc::host_storage("occupancy bits", bytes.len() as u64),
                     )?;
                     target.occupancy[frame_slot] = Some(b.clone());
+                    target.occupancy_written[frame_slot] = 0;
                     b
                 }
             };
             // Written before the submission that reads it; the buffer of the other frame in
             // flight is untouched. (Written even when this frame does not skip, so the buffers
             // a scene with skipping holds do not depend on the view: the plan lists them.)
-            buffer.write(0, bytes)?;
+            if target.occupancy_written[frame_slot] != generation {
+                buffer.write(0, bytes)?;
+                target.occupancy_written[frame_slot] = generation;
+            }
             if variant.skip_empty {
                 buffer
             } else {
@@ -310,7 +372,6 @@ impl Engine {
         let uniforms = target.uniforms[frame_slot].clone();
         uniforms.write(0, bytemuck::bytes_of(&block))?;
 
-        let device = self.device.clone();
         let linear = self.linear.clone();
         let gradient = gradient.unwrap_or_else(|| self.placeholders.gradient.clone());
         let normal = normal.unwrap_or_else(|| self.placeholders.normal.clone());
@@ -323,7 +384,6 @@ impl Engine {
             brick_table: &brick_table,
             sampler: &linear,
         };
-        let mut rec = Recording::new(&device, "raymarch")?;
         if count {
             rec.fill_buffer(&target.counters, 0, (COUNTER_WORDS * 4) as u64, 0);
             // Orders the zeroing before the shader's counter atomics.
@@ -337,13 +397,7 @@ impl Engine {
             );
         }
         rec.begin_pass("raymarch");
-        pass.record(
-            &mut rec,
-            &inputs,
-            &uniforms,
-            &target.image,
-            &target.counters,
-        )?;
+        pass.record(rec, &inputs, &uniforms, &target.image, &target.counters)?;
         rec.end_pass();
         if count {
             // Orders the counter atomics before the copy to host memory, and the copy before
@@ -388,10 +442,47 @@ impl Engine {
             );
         }
         rec.keep(uniforms);
-        let gpu_timings = rec.submit()?.wait()?;
+        Ok(RecordedFrame {
+            read_back,
+            count,
+            skipped_empty_space: variant.skip_empty,
+        })
+    }
 
+    /// Reads the frame `recorded` into `target` once the submission that carried it has been
+    /// waited on; `gpu_timings` are that wait's pass times (they go into the frame as they are).
+    /// `out`, when given, receives the pixels instead of the frame's vectors (it must have the
+    /// target's size, and the recording must have read back).
+    pub fn finish_frame(
+        &self,
+        target: &RenderTarget,
+        recorded: RecordedFrame,
+        gpu_timings: Vec<PassTiming>,
+        out: Option<&mut [u8]>,
+    ) -> GpuResult<Frame> {
+        let RecordedFrame {
+            read_back,
+            count,
+            skipped_empty_space,
+        } = recorded;
+        if out.is_some() && !read_back {
+            return Err(GpuError::InvalidRequest(
+                "an output buffer was given for a frame recorded without readback (set \
+                 RenderTarget::read_back before recording)"
+                    .into(),
+            ));
+        }
         let mut bytes = Vec::new();
         if let Some(out) = out {
+            let needed = target.readback.size() as usize;
+            if out.len() != needed {
+                return Err(GpuError::InvalidRequest(format!(
+                    "the output buffer has {} bytes; a {}x{} frame needs {needed}",
+                    out.len(),
+                    target.width,
+                    target.height
+                )));
+            }
             target.readback.read(0, out)?;
         } else if read_back {
             bytes = vec![0u8; target.readback.size() as usize];
@@ -430,7 +521,7 @@ impl Engine {
             values,
             gpu_timings,
             samples,
-            skipped_empty_space: variant.skip_empty,
+            skipped_empty_space,
         })
     }
 }

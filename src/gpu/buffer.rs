@@ -157,14 +157,14 @@ impl Buffer {
             )
         };
         if let Err(e) = bound {
-            memory::free(&shared.allocator, &shared.ledger, tracked);
+            shared.free_memory(tracked);
             // SAFETY: as above.
             unsafe { shared.raw.destroy_buffer(raw, None) };
             return Err(GpuError::from_vk("vkBindBufferMemory", e));
         }
         let mapped = tracked.allocation.mapped_ptr().map(|p| p.cast::<u8>());
         if desc.intent != MemoryIntent::GpuOnly && mapped.is_none() {
-            memory::free(&shared.allocator, &shared.ledger, tracked);
+            shared.free_memory(tracked);
             // SAFETY: as above.
             unsafe { shared.raw.destroy_buffer(raw, None) };
             return Err(GpuError::Unsupported(format!(
@@ -244,8 +244,10 @@ impl Drop for Buffer {
         // SAFETY: a Buffer is dropped only when no recording or submission holds it any more
         // (they keep Arcs until their fence signals), so the GPU no longer uses it.
         unsafe { self.device.raw.destroy_buffer(self.raw, None) };
-        if let Some(tracked) = self.allocation.lock().ok().and_then(|mut slot| slot.take()) {
-            memory::free(&self.device.allocator, &self.device.ledger, tracked);
+        // A poisoned slot still holds the allocation: freed, never skipped.
+        let slot = self.allocation.get_mut().unwrap_or_else(|p| p.into_inner());
+        if let Some(tracked) = slot.take() {
+            self.device.free_memory(tracked);
         }
     }
 }

@@ -1,22 +1,26 @@
 //! Command recording and submission; resources stay alive until the GPU is done with them.
 //!
 //! Decisions:
-//! - A [`Recording`] owns its command pool and buffer and collects an `Arc` of every resource it
-//!   records a command on; the [`Submission`] it becomes holds them until its fence signals
-//!   (screen-13's `cmd_buf.rs`). Dropping a submission without waiting waits, so nothing the GPU
-//!   may still read is ever destroyed.
+//! - A [`Recording`] leases its command pool and buffer, fence, timestamp query pool and
+//!   breadcrumb buffer from the device's recycler (`recycler.rs`: Granite's per-frame context,
+//!   screen-13's leases), and collects an `Arc` of every resource it records a command on; the
+//!   [`Submission`] it becomes holds both until its fence signals (screen-13's `cmd_buf.rs`), then
+//!   gives the lease back. Dropping a submission without waiting waits, so nothing the GPU may
+//!   still read is ever destroyed or reused; a recording dropped unsubmitted gives its lease back
+//!   at once. A lease whose work was lost or timed out is leaked, never reused.
 //! - Each pass is bracketed by timestamps and, for a lost device, a breadcrumb: after a pass the
 //!   recording writes its number into its own slot of a small host-visible buffer, so a device-lost
 //!   error names the first pass that never finished (kajiya's crash marker).
 //! - Barriers come only from `sync.rs`'s vocabulary and are batched into one
 //!   `vkCmdPipelineBarrier2` per call.
 
-use super::buffer::{Buffer, BufferDesc};
+use super::buffer::Buffer;
 use super::descriptors::DescriptorSet;
 use super::device::{Device, DeviceShared};
 use super::error::{GpuError, GpuResult, vk_err};
 use super::image::Image;
 use super::pipeline::ComputePipeline;
+use super::recycler::Lease;
 use super::sync::{Access, buffer_barrier, image_barrier};
 use super::timestamps::{MAX_PASSES, PassTiming, TimestampPool};
 use ash::vk;
@@ -29,11 +33,13 @@ const WAIT_LIMIT_NS: u64 = 120 * 1_000_000_000;
 /// Commands being recorded for one submission.
 pub struct Recording {
     device: Arc<DeviceShared>,
-    pool: vk::CommandPool,
+    // Some until submitted (then the submission holds it) or dropped (then given back).
+    lease: Option<Lease>,
     cmd: vk::CommandBuffer,
+    // The device's breadcrumb buffer and the byte offset of this recording's slot in it.
+    crumbs: Option<(vk::Buffer, u64)>,
     keep_alive: Vec<Arc<dyn Any + Send + Sync>>,
     timestamps: Option<TimestampPool>,
-    breadcrumbs: Arc<Buffer>,
     pass_names: Vec<String>,
     pass_open: bool,
     label: String,
@@ -43,58 +49,41 @@ impl Recording {
     /// Starts recording; `label` names the work in errors.
     pub fn new(device: &Device, label: &str) -> GpuResult<Recording> {
         let shared = device.shared.clone();
-        let pool_info = vk::CommandPoolCreateInfo::default()
-            .queue_family_index(shared.adapter.queue_family)
-            .flags(vk::CommandPoolCreateFlags::TRANSIENT);
-        // SAFETY: valid create info on a live device.
-        let pool = unsafe { shared.raw.create_command_pool(&pool_info, None) }
-            .map_err(vk_err("vkCreateCommandPool"))?;
-        let destroy_pool = |e: GpuError| {
-            // SAFETY: the pool has no command buffer in use.
-            unsafe { shared.raw.destroy_command_pool(pool, None) };
-            e
-        };
-        let alloc = vk::CommandBufferAllocateInfo::default()
-            .command_pool(pool)
-            .level(vk::CommandBufferLevel::PRIMARY)
-            .command_buffer_count(1);
-        // SAFETY: pool belongs to this device.
-        let cmd = match unsafe { shared.raw.allocate_command_buffers(&alloc) } {
-            Ok(c) => c[0],
-            Err(e) => {
-                return Err(destroy_pool(GpuError::from_vk(
-                    "vkAllocateCommandBuffers",
-                    e,
-                )));
-            }
-        };
-        let begin = vk::CommandBufferBeginInfo::default()
-            .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
-        // SAFETY: freshly allocated command buffer.
-        if let Err(e) = unsafe { shared.raw.begin_command_buffer(cmd, &begin) } {
-            return Err(destroy_pool(GpuError::from_vk("vkBeginCommandBuffer", e)));
-        }
-        let timestamps = TimestampPool::new(&shared).map_err(destroy_pool)?;
-        if let Some(t) = &timestamps {
-            t.reset(&shared, cmd);
-        }
-        let breadcrumbs = Buffer::with_data(
-            device,
-            BufferDesc::readback("pass breadcrumbs", 4 * MAX_PASSES as u64),
-            &vec![0u8; 4 * MAX_PASSES as usize],
-        )
-        .map_err(destroy_pool)?;
-        Ok(Recording {
+        let lease = shared.recycler.lease(&shared)?;
+        let recording = Recording {
+            cmd: lease.cmd,
+            crumbs: lease
+                .crumbs
+                .map(|(buffer, slot)| (buffer, Lease::crumb_offset(slot))),
+            timestamps: TimestampPool::new(&shared, lease.queries),
+            lease: Some(lease),
             device: shared,
-            pool,
-            cmd,
             keep_alive: Vec::new(),
-            timestamps,
-            breadcrumbs,
             pass_names: Vec::new(),
             pass_open: false,
             label: label.to_string(),
-        })
+        };
+        let begin = vk::CommandBufferBeginInfo::default()
+            .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
+        // SAFETY: the leased command buffer is in the initial state (its pool was reset when the
+        // lease came back). On error the recording drops and gives the lease back.
+        unsafe {
+            recording
+                .device
+                .raw
+                .begin_command_buffer(recording.cmd, &begin)
+        }
+        .map_err(vk_err("vkBeginCommandBuffer"))?;
+        if let Some(t) = &recording.timestamps {
+            t.reset(&recording.device, recording.cmd);
+        }
+        Ok(recording)
+    }
+
+    /// Identity of the leased command pool, for tests of reuse.
+    #[cfg(test)]
+    pub(crate) fn lease_id(&self) -> u64 {
+        self.lease.as_ref().map_or(0, |l| l.id())
     }
 
     /// Keeps `resource` alive until this work has completed.
@@ -124,13 +113,16 @@ impl Recording {
             t.end(&self.device, self.cmd);
         }
         let index = self.pass_names.len() as u64 - 1;
-        if index < MAX_PASSES as u64 {
-            // SAFETY: the breadcrumb buffer is kept alive by this recording; each pass writes
-            // only its own 4-byte slot, so the fills never overlap.
+        if let Some((buffer, base)) = self.crumbs
+            && index < MAX_PASSES as u64
+        {
+            // SAFETY: the breadcrumb buffer lives as long as the device; this recording's lease
+            // owns the slot at `base`, and each pass writes only its own 4-byte word of it, so
+            // the fills never overlap.
             unsafe {
                 self.device
                     .raw
-                    .cmd_fill_buffer(self.cmd, self.breadcrumbs.raw, 4 * index, 4, 1)
+                    .cmd_fill_buffer(self.cmd, buffer, base + 4 * index, 4, 1)
             };
         }
     }
@@ -421,13 +413,12 @@ impl Recording {
         let device = self.device.clone();
         // SAFETY: the command buffer is in the recording state.
         unsafe { device.raw.end_command_buffer(self.cmd) }.map_err(vk_err("vkEndCommandBuffer"))?;
-        // SAFETY: valid create info.
-        let fence = unsafe {
-            device
-                .raw
-                .create_fence(&vk::FenceCreateInfo::default(), None)
-        }
-        .map_err(vk_err("vkCreateFence"))?;
+        let Some(lease) = self.lease.take() else {
+            return Err(GpuError::Internal(format!(
+                "recording `{}` has no command buffer",
+                self.label
+            )));
+        };
         let cmd_info = [vk::CommandBufferSubmitInfo::default().command_buffer(self.cmd)];
         let wait_infos: Vec<_> = wait
             .iter()
@@ -451,26 +442,28 @@ impl Recording {
             .signal_semaphore_infos(&signal_infos)];
         let result = match device.queue.lock() {
             // SAFETY: the queue is externally synchronized by the mutex; cmd is executable.
-            Ok(queue) => unsafe { device.raw.queue_submit2(*queue, &submit, fence) },
-            Err(_) => Err(vk::Result::ERROR_UNKNOWN),
+            Ok(queue) => unsafe { device.raw.queue_submit2(*queue, &submit, lease.fence) }
+                .map_err(vk_err("vkQueueSubmit2")),
+            Err(_) => Err(GpuError::Internal(
+                "the queue lock was poisoned by a panic on another thread".into(),
+            )),
         };
         let submission = Submission {
             device: device.clone(),
-            fence,
-            pool: self.pool,
+            fence: lease.fence,
+            lease: Some(lease),
             keep_alive: std::mem::take(&mut self.keep_alive),
             timestamps: self.timestamps.take(),
-            breadcrumbs: self.breadcrumbs.clone(),
             pass_names: std::mem::take(&mut self.pass_names),
             label: std::mem::take(&mut self.label),
             submitted: result.is_ok(),
             finished: false,
         };
-        // The pool now belongs to the submission.
-        self.pool = vk::CommandPool::null();
         match result {
             Ok(()) => Ok(submission),
-            Err(e) => Err(submission.lost_or(GpuError::from_vk("vkQueueSubmit2", e))),
+            // Not submitted: the submission's drop gives the lease back (or, for a lost
+            // device, leaks it).
+            Err(e) => Err(submission.lost_or(e)),
         }
     }
 }
@@ -497,11 +490,10 @@ fn image_region(extent: [u32; 3]) -> vk::BufferImageCopy {
 
 impl Drop for Recording {
     fn drop(&mut self) {
-        if self.pool != vk::CommandPool::null() {
-            // SAFETY: never submitted (submit() nulls the pool), so the GPU never saw it.
-            unsafe { self.device.raw.destroy_command_pool(self.pool, None) };
-            if let Some(t) = &self.timestamps {
-                t.destroy(&self.device);
+        if let Some(lease) = self.lease.take() {
+            // Never submitted, so the GPU never saw it: back to the free list at once.
+            if let Err(e) = self.device.recycler.give_back(&self.device, lease) {
+                self.device.faults.record(&e);
             }
         }
     }
@@ -511,10 +503,10 @@ impl Drop for Recording {
 pub struct Submission {
     device: Arc<DeviceShared>,
     fence: vk::Fence,
-    pool: vk::CommandPool,
+    // Some until the fence was waited on and the lease given back.
+    lease: Option<Lease>,
     keep_alive: Vec<Arc<dyn Any + Send + Sync>>,
     timestamps: Option<TimestampPool>,
-    breadcrumbs: Arc<Buffer>,
     pass_names: Vec<String>,
     label: String,
     submitted: bool,
@@ -526,9 +518,24 @@ impl Submission {
     /// has no timestamps).
     pub fn wait(mut self) -> GpuResult<Vec<PassTiming>> {
         self.wait_fence()?;
-        match &self.timestamps {
+        let timings = match &self.timestamps {
             Some(t) => t.results(&self.device),
             None => Ok(Vec::new()),
+        };
+        // The queries were read: the lease may record again.
+        self.give_back()?;
+        timings
+    }
+
+    /// Gives the lease back once its work completed (or was never submitted); a failed reset
+    /// is returned (the lease is then destroyed, not reused).
+    fn give_back(&mut self) -> GpuResult<()> {
+        if self.submitted && !self.finished {
+            return Ok(());
+        }
+        match self.lease.take() {
+            Some(lease) => self.device.recycler.give_back(&self.device, lease),
+            None => Ok(()),
         }
     }
 
@@ -561,13 +568,13 @@ impl Submission {
             return err;
         }
         let mut crumbs = vec![0u8; 4 * self.pass_names.len().min(MAX_PASSES as usize)];
-        let finished = match self.breadcrumbs.read(0, &mut crumbs) {
-            Ok(()) => crumbs
-                .chunks_exact(4)
-                .take_while(|c| c != &[0, 0, 0, 0])
-                .count(),
-            Err(_) => 0,
-        };
+        if let Some(lease) = &self.lease {
+            lease.read_crumbs(&mut crumbs);
+        }
+        let finished = crumbs
+            .chunks_exact(4)
+            .take_while(|c| c != &[0, 0, 0, 0])
+            .count();
         let place = match self.pass_names.get(finished) {
             Some(pass) => format!("{} (pass `{pass}` did not finish)", self.label),
             None => self.label.clone(),
@@ -578,19 +585,16 @@ impl Submission {
 
 impl Drop for Submission {
     fn drop(&mut self) {
-        // Never free what the GPU may still use: wait first. On a lost device or a timeout the
-        // resources are leaked rather than destroyed under the GPU's feet.
+        // Never free or reuse what the GPU may still use: wait first. On a lost device or a
+        // timeout the resources and the lease are leaked rather than destroyed or recycled
+        // under the GPU's feet.
         if self.wait_fence().is_err() && self.submitted {
             std::mem::forget(std::mem::take(&mut self.keep_alive));
+            self.lease = None;
             return;
         }
-        // SAFETY: the work completed (or was never submitted); nothing uses these objects.
-        unsafe {
-            self.device.raw.destroy_fence(self.fence, None);
-            self.device.raw.destroy_command_pool(self.pool, None);
-        }
-        if let Some(t) = &self.timestamps {
-            t.destroy(&self.device);
+        if let Err(e) = self.give_back() {
+            self.device.faults.record(&e);
         }
     }
 }

@@ -19,12 +19,20 @@ pub struct ValidationLog {
 impl ValidationLog {
     /// All error messages so far.
     pub fn errors(&self) -> Vec<String> {
-        self.errors.lock().map(|e| e.clone()).unwrap_or_default()
+        // A poisoned list still holds every message (pushes cannot half-happen): recovered,
+        // so a panic elsewhere never hides a validation error.
+        self.errors
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .clone()
     }
 
     /// All warning messages so far.
     pub fn warnings(&self) -> Vec<String> {
-        self.warnings.lock().map(|w| w.clone()).unwrap_or_default()
+        self.warnings
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .clone()
     }
 
     fn push(&self, severity: vk::DebugUtilsMessageSeverityFlagsEXT, message: String) {
@@ -33,9 +41,7 @@ impl ValidationLog {
         } else {
             &self.warnings
         };
-        if let Ok(mut list) = list.lock() {
-            list.push(message);
-        }
+        list.lock().unwrap_or_else(|p| p.into_inner()).push(message);
     }
 }
 

@@ -1,12 +1,13 @@
 //! Descriptor sets, written from named resources and checked against the reflection.
 //!
-//! Decisions: each set has its own small pool sized from the reflection (sets are created per
-//! pass invocation and live as long as the work that uses them; pools this small are cheap, and
-//! nothing is ever freed individually). A set keeps the resources written into it alive. Binding
-//! is by the shader's variable name; a missing, unknown or mistyped binding is an error naming it.
+//! Decisions: each set has its own one-set pool, taken from its pipeline's reusable pools
+//! (`descriptor_pools.rs`: sized once from the reflection, reset and reused when the set drops,
+//! which is after every submission that bound it completed). A set keeps the resources written
+//! into it alive. Binding is by the shader's variable name; a missing, unknown or mistyped
+//! binding is an error naming it.
 
 use super::buffer::Buffer;
-use super::device::DeviceShared;
+use super::descriptor_pools::DescriptorPools;
 use super::error::{GpuError, GpuResult, vk_err};
 use super::image::Image;
 use super::pipeline::{ComputePipeline, descriptor_type};
@@ -59,8 +60,8 @@ pub struct DescriptorSet {
     pub(crate) raw: vk::DescriptorSet,
     pub(crate) set_index: u32,
     pool: vk::DescriptorPool,
+    pools: Arc<DescriptorPools>,
     _resources: Vec<Arc<dyn Any + Send + Sync>>,
-    device: Arc<DeviceShared>,
 }
 
 impl DescriptorSet {
@@ -71,21 +72,27 @@ impl DescriptorSet {
         resources: &[(&str, Resource)],
     ) -> GpuResult<Arc<DescriptorSet>> {
         let shader = pipeline.shader();
-        let device = pipeline_device(pipeline);
+        let device = pipeline.device_shared();
         let wanted: Vec<_> = shader
             .bindings
             .iter()
             .filter(|b| b.set == set_index)
             .collect();
+        let no_set = || {
+            GpuError::InvalidRequest(format!(
+                "shader {} has no descriptor set {set_index}",
+                shader.name
+            ))
+        };
         let layout = *pipeline
             .set_layouts
             .get(set_index as usize)
-            .ok_or_else(|| {
-                GpuError::InvalidRequest(format!(
-                    "shader {} has no descriptor set {set_index}",
-                    shader.name
-                ))
-            })?;
+            .ok_or_else(no_set)?;
+        let pools = pipeline
+            .descriptor_pools
+            .get(set_index as usize)
+            .ok_or_else(no_set)?
+            .clone();
         for (name, _) in resources {
             if !wanted.iter().any(|b| b.name == *name) {
                 return Err(GpuError::InvalidRequest(format!(
@@ -94,40 +101,26 @@ impl DescriptorSet {
                 )));
             }
         }
-        let mut sizes: Vec<vk::DescriptorPoolSize> = Vec::new();
-        for b in &wanted {
-            let ty = descriptor_type(b.kind);
-            match sizes.iter_mut().find(|s| s.ty == ty) {
-                Some(s) => s.descriptor_count += b.count,
-                None => sizes.push(vk::DescriptorPoolSize {
-                    ty,
-                    descriptor_count: b.count,
-                }),
-            }
-        }
-        let pool_info = vk::DescriptorPoolCreateInfo::default()
-            .max_sets(1)
-            .pool_sizes(&sizes);
-        // SAFETY: valid create info on a live device.
-        let pool = unsafe { device.raw.create_descriptor_pool(&pool_info, None) }
-            .map_err(vk_err("vkCreateDescriptorPool"))?;
+        let pool = pools.take()?;
+        // From here the set owns the pool: any error below drops it, which gives the pool back.
         let mut set = DescriptorSet {
             raw: vk::DescriptorSet::null(),
             set_index,
             pool,
+            pools,
             _resources: Vec::new(),
-            device: device.clone(),
         };
         let layouts = [layout];
         let alloc_info = vk::DescriptorSetAllocateInfo::default()
             .descriptor_pool(pool)
             .set_layouts(&layouts);
-        // SAFETY: pool and layout belong to this device; the pool has room for exactly this set.
+        // SAFETY: pool and layout belong to this device; the pool has room for exactly this set
+        // (sized for this layout, and reset when it came back).
         set.raw = unsafe { device.raw.allocate_descriptor_sets(&alloc_info) }
             .map_err(vk_err("vkAllocateDescriptorSets"))?
             .first()
             .copied()
-            .unwrap_or(vk::DescriptorSet::null());
+            .ok_or_else(|| GpuError::Internal("vkAllocateDescriptorSets returned no set".into()))?;
 
         let mut buffer_infos = Vec::new();
         let mut image_infos = Vec::new();
@@ -224,13 +217,18 @@ impl DescriptorSet {
     }
 }
 
-fn pipeline_device(pipeline: &ComputePipeline) -> Arc<DeviceShared> {
-    pipeline.device_shared()
+impl DescriptorSet {
+    /// Descriptor pools this set's pipeline set has created so far (tests of reuse).
+    #[cfg(test)]
+    pub(crate) fn pools_created(&self) -> u64 {
+        self.pools.created()
+    }
 }
 
 impl Drop for DescriptorSet {
     fn drop(&mut self) {
-        // SAFETY: dropped only when no submission uses the set; destroying the pool frees it.
-        unsafe { self.device.raw.destroy_descriptor_pool(self.pool, None) };
+        // Dropped only when no submission uses the set (they keep it until their fence
+        // signals): the pool is reset and reused.
+        self.pools.give_back(self.pool);
     }
 }

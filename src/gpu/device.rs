@@ -12,9 +12,11 @@
 use super::adapter::{AdapterInfo, DeviceSelector, select};
 use super::debug::ValidationLog;
 use super::error::{GpuError, GpuResult, vk_err};
+use super::faults::FaultLog;
 use super::instance::{Instance, Validation};
-use super::memory::MemoryLedger;
+use super::memory::{self, MemoryLedger, TrackedAllocation};
 use super::profile::{DeviceProfile, KernelTuning};
+use super::recycler::{Recycler, RecyclerCounts};
 use ash::vk;
 use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
 use std::ffi::CStr;
@@ -88,6 +90,10 @@ pub struct DeviceShared {
     pub(crate) profile: Option<DeviceProfile>,
     pub(crate) tuning: KernelTuning,
     pub(crate) timings: DeviceTimings,
+    /// Command pools, fences, query pools and breadcrumb buffers reused across submissions.
+    pub(crate) recycler: Recycler,
+    /// Faults in destructors (failed frees, resets), reported here instead of skipped.
+    pub(crate) faults: FaultLog,
     // False for an integrator's device (`Device::adopt`): the integrator destroys it.
     pub(crate) owned: bool,
     // Dropped last: the instance must outlive the device.
@@ -247,6 +253,8 @@ impl Device {
                 profile,
                 tuning,
                 timings,
+                recycler: Recycler::default(),
+                faults: FaultLog::default(),
                 owned,
                 instance: ManuallyDrop::new(instance),
             }),
@@ -364,9 +372,31 @@ impl Device {
     pub fn with_queue<R>(&self, f: impl FnOnce(vk::Queue) -> R) -> GpuResult<R> {
         match self.shared.queue.lock() {
             Ok(queue) => Ok(f(*queue)),
-            Err(_) => Err(GpuError::InvalidRequest(
+            Err(_) => Err(GpuError::Internal(
                 "the queue lock was poisoned by a panic on another thread".into(),
             )),
+        }
+    }
+
+    /// Internal faults that happened where no caller could be given an error (destructors:
+    /// failed frees or resets); empty when all is well. See `faults.rs`.
+    pub fn internal_faults(&self) -> Vec<String> {
+        self.shared.faults.all()
+    }
+
+    /// How often submissions created or reused their command pool, fence, query pool and
+    /// breadcrumb buffer.
+    pub fn recycler_counts(&self) -> RecyclerCounts {
+        self.shared.recycler.counts()
+    }
+}
+
+impl DeviceShared {
+    /// Frees device memory; a failure is recorded in the fault log (callers are destructors or
+    /// error paths that already return another error).
+    pub(crate) fn free_memory(&self, tracked: TrackedAllocation) {
+        if let Err(e) = memory::free(&self.allocator, &self.ledger, tracked) {
+            self.faults.record(&e);
         }
     }
 }
@@ -431,12 +461,18 @@ impl Drop for DeviceShared {
         // submitted but never waited for. The allocator frees its blocks through the device, so
         // it goes first; the instance goes last.
         unsafe {
+            // A failed wait (a lost device) leaves nothing to wait for; destroying follows
+            // either way, since no one is left to hand the error to.
             if self.owned {
                 let _ = self.raw.device_wait_idle();
-            } else if let Ok(queue) = self.queue.lock() {
+            } else {
                 // Not the whole device: the integrator's other queues are not ours to wait on.
+                // A poisoned lock still holds the queue handle.
+                let queue = self.queue.lock().unwrap_or_else(|p| p.into_inner());
                 let _ = self.raw.queue_wait_idle(*queue);
             }
+            // The free leases' breadcrumb memory goes back to the allocator before it is dropped.
+            self.recycler.destroy_all(self);
             ManuallyDrop::drop(&mut self.allocator);
             if self.owned {
                 self.raw.destroy_device(None);

@@ -4,6 +4,12 @@
 //! its call site into a variant that says what failed and what the user can do. Out-of-memory and
 //! device-lost are their own variants because callers react to them (pick a smaller plan, name the
 //! pass that hung); everything else keeps the Vulkan call name and result code.
+//!
+//! Misuse and faults are separate variants (issue 13 item 6): [`GpuError::InvalidRequest`] is a
+//! request the caller can correct (sizes, bindings, a scene the prepared volume cannot draw),
+//! [`GpuError::Internal`] a fault that is not the caller's (a poisoned lock, a failed free, an
+//! impossible state). Faults in destructors, where no caller gets a result, are recorded in the
+//! device's fault log (`faults.rs`), never skipped.
 
 use ash::vk;
 
@@ -79,9 +85,14 @@ pub enum GpuError {
     /// A feature, format or limit the work needs is missing.
     #[error("unsupported on this device: {0}")]
     Unsupported(String),
-    /// The caller's request does not fit the resource (sizes, bindings, specialization).
+    /// The caller's request does not fit the resource (sizes, bindings, specialization): the
+    /// caller's misuse, which the caller can correct.
     #[error("invalid GPU request: {0}")]
     InvalidRequest(String),
+    /// A fault that is not the caller's: a lock poisoned by a panic on another thread, a failed
+    /// free, an impossible state. Nothing the caller changes avoids it; it is a bug to report.
+    #[error("internal fault in morphray's GPU layer (please report it): {0}")]
+    Internal(String),
     /// Any other failed Vulkan call.
     #[error("Vulkan call {call} failed: {result:?}")]
     Vulkan {

@@ -135,7 +135,7 @@ impl Image {
             }
         };
         let destroy = |tracked: TrackedAllocation| {
-            memory::free(&shared.allocator, &shared.ledger, tracked);
+            shared.free_memory(tracked);
             // SAFETY: unused image.
             unsafe { shared.raw.destroy_image(raw, None) };
         };
@@ -223,8 +223,10 @@ impl Drop for Image {
             self.device.raw.destroy_image_view(self.view, None);
             self.device.raw.destroy_image(self.raw, None);
         }
-        if let Some(tracked) = self.allocation.lock().ok().and_then(|mut slot| slot.take()) {
-            memory::free(&self.device.allocator, &self.device.ledger, tracked);
+        // A poisoned slot still holds the allocation: freed, never skipped.
+        let slot = self.allocation.get_mut().unwrap_or_else(|p| p.into_inner());
+        if let Some(tracked) = slot.take() {
+            self.device.free_memory(tracked);
         }
     }
 }

@@ -66,18 +66,14 @@ pub struct MemoryLedger {
 impl MemoryLedger {
     /// Snapshot of the live allocations, oldest first.
     pub fn live(&self) -> Vec<AllocationRecord> {
-        self.live
-            .lock()
-            .map(|m| m.values().cloned().collect())
-            .unwrap_or_default()
+        let live = self.live.lock().unwrap_or_else(|p| p.into_inner());
+        live.values().cloned().collect()
     }
 
     /// Total bytes held.
     pub fn total_bytes(&self) -> u64 {
-        self.live
-            .lock()
-            .map(|m| m.values().map(|r| r.bytes).sum())
-            .unwrap_or(0)
+        let live = self.live.lock().unwrap_or_else(|p| p.into_inner());
+        live.values().map(|r| r.bytes).sum()
     }
 
     /// Allocations made since the device was created.
@@ -92,16 +88,23 @@ impl MemoryLedger {
 
     fn insert(&self, record: AllocationRecord) -> u64 {
         let id = self.next_id.fetch_add(1, Ordering::Relaxed);
-        if let Ok(mut live) = self.live.lock() {
-            live.insert(id, record);
-        }
+        // Recovered, not skipped, when poisoned: one insert or remove cannot leave the map
+        // half-updated, and a skipped entry would make the ledger lie.
+        self.live
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .insert(id, record);
         id
     }
 
     fn remove(&self, id: u64) {
-        if let Ok(mut live) = self.live.lock()
-            && live.remove(&id).is_some()
-        {
+        let removed = self
+            .live
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .remove(&id)
+            .is_some();
+        if removed {
             self.freed.fetch_add(1, Ordering::Relaxed);
         }
     }
@@ -111,6 +114,8 @@ impl MemoryLedger {
 pub(crate) struct TrackedAllocation {
     pub(crate) allocation: Allocation,
     ledger_id: u64,
+    // For the error when freeing fails.
+    name: String,
 }
 
 /// Allocates memory for a resource; out-of-memory names the resource and its size.
@@ -133,9 +138,9 @@ pub(crate) fn allocate(
         linear,
         allocation_scheme: AllocationScheme::GpuAllocatorManaged,
     };
-    let mut allocator = allocator.lock().map_err(|_| {
-        GpuError::InvalidRequest("the allocator was poisoned by an earlier panic".into())
-    })?;
+    let mut allocator = allocator
+        .lock()
+        .map_err(|_| GpuError::Internal("the allocator was poisoned by an earlier panic".into()))?;
     let allocation = allocator.allocate(&desc).map_err(|e| match e {
         gpu_allocator::AllocationError::OutOfMemory => GpuError::OutOfDeviceMemory {
             during: format!("allocating `{name}`"),
@@ -155,6 +160,7 @@ pub(crate) fn allocate(
     Ok(TrackedAllocation {
         allocation,
         ledger_id,
+        name: name.to_string(),
     })
 }
 
@@ -163,13 +169,18 @@ pub(crate) fn free(
     allocator: &Mutex<Allocator>,
     ledger: &MemoryLedger,
     tracked: TrackedAllocation,
-) {
+) -> GpuResult<()> {
     ledger.remove(tracked.ledger_id);
-    if let Ok(mut allocator) = allocator.lock() {
-        // A failure here means the allocation was already freed, which the ownership rules
-        // prevent; there is nothing more useful to do with it in a destructor.
-        let _ = allocator.free(tracked.allocation);
-    }
+    let name = tracked.name;
+    let mut allocator = allocator.lock().map_err(|_| {
+        GpuError::Internal(format!(
+            "the allocator was poisoned by an earlier panic; `{name}` was not freed"
+        ))
+    })?;
+    // A failure means the allocation was already freed, which the ownership rules prevent.
+    allocator
+        .free(tracked.allocation)
+        .map_err(|e| GpuError::Internal(format!("freeing `{name}` failed: {e}")))
 }
 
 /// The memory types among `allowed` that are host-visible but not device-local, if any exist;

@@ -5,6 +5,7 @@
 //! constant fails pipeline creation with a message instead of silently keeping its default.
 //! Pipelines can be created through a `VkPipelineCache` (persisted by the engine).
 
+use super::descriptor_pools::DescriptorPools;
 use super::device::{Device, DeviceShared};
 use super::error::{GpuError, GpuResult, vk_err};
 use super::shaders::{BindingKind, ShaderInfo, SpecKind};
@@ -49,6 +50,8 @@ pub struct ComputePipeline {
     pub(crate) raw: vk::Pipeline,
     pub(crate) layout: vk::PipelineLayout,
     pub(crate) set_layouts: Vec<vk::DescriptorSetLayout>,
+    /// Reusable descriptor pools, one list per set, sized once here (`descriptor_pools.rs`).
+    pub(crate) descriptor_pools: Vec<Arc<DescriptorPools>>,
     shader: &'static ShaderInfo,
     workgroup_size: [u32; 3],
     subgroup_size: Option<u32>,
@@ -148,6 +151,7 @@ impl ComputePipeline {
             raw: vk::Pipeline::null(),
             layout: vk::PipelineLayout::null(),
             set_layouts: Vec::new(),
+            descriptor_pools: Vec::new(),
             shader,
             workgroup_size,
             subgroup_size,
@@ -172,6 +176,9 @@ impl ComputePipeline {
             let layout = unsafe { raw_device.create_descriptor_set_layout(&info, None) }
                 .map_err(vk_err("vkCreateDescriptorSetLayout"))?;
             pipeline.set_layouts.push(layout);
+            pipeline
+                .descriptor_pools
+                .push(Arc::new(DescriptorPools::new(shared, shader, set)));
         }
         let ranges = [vk::PushConstantRange {
             stage_flags: vk::ShaderStageFlags::COMPUTE,

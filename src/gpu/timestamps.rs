@@ -1,7 +1,8 @@
 //! GPU timestamps around every pass of a recording.
 //!
 //! Decisions: one query pool per recording with two queries per pass, reset inside the command
-//! buffer (no hostQueryReset needed); both timestamps are written at ALL_COMMANDS, i.e. when all
+//! buffer (no hostQueryReset needed); the pool is the recording's lease's (`recycler.rs`), reused
+//! from submission to submission and destroyed with the lease; both timestamps are written at ALL_COMMANDS, i.e. when all
 //! earlier work has finished, so a pass's time is the gap between the end of the work before it
 //! and its own end. Ticks are masked to the queue's `timestampValidBits` (36 on Intel Gen12) and
 //! scaled by `timestampPeriod`. A queue without timestamps yields no timings, never fake ones.
@@ -30,29 +31,24 @@ pub(crate) struct TimestampPool {
 }
 
 impl TimestampPool {
-    /// None when the queue has no timestamps.
-    pub(crate) fn new(device: &DeviceShared) -> GpuResult<Option<Self>> {
+    /// Timestamps written into `pool` (a lease's); None when the queue has no timestamps (the
+    /// lease then has no pool).
+    pub(crate) fn new(device: &DeviceShared, pool: vk::QueryPool) -> Option<Self> {
         let bits = device.adapter.timestamp_valid_bits;
-        if bits == 0 {
-            return Ok(None);
+        if bits == 0 || pool == vk::QueryPool::null() {
+            return None;
         }
-        let info = vk::QueryPoolCreateInfo::default()
-            .query_type(vk::QueryType::TIMESTAMP)
-            .query_count(2 * MAX_PASSES);
-        // SAFETY: valid create info on a live device.
-        let pool = unsafe { device.raw.create_query_pool(&info, None) }
-            .map_err(vk_err("vkCreateQueryPool"))?;
         let valid_mask = if bits >= 64 {
             u64::MAX
         } else {
             (1u64 << bits) - 1
         };
-        Ok(Some(TimestampPool {
+        Some(TimestampPool {
             pool,
             names: Vec::new(),
             valid_mask,
             period_ns: device.adapter.timestamp_period_ns,
-        }))
+        })
     }
 
     pub(crate) fn reset(&self, device: &DeviceShared, cmd: vk::CommandBuffer) {
@@ -132,10 +128,5 @@ impl TimestampPool {
                 }
             })
             .collect())
-    }
-
-    pub(crate) fn destroy(&self, device: &DeviceShared) {
-        // SAFETY: called once, after the submission completed.
-        unsafe { device.raw.destroy_query_pool(self.pool, None) };
     }
 }

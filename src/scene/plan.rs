@@ -415,6 +415,14 @@ fn build(
         Memory::HostVisible,
         false,
     );
+    // The device's pass breadcrumbs, one slot per reusable submission (gpu/recycler.rs).
+    alloc(
+        "pass breadcrumbs",
+        crate::gpu::recycler::CRUMB_BUFFER_BYTES,
+        "buffer",
+        Memory::Readback,
+        false,
+    );
     let mut passes = Vec::new();
     let mut variants = Vec::new();
     let kind = input.sample_kind.name();
@@ -945,10 +953,11 @@ mod tests {
     }
 
     /// Allocations every plan holds whatever the scene (stand-ins, target, uniforms, counters).
-    const FIXED: [&str; 9] = [
+    const FIXED: [&str; 10] = [
         "placeholder (gradient)",
         "placeholder (normals)",
         "placeholder (occupancy)",
+        "pass breadcrumbs",
         "render target",
         "render target (host)",
         "raymarch uniforms (frame 0)",

@@ -48,4 +48,7 @@ pub fn assert_no_validation_errors(engine: &Engine) {
         errors.len(),
         errors.join("\n---\n")
     );
+    // Faults in destructors (failed frees or resets) are recorded, not skipped: none allowed.
+    let faults = engine.device().internal_faults();
+    assert!(faults.is_empty(), "internal fault(s): {faults:?}");
 }
