@@ -13,7 +13,7 @@
 # "frame overhead (CPU wall - GPU, per frame): ..." and writes its JSON under $OUT.
 set -uo pipefail
 if [ -n "${GL:-}" ]; then
-    for f in "$GL"/libvulkan1_*.deb; do dpkg -x "$f" /; done
+    for f in "$GL"/lib{vulkan1,egl1,glvnd0,opengl0,gl1,glx0,gles2}_*.deb; do [ -f "$f" ] && dpkg -x "$f" /; done
     ldconfig
     export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
 fi
