@@ -739,3 +739,57 @@ fn an_effect_switched_on_is_planned_within_the_budget_as_render_plans_it() {
     assert_eq!(viewer_degradations, render_degradations, "{log}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn the_viewer_finds_the_tissues_of_a_scan_with_hot_voxels_by_default_and_not_under_eq_1() {
+    // Issue 11: a few hot voxels squeezed every tissue into the darkest bins (no peak, nothing
+    // to drag in the histogram); the viewer normalizes like render, robust by default.
+    let dir = temp_dir("hot-voxels");
+    let phantom = generate(&PhantomSpec::cube(48)).unwrap();
+    let mut volume = phantom.volume.clone();
+    let mut values: Vec<i16> = (0..volume.samples.len())
+        .map(|i| volume.samples.get(i) as i16)
+        .collect();
+    let max = *values.iter().max().unwrap();
+    for k in 0..6 {
+        let i = (k * 7919 + values.len() / 2) % values.len();
+        values[i] = max * 20;
+    }
+    volume.samples = morphray::volume::Samples::from_i16(&values);
+    let path = dir.join("hot.nii");
+    write_nifti1(&volume, &path, false).unwrap();
+    let file = path.to_str().unwrap();
+    let loaded = |o: &Output| {
+        stdout(o)
+            .lines()
+            .find(|l| l.starts_with("loaded hot.nii"))
+            .map(str::to_string)
+            .unwrap_or_else(|| panic!("no load line:\n{}", stdout(o)))
+    };
+    let robust = view(
+        &[file, "--size", "320x240", "--frames", "2", "--offscreen"],
+        false,
+    );
+    assert_ok(&robust);
+    let line = loaded(&robust);
+    assert!(
+        !line.contains(" -"),
+        "every tissue found by default: {line}"
+    );
+    let eq1 = view(
+        &[
+            "--normalize",
+            "minmax",
+            file,
+            "--size",
+            "320x240",
+            "--frames",
+            "2",
+            "--offscreen",
+        ],
+        false,
+    );
+    assert_ok(&eq1);
+    let line = loaded(&eq1);
+    assert!(line.ends_with("peaks CSF - GM - WM -"), "{line}");
+}
