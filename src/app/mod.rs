@@ -5,8 +5,6 @@
 //!
 //! ```text
 //! window.rs          winit event loop, egui-winit input, redraw scheduling, close
-//! swapchain.rs       Vulkan surface + swapchain (resize, minimize, vsync, acquire/present)
-//! painter.rs         frame composition: raymarch image + egui (egui-ash-renderer) -> window
 //! ui.rs              panels: tissues, rendering, view, file, status bar; view input/overlays
 //! histogram.rs       the I_norm histogram with peaks and draggable tissue windows
 //! camera_control.rs  mouse/keys -> camera, six standard views, orientation letters
@@ -26,9 +24,9 @@
 //!   else (decoding, min/max, normalization, histogram, derived volumes) runs on the loader
 //!   thread, once per volume or once per newly needed derived volume, and the scripted log
 //!   shows it frame by frame.
-//! - DESIGN.md keeps Vulkan calls out of this layer; the exceptions are `swapchain.rs` and
-//!   `painter.rs`, which present and draw the interface (window-system and egui specifics the
-//!   engine should not know). Their barriers use the gpu layer's `Access` vocabulary.
+//! - No Vulkan calls in this layer: the swapchain is `gpu::swapchain` and the frame composition
+//!   (raymarch image + egui through egui-ash-renderer) is the present pass, `passes::present`;
+//!   both exist only with the `viewer` feature.
 //! - `--offscreen` runs the same frames without a window (no surface or swapchain): the frame
 //!   is composed in the same image the window would show, so screenshots match.
 
@@ -36,10 +34,8 @@ pub mod camera_control;
 pub mod frame_log;
 pub mod histogram;
 pub mod loader;
-pub mod painter;
 pub mod script;
 pub mod status;
-pub mod swapchain;
 pub mod ui;
 pub mod viewer;
 pub mod window;

@@ -34,8 +34,7 @@ use crate::scene::{Scene, VolumeGeometry};
 use ash::vk;
 use std::sync::Arc;
 
-/// Frames that may be in flight at once (uniform buffers per target).
-pub const FRAMES_IN_FLIGHT: usize = 2;
+pub use crate::gpu::FRAMES_IN_FLIGHT;
 
 /// Empty-space skipping is used only when at most this fraction of the 8^3 bricks can hold a
 /// visible sample. With (nearly) every brick visible there is nothing to skip and the brick

@@ -34,6 +34,8 @@ pub mod recycler;
 mod reuse_tests;
 pub mod sampler;
 pub mod shaders;
+#[cfg(feature = "viewer")]
+pub mod swapchain;
 pub mod sync;
 pub mod timestamps;
 
@@ -54,3 +56,8 @@ pub use recycler::RecyclerCounts;
 pub use sampler::{Filter, Sampler};
 pub use sync::Access;
 pub use timestamps::PassTiming;
+
+/// Frames that may be in flight at once: per-frame uniform buffers of a render target, the
+/// swapchain's acquire semaphores and the presenter's per-frame resources all use this one
+/// number.
+pub const FRAMES_IN_FLIGHT: usize = 2;

@@ -15,6 +15,8 @@ pub mod histogram;
 pub mod minmax;
 pub mod normalize;
 pub mod occupancy;
+#[cfg(feature = "viewer")]
+pub mod present;
 pub mod raymarch;
 
 use crate::gpu::shaders::ShaderInfo;

@@ -39,16 +39,16 @@ mod opening;
 use super::AppError;
 use super::frame_log::{FrameLog, FrameRecord, Pending, Until};
 use super::loader::{LoadedVolume, Loader, Reply, one_line};
-use super::painter::{COMPOSITE_FORMAT, FrameSpec, Painter};
 use super::script::{Action, Runner, Step};
 use super::status::{Loading, Status};
-use super::swapchain::{Surface, Swapchain};
 use super::ui::{self, Controls, Request};
 use crate::engine::{Engine, EngineConfig, RenderTarget, TwinStep, twin_step};
 use crate::files::png::{PngError, Provenance, write_rgba8};
 use crate::files::write::{OutputKind, check_output};
+use crate::gpu::swapchain::{Surface, Swapchain};
 use crate::gpu::{Device, GpuError, PassTiming, Presentation};
 use crate::passes::derivatives::DerivativeOutputs;
+use crate::passes::present::{COMPOSITE_FORMAT, FrameSpec, Painter};
 use crate::scene::{Effects, Scene, SceneRecipe, WindowSet};
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -200,7 +200,7 @@ pub struct Viewer {
     /// egui texture changes not yet applied (a skipped frame keeps them for the next).
     unapplied: egui::TexturesDelta,
     /// Host copies of egui's textures (re-sent to a new painter after a device loss).
-    mirror: super::painter::TextureMirror,
+    mirror: crate::passes::present::TextureMirror,
     /// Why the last raymarch was refused (out of memory, or bricks of another scene), so it is
     /// not retried every frame.
     render_blocked: Option<(Scene, [u32; 4])>,

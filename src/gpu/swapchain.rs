@@ -17,9 +17,9 @@
 //!   `vkDeviceWaitIdle`): without VK_EXT_swapchain_maintenance1 nothing else says when a present
 //!   finished using the old swapchain's images and semaphores. It happens only on resize.
 
-use crate::engine::FRAMES_IN_FLIGHT;
-use crate::gpu::error::vk_err;
-use crate::gpu::{Device, GpuError, GpuResult};
+use super::FRAMES_IN_FLIGHT;
+use super::error::vk_err;
+use super::{Device, GpuError, GpuResult};
 use ash::khr;
 use ash::vk;
 use raw_window_handle::{HasDisplayHandle, HasWindowHandle};

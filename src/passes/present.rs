@@ -18,9 +18,9 @@
 //!   after waiting for the frames in flight (an upload may rewrite a texture they sample).
 //!   Textures egui frees are destroyed once the frame that last drew them has finished.
 
-use super::swapchain::Acquired;
-use crate::engine::FRAMES_IN_FLIGHT;
+use crate::gpu::FRAMES_IN_FLIGHT;
 use crate::gpu::error::vk_err;
+use crate::gpu::swapchain::Acquired;
 use crate::gpu::{
     Access, Buffer, BufferDesc, Device, GpuError, GpuResult, Image, ImageDesc, PassTiming,
     Recording, Submission,
