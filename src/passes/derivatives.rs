@@ -19,10 +19,24 @@ use crate::gpu::{
     Access, Buffer, ComputePipeline, DescriptorSet, Device, GpuError, GpuResult, Image, ImageDesc,
     Recording, Resource, Sampler, SpecValue,
 };
-use crate::scene::DerivedPrecision;
 use ash::vk;
 use glam::DMat3;
 use std::sync::Arc;
+
+/// Precision of stored derived volumes (gradient magnitude and curvature).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DerivedPrecision {
+    /// 32-bit float (R32F / RG32F).
+    F32,
+    /// 16-bit float (R16F / RG16F): the storage default of the derivative pass itself, and the
+    /// scene setting for stills at fine steps.
+    #[default]
+    F16,
+    /// 8-bit signed normalized, scaled by the volume's maximum (R8 / RG8 SNORM): the scenes'
+    /// interactive default (`scene::Quality::default`).
+    Snorm8,
+}
 
 /// |g| (I_norm per mm) at or below which the gradient direction is undefined. The f64 twin uses
 /// the same value (`reference::derivatives::DEFAULT_TAU`).

@@ -1,8 +1,9 @@
 //! The raymarch (shaders/raymarch.comp): one compute pass over the image in 8x8 tiles.
 //!
-//! Decisions: one pipeline per [`RaymarchVariant`] (the specialization constants an
-//! [`Effects`] resolves to), created on first use and cached by the engine, so switching effects
-//! back is instant and effects that mean the same shader share one pipeline. Inputs a variant
+//! Decisions: one pipeline per [`RaymarchVariant`] (the specialization constants a scene's
+//! effects resolve to; the mapping is `scene::variant`, so this pass never imports the scene),
+//! created on first use and cached by the engine, so switching effects back is instant and
+//! effects that mean the same shader share one pipeline. Inputs a variant
 //! does not read are bound to 1-texel or 1-word placeholders. Parameters arrive in a uniform
 //! buffer the caller wrote for this frame (double-buffered by the caller), never as a pipeline
 //! change.
@@ -11,10 +12,6 @@ use crate::gpu::shaders::table;
 use crate::gpu::{
     Access, Buffer, ComputePipeline, DescriptorSet, Device, GpuResult, Image, Recording, Resource,
     Sampler, SpecValue,
-};
-use crate::scene::{
-    CurvatureMode, Effects, GradientFilter, GradientSource, Interpolation, OpacityCorrection,
-    RenderMode,
 };
 use ash::vk;
 use std::sync::Arc;
@@ -46,45 +43,6 @@ pub struct RaymarchVariant {
 }
 
 impl RaymarchVariant {
-    /// The variant `effects` needs; what means nothing in a mode is normalized away, so such
-    /// effects share a pipeline.
-    pub fn of(effects: &Effects, count_samples: bool) -> Self {
-        Self::of_layout(effects, count_samples, false)
-    }
-
-    /// [`RaymarchVariant::of`] for a whole (`bricked` false) or bricked volume.
-    pub fn of_layout(effects: &Effects, count_samples: bool, bricked: bool) -> Self {
-        let dvr = effects.mode == RenderMode::Dvr;
-        let q = &effects.quality;
-        RaymarchVariant {
-            mode: match effects.mode {
-                RenderMode::Dvr => 0,
-                RenderMode::Mip => 1,
-                RenderMode::MinIp => 2,
-            },
-            curvature_mode: match effects.curvature_mode() {
-                CurvatureMode::Off => 0,
-                CurvatureMode::Stored => 1,
-                CurvatureMode::OnTheFly => 2,
-            },
-            shading: dvr && effects.shading,
-            gradient_mode: match (dvr, effects.gradient_source, q.gradient_filter) {
-                (false, _, _) | (true, GradientSource::Precomputed, _) => 0,
-                (true, GradientSource::OnTheFly, GradientFilter::Central) => 1,
-                (true, GradientSource::OnTheFly, GradientFilter::Sobel) => 2,
-            },
-            interpolation: match q.interpolation {
-                Interpolation::Nearest => 0,
-                Interpolation::Trilinear => 1,
-                Interpolation::Tricubic => 2,
-            },
-            naive_opacity: dvr && q.opacity_correction == OpacityCorrection::Naive,
-            skip_empty: dvr && q.empty_space_skipping,
-            count_samples,
-            bricked,
-        }
-    }
-
     /// The variant as its specialization constants read, for plans and logs.
     pub fn describe(&self) -> String {
         let on = |b: bool| if b { "on" } else { "off" };
@@ -232,51 +190,9 @@ impl RaymarchPass {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::uniforms::RaymarchUniforms;
-    use crate::scene::{CurvatureSource, Quality};
-
-    #[test]
-    fn uniform_block_matches_the_shader() {
-        let params = table::RAYMARCH.binding("params").unwrap();
-        assert_eq!(
-            params.block_bytes as usize,
-            std::mem::size_of::<RaymarchUniforms>()
-        );
-    }
 
     #[test]
     fn the_workgroup_is_an_8x8_tile() {
         assert_eq!(table::RAYMARCH.workgroup_size, [8, 8, 1]);
-    }
-
-    #[test]
-    fn effects_that_mean_the_same_shader_share_a_variant() {
-        let mip = Effects {
-            mode: RenderMode::Mip,
-            ..Effects::default()
-        };
-        let mip_with_dvr_options = Effects {
-            curvature: true,
-            shading: true,
-            ..mip
-        };
-        assert_eq!(
-            RaymarchVariant::of(&mip, false),
-            RaymarchVariant::of(&mip_with_dvr_options, false)
-        );
-        let on_the_fly = Effects {
-            curvature: true,
-            gradient_source: GradientSource::OnTheFly,
-            quality: Quality {
-                curvature_source: CurvatureSource::Stored,
-                ..Quality::default()
-            },
-            ..Effects::default()
-        };
-        assert_eq!(
-            RaymarchVariant::of(&on_the_fly, false).curvature_mode,
-            2,
-            "no stored k without stored gradients"
-        );
     }
 }

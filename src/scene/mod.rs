@@ -12,6 +12,7 @@ pub mod occupancy;
 pub mod plan;
 pub mod recipe;
 pub mod uniforms;
+pub mod variant;
 pub mod visibility;
 
 pub use camera::{Camera, Projection};
@@ -77,20 +78,7 @@ pub enum CurvatureSource {
     OnTheFly,
 }
 
-/// Precision of stored derived volumes (gradient magnitude and curvature).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum DerivedPrecision {
-    /// 32-bit float (R32F / RG32F).
-    F32,
-    /// 16-bit float (R16F / RG16F): the storage default of the derivative pass itself, and the
-    /// scene setting for stills at fine steps.
-    #[default]
-    F16,
-    /// 8-bit signed normalized, scaled by the volume's maximum (R8 / RG8 SNORM): the scenes'
-    /// interactive default ([`Quality::default`]).
-    Snorm8,
-}
+pub use crate::passes::derivatives::DerivedPrecision;
 
 /// How opacity is corrected for the step length.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
