@@ -7,7 +7,7 @@
 //!   has signalled, and then records again; nothing is created per frame. wgpu-hal's Vulkan
 //!   command encoder does the same with its pool (`reset_all`: reset the pool, the buffers go back
 //!   to its free list).
-//! - From screen-13 (`src/pool/mod.rs`): a [`Lease`] goes back to a bounded cache when its owner
+//! - From screen-13 (`src/pool/mod.rs`): a `Lease` goes back to a bounded cache when its owner
 //!   is done, and a command buffer is leased only when its fence has signalled
 //!   (`can_lease_command_buffer` queries the fence at lease time). Here the lease is returned
 //!   only by the [`super::Submission`] after its fence was waited on, or by a recording that was
