@@ -119,6 +119,7 @@ fn fine_histogram_matches_its_twin_at_awkward_counts_for_every_kind() {
         SampleKind::I16,
         SampleKind::F32,
     ];
+    let mut compared = 0;
     for kind in kinds {
         for n in [1usize, 31, 33, 257, 100_003] {
             let samples = random_samples(kind, &mut rng, n);
@@ -157,8 +158,11 @@ fn fine_histogram_matches_its_twin_at_awkward_counts_for_every_kind() {
                 moved * 100 <= twin.total().max(100),
                 "{kind:?} x {n}: {moved} moved"
             );
+            compared += 1;
         }
     }
+    // Volumes without a usable interval (1 voxel, constant) are passed over; the rest ran.
+    assert!(compared >= 16, "only {compared} of 25 cases compared");
     common::assert_no_validation_errors(&engine);
 }
 
