@@ -27,6 +27,7 @@
 //!   bounded. A lease whose work was lost or timed out is leaked, never reused or destroyed
 //!   under the GPU's feet; a lease that fails to reset is destroyed and the failure reported.
 
+use super::buffer::BufferDesc;
 use super::device::DeviceShared;
 use super::error::{GpuError, GpuResult, vk_err};
 use super::memory::{self, MemoryIntent, TrackedAllocation};
@@ -316,12 +317,24 @@ fn fill(device: &DeviceShared, lease: &mut Lease) -> GpuResult<()> {
     Ok(())
 }
 
+/// The breadcrumb buffer as it is created (and as the pass plan declares it): written only by
+/// `vkCmdFillBuffer`, read by the host after a device loss.
+pub fn breadcrumb_desc() -> BufferDesc {
+    BufferDesc {
+        name: "pass breadcrumbs".into(),
+        size: CRUMB_BUFFER_BYTES,
+        usage: vk::BufferUsageFlags::TRANSFER_DST,
+        intent: MemoryIntent::Readback,
+    }
+}
+
 /// The device's breadcrumb buffer, every slot free.
 fn create_crumbs(device: &DeviceShared) -> GpuResult<Crumbs> {
     let raw = &device.raw;
+    let desc = breadcrumb_desc();
     let info = vk::BufferCreateInfo::default()
-        .size(CRUMB_BUFFER_BYTES)
-        .usage(vk::BufferUsageFlags::TRANSFER_DST)
+        .size(desc.size)
+        .usage(desc.usage)
         .sharing_mode(vk::SharingMode::EXCLUSIVE);
     // SAFETY: valid create info on a live device.
     let buffer = unsafe { raw.create_buffer(&info, None) }.map_err(vk_err("vkCreateBuffer"))?;
@@ -335,9 +348,9 @@ fn create_crumbs(device: &DeviceShared) -> GpuResult<Crumbs> {
         &device.allocator,
         &device.ledger,
         &device.memory_properties,
-        "pass breadcrumbs",
+        &desc.name,
         requirements,
-        MemoryIntent::Readback,
+        desc.intent,
         true,
     ) {
         Ok(t) => t,
