@@ -165,7 +165,13 @@ fn mip_needs_no_derivative_pass_and_no_derived_memory() {
     .unwrap();
     assert_eq!(
         passes(&p),
-        ["minmax", "fine histogram", "normalize", "histogram", "raymarch"]
+        [
+            "minmax",
+            "fine histogram",
+            "normalize",
+            "histogram",
+            "raymarch"
+        ]
     );
     assert_eq!(names(&p), ["normalized volume"]);
     assert!(p.variants.iter().all(|v| !v.starts_with("derivatives")));
