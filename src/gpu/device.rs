@@ -392,6 +392,38 @@ impl Device {
 }
 
 impl DeviceShared {
+    /// Allocates memory for a resource with `requirements` and binds it with `bind` (given the
+    /// memory and offset; `call` names the bind call in errors). On failure nothing stays
+    /// allocated, and the caller destroys its still-unbound handle. The one sequence behind
+    /// every buffer and image (`Buffer::new`, `Image::new`, the recycler's breadcrumbs).
+    pub(crate) fn allocate_bound(
+        &self,
+        name: &str,
+        requirements: vk::MemoryRequirements,
+        intent: memory::MemoryIntent,
+        linear: bool,
+        call: &'static str,
+        bind: impl FnOnce(vk::DeviceMemory, u64) -> Result<(), vk::Result>,
+    ) -> GpuResult<TrackedAllocation> {
+        let tracked = memory::allocate(
+            &self.allocator,
+            &self.ledger,
+            &self.memory_properties,
+            name,
+            requirements,
+            intent,
+            linear,
+        )?;
+        // SAFETY: the allocation is live (its memory handle is valid until it is freed), and
+        // memory and offset come from an allocation made for these requirements.
+        let memory = unsafe { tracked.allocation.memory() };
+        if let Err(e) = bind(memory, tracked.allocation.offset()) {
+            self.free_memory(tracked);
+            return Err(GpuError::from_vk(call, e));
+        }
+        Ok(tracked)
+    }
+
     /// Frees device memory; a failure is recorded in the fault log (callers are destructors or
     /// error paths that already return another error).
     pub(crate) fn free_memory(&self, tracked: TrackedAllocation) {

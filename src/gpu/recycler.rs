@@ -27,10 +27,10 @@
 //!   bounded. A lease whose work was lost or timed out is leaked, never reused or destroyed
 //!   under the GPU's feet; a lease that fails to reset is destroyed and the failure reported.
 
-use super::buffer::BufferDesc;
+use super::buffer::{BufferDesc, create_bound};
 use super::device::DeviceShared;
 use super::error::{GpuError, GpuResult, vk_err};
-use super::memory::{self, MemoryIntent, TrackedAllocation};
+use super::memory::{MemoryIntent, TrackedAllocation};
 use super::timestamps::MAX_PASSES;
 use ash::vk;
 use std::ptr::NonNull;
@@ -330,56 +330,7 @@ pub fn breadcrumb_desc() -> BufferDesc {
 
 /// The device's breadcrumb buffer, every slot free.
 fn create_crumbs(device: &DeviceShared) -> GpuResult<Crumbs> {
-    let raw = &device.raw;
-    let desc = breadcrumb_desc();
-    let info = vk::BufferCreateInfo::default()
-        .size(desc.size)
-        .usage(desc.usage)
-        .sharing_mode(vk::SharingMode::EXCLUSIVE);
-    // SAFETY: valid create info on a live device.
-    let buffer = unsafe { raw.create_buffer(&info, None) }.map_err(vk_err("vkCreateBuffer"))?;
-    let destroy_buffer = || {
-        // SAFETY: never bound or used.
-        unsafe { raw.destroy_buffer(buffer, None) }
-    };
-    // SAFETY: the buffer was just created on this device.
-    let requirements = unsafe { raw.get_buffer_memory_requirements(buffer) };
-    let tracked = match memory::allocate(
-        &device.allocator,
-        &device.ledger,
-        &device.memory_properties,
-        &desc.name,
-        requirements,
-        desc.intent,
-        true,
-    ) {
-        Ok(t) => t,
-        Err(e) => {
-            destroy_buffer();
-            return Err(e);
-        }
-    };
-    let mapped = tracked.allocation.mapped_ptr().map(|p| p.cast::<u8>());
-    // SAFETY: memory and offset come from an allocation made for these requirements.
-    let bound = unsafe {
-        raw.bind_buffer_memory(
-            buffer,
-            tracked.allocation.memory(),
-            tracked.allocation.offset(),
-        )
-    };
-    let failure = match (bound, mapped) {
-        (Err(e), _) => Some(GpuError::from_vk("vkBindBufferMemory", e)),
-        (Ok(()), None) => Some(GpuError::Unsupported(
-            "host-visible memory for the pass breadcrumbs could not be mapped".into(),
-        )),
-        (Ok(()), Some(_)) => None,
-    };
-    if let Some(e) = failure {
-        device.free_memory(tracked);
-        destroy_buffer();
-        return Err(e);
-    }
+    let (buffer, tracked, mapped) = create_bound(device, &breadcrumb_desc())?;
     Ok(Crumbs {
         buffer,
         memory: Some(tracked),
