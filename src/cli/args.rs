@@ -151,6 +151,32 @@ pub enum Command {
     /// format, memory type), the total, predicted per-pass costs and the degradations the memory
     /// budget forced; then set the volume up and print what the engine actually holds.
     Plan(PlanArgs),
+    /// Compile the kernels a scene's plan uses (or every variant, --all) on the chosen device
+    /// without running anything, and print the driver compiler's statistics per kernel (SIMD
+    /// width, instructions, cycles, spills, sends, registers, ... where the driver reports them
+    /// through VK_KHR_pipeline_executable_properties; Intel's ANV does, also on the stub Tiger
+    /// Lake of tools/gen12).
+    Kernels(KernelsArgs),
+}
+
+/// Options of `kernels`.
+#[derive(Debug, Args)]
+pub struct KernelsArgs {
+    /// NIfTI-1/2 file whose plan to compile; without one, the built-in digital phantom.
+    pub file: Option<PathBuf>,
+    /// Every variant the engine can build, not only the plan's.
+    #[arg(long)]
+    pub all: bool,
+    /// Print JSON: {"device", "kernels": [{"name", "variant", "workgroup", "subgroup",
+    /// "statistics": {...}}]}.
+    #[arg(long)]
+    pub json: bool,
+    /// Frame of a 4-D file (0-based).
+    #[arg(long, default_value_t = 0)]
+    pub frame: usize,
+    /// Scene whose plan to compile (the render options; --size defaults to 1024x1024).
+    #[command(flatten)]
+    pub scene: SceneArgs,
 }
 
 /// Options of `plan`.

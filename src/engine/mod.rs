@@ -15,6 +15,7 @@
 
 mod bricked;
 mod derive;
+pub mod kernels;
 mod occupancy;
 mod open;
 mod pipelines;

@@ -137,7 +137,7 @@ fn build(
 
 /// The pipelines that preparing a volume (of `kind`, when known) and rendering a first frame of
 /// `effects` use, analysis passes first.
-fn first_frame_keys(
+pub(super) fn first_frame_keys(
     effects: &Effects,
     kind: Option<SampleKind>,
     bricked: bool,

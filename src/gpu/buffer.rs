@@ -155,6 +155,7 @@ pub(crate) fn create_bound(
             desc.name
         )));
     }
+    shared.name_object(raw, &desc.name);
     Ok((raw, tracked, mapped))
 }
 

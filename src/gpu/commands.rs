@@ -99,6 +99,13 @@ impl Recording {
         if let Some(t) = &mut self.timestamps {
             t.begin(&self.device, self.cmd, name);
         }
+        if let Some(utils) = &self.device.debug_utils
+            && let Ok(label) = std::ffi::CString::new(name.replace('\0', " "))
+        {
+            let info = vk::DebugUtilsLabelEXT::default().label_name(&label);
+            // SAFETY: a command buffer in the recording state; the label is closed in end_pass.
+            unsafe { utils.cmd_begin_debug_utils_label(self.cmd, &info) };
+        }
         self.pass_names.push(name.to_string());
         self.pass_open = true;
     }
@@ -111,6 +118,10 @@ impl Recording {
         self.pass_open = false;
         if let Some(t) = &self.timestamps {
             t.end(&self.device, self.cmd);
+        }
+        if let Some(utils) = &self.device.debug_utils {
+            // SAFETY: closes the label begin_pass opened in this command buffer.
+            unsafe { utils.cmd_end_debug_utils_label(self.cmd) };
         }
         let index = self.pass_names.len() as u64 - 1;
         if let Some((buffer, base)) = self.crumbs

@@ -158,6 +158,8 @@ impl Image {
                 return Err(GpuError::from_vk("vkCreateImageView", e));
             }
         };
+        shared.name_object(raw, &desc.name);
+        shared.name_object(view, &format!("{} (view)", desc.name));
         Ok(Arc::new(Image {
             raw,
             view,

@@ -173,6 +173,11 @@ pub fn output_descs(outputs: &DerivativeOutputs, extent: [u32; 3]) -> [ImageDesc
 }
 
 impl DerivativePass {
+    /// The compiled pipeline (for its statistics and workgroup).
+    pub fn pipeline(&self) -> &Arc<ComputePipeline> {
+        &self.pipeline
+    }
+
     /// Creates the pipeline specialized for `outputs`.
     pub fn new(
         device: &Device,

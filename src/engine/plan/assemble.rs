@@ -236,10 +236,7 @@ fn derivatives(ctx: &PlanContext, outputs: &DerivativeOutputs) -> PassDeclaratio
         ..Declared::held_image(desc)
     };
     let [maximum, maximum_host] = derive::gradient_maximum_descs();
-    let variant = format!(
-        "derivatives (WANT_MAGNITUDE={}, WANT_CURVATURE={}, WANT_NORMAL={}, {:?})",
-        outputs.magnitude, outputs.curvature, outputs.normal, outputs.precision
-    );
+    let variant = crate::engine::kernels::derivative_variant_name(outputs);
     let cost = cost::derivatives(
         ctx.texels() as f64,
         ctx.normalized_bytes() as f64,
