@@ -80,6 +80,12 @@ pub struct Cli {
     #[arg(long, global = true, value_enum, default_value_t = ContrastArg::Auto)]
     pub contrast: ContrastArg,
 
+    /// Write a trace of the run (Chrome trace JSON; opens in ui.perfetto.dev and
+    /// chrome://tracing): host phases (read, inflate, instance, device, pipelines, prepare,
+    /// frames) on their threads and every GPU pass, from timestamps, on a "GPU queue" track.
+    #[arg(long, global = true, value_name = "OUT.json")]
+    pub trace: Option<std::path::PathBuf>,
+
     /// What to do.
     #[command(subcommand)]
     pub command: Command,

@@ -105,6 +105,11 @@ pub fn mark_process_start() {
     PROCESS_START.get_or_init(|| (Instant::now(), unix_ns()));
 }
 
+/// The process's start as an `Instant` (traces count from it).
+pub fn process_start_instant() -> Instant {
+    process_start().0
+}
+
 fn process_start() -> (Instant, u128) {
     *PROCESS_START.get_or_init(|| (Instant::now(), unix_ns()))
 }

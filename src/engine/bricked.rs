@@ -146,6 +146,7 @@ pub fn brick_staging_desc(bytes: u64) -> BufferDesc {
 impl Engine {
     /// Normalizes `volume` on the host into `format` (R8_UNORM or R16_UNORM) with its histogram.
     pub fn prepare_on_host(&self, volume: &Volume, format: vk::Format) -> GpuResult<HostPrepared> {
+        let _span = crate::files::trace::span("prepare on the host (bricked)", "prepare");
         let start = Instant::now();
         if format != vk::Format::R8_UNORM && format != vk::Format::R16_UNORM {
             return Err(GpuError::InvalidRequest(format!(

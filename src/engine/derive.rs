@@ -34,6 +34,7 @@ impl Engine {
         prepared: &PreparedVolume,
         outputs: DerivativeOutputs,
     ) -> GpuResult<Derived> {
+        let _span = crate::files::trace::span("derived volumes", "prepare");
         let stores = outputs.magnitude || outputs.curvature;
         let voxel_mm = finest_spacing(prepared.linear_part);
         if outputs.precision != DerivedPrecision::Snorm8 || !stores {

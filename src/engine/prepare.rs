@@ -174,6 +174,10 @@ impl Engine {
     /// Uploads `volume` and computes min/max, I_norm and its histogram on the GPU.
     pub fn prepare(&mut self, volume: &Volume) -> GpuResult<PreparedVolume> {
         let start = Instant::now();
+        let _span = crate::files::trace::span(
+            "prepare (upload, min/max, range, normalize, histogram)",
+            "prepare",
+        );
         let dims = checked_dims(self, volume)?;
         self.counters.prepares += 1;
         let kind = volume.samples.kind();

@@ -248,6 +248,7 @@ impl Engine {
         out: Option<&mut [u8]>,
     ) -> GpuResult<Frame> {
         let read_back = target.read_back || out.is_some();
+        let _span = crate::files::trace::span("frame", "render");
         let mut rec = Recording::new(&self.device, "raymarch")?;
         let recorded = self.record_frame(&mut rec, target, prepared, derived, scene, read_back)?;
         let gpu_timings = rec.submit()?.wait()?;

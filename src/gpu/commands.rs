@@ -460,6 +460,7 @@ impl Recording {
             )),
         };
         let submission = Submission {
+            submitted_at: std::time::Instant::now(),
             device: device.clone(),
             fence: lease.fence,
             lease: Some(lease),
@@ -522,6 +523,8 @@ pub struct Submission {
     label: String,
     submitted: bool,
     finished: bool,
+    // When vkQueueSubmit2 returned (places the passes on a trace's GPU track).
+    submitted_at: std::time::Instant,
 }
 
 impl Submission {
@@ -529,10 +532,16 @@ impl Submission {
     /// has no timestamps).
     pub fn wait(mut self) -> GpuResult<Vec<PassTiming>> {
         self.wait_fence()?;
+        let completed = std::time::Instant::now();
         let timings = match &self.timestamps {
             Some(t) => t.results(&self.device),
             None => Ok(Vec::new()),
         };
+        if let Ok(passes) = &timings {
+            let named: Vec<(&str, f64)> =
+                passes.iter().map(|p| (p.name.as_str(), p.gpu_ms)).collect();
+            crate::files::trace::gpu_passes(self.submitted_at, completed, &named);
+        }
         // The queries were read: the lease may record again.
         self.give_back()?;
         timings

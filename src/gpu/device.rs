@@ -140,16 +140,21 @@ impl Device {
         let ms = |since: Instant| since.elapsed().as_secs_f64() * 1e3;
         let mut timings = DeviceTimings::default();
         let start = Instant::now();
+        let span = crate::files::trace::span("vulkan instance", "gpu-setup");
         let instance = Instance::with_extensions(config.validation, surface_extensions)?;
         timings.instance_ms = ms(start);
+        drop(span);
         timings.loader_ms = instance.loader_ms;
         let start = Instant::now();
         let selector = match &config.selector {
             DeviceSelector::Auto => DeviceSelector::from_env(),
             other => other.clone(),
         };
+        let span = crate::files::trace::span("adapter choice", "gpu-setup");
         let (physical, adapter) = select(&instance, &selector)?;
         timings.adapter_ms = ms(start);
+        drop(span);
+        let _span = crate::files::trace::span("device and allocator", "gpu-setup");
         let start = Instant::now();
         // A profile clamps what the engine may use (never more than the device offers).
         let adapter = match &config.profile {
