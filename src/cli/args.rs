@@ -173,6 +173,12 @@ pub struct KernelsArgs {
     /// Every variant the engine can build, not only the plan's.
     #[arg(long)]
     pub all: bool,
+    /// Compile the plan's kernels for every workgroup shape of the tunable passes (default,
+    /// 8x8, 16x16, 4x4x4, 8x8x4), required subgroup size (driver's, 8, 16, 32) and derived
+    /// precision (8-bit, f16, f32), and report the compiler's choices (SIMD width, spills,
+    /// instructions, cycles) beside the Xe-LP model's time bound of each pass.
+    #[arg(long, conflicts_with = "all")]
+    pub sweep: bool,
     /// Print JSON: {"device", "kernels": [{"name", "variant", "workgroup", "subgroup",
     /// "statistics": {...}}]}.
     #[arg(long)]

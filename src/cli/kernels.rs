@@ -18,6 +18,7 @@ use crate::engine::kernels::{KernelReport, KernelSet};
 use crate::engine::plan::Layout;
 use crate::error::Error;
 use crate::gpu::pipeline_stats::{Executable, StatValue};
+use crate::study::kernel_sweep::{SweepRow, SweepSpace, sweep};
 use serde_json::{Map, Value};
 
 /// Runs the command.
@@ -29,6 +30,19 @@ pub fn run(args: &KernelsArgs, global: &super::GlobalOptions) -> Result<(), Erro
     config.device.pipeline_statistics = true;
     let mut engine = Engine::new(config)?;
     let (width, height) = args.scene.size.unwrap_or((1024, 1024));
+    if args.sweep {
+        drop(engine);
+        let space = SweepSpace::default();
+        let rows = sweep(
+            &global.engine_config(),
+            &source.volume,
+            recipe.effects,
+            [width, height],
+            &space,
+        );
+        print_sweep(&rows, args.json);
+        return Ok(());
+    }
     let set = if args.all {
         KernelSet::All
     } else {
@@ -119,4 +133,104 @@ fn print_text(device: &str, reports: &[KernelReport]) {
             print_line(&format!("    {}: {}", e.name, stat_text(e)));
         }
     }
+}
+
+/// The sweep as JSON rows, or as a table with the findings first: spills, SIMD8 choices, and
+/// per kernel the range of instructions and cycles over the configurations.
+fn print_sweep(rows: &[SweepRow], as_json: bool) {
+    if as_json {
+        print_line(&json(&serde_json::json!({ "rows": rows })));
+        return;
+    }
+    let compiled: Vec<&SweepRow> = rows.iter().filter(|r| r.kernel.is_some()).collect();
+    let refused: Vec<&SweepRow> = rows.iter().filter(|r| r.error.is_some()).collect();
+    print_line(&format!(
+        "{} kernel compiles, {} configurations refused",
+        compiled.len(),
+        refused.len()
+    ));
+    let config = |r: &SweepRow| {
+        let wg = r
+            .workgroup_asked
+            .map(|[x, y, z]| format!("{x}x{y}x{z}"))
+            .unwrap_or_else(|| "default".into());
+        let sg = r
+            .subgroup_asked
+            .map(|s| s.to_string())
+            .unwrap_or_else(|| "driver".into());
+        format!("wg {wg}, subgroup {sg}, {:?}", r.precision)
+    };
+    let spilled: Vec<String> = compiled
+        .iter()
+        .filter(|r| r.stat("Spill Count").unwrap_or(0.0) > 0.0)
+        .map(|r| format!("  {} ({})", variant(r), config(r)))
+        .collect();
+    print_line(&format!(
+        "spills: {}",
+        if spilled.is_empty() {
+            "none".into()
+        } else {
+            spilled.len().to_string()
+        }
+    ));
+    spilled.iter().for_each(|l| print_line(l));
+    let mut said = std::collections::HashSet::new();
+    for r in &refused {
+        // One line per configuration, whatever the precision.
+        let line = format!(
+            "refused (wg {}, subgroup {}): {}",
+            r.workgroup_asked
+                .map(|[x, y, z]| format!("{x}x{y}x{z}"))
+                .unwrap_or_else(|| "default".into()),
+            r.subgroup_asked
+                .map(|s| s.to_string())
+                .unwrap_or_else(|| "driver".into()),
+            r.error.as_deref().unwrap_or("")
+        );
+        if said.insert(line.clone()) {
+            print_line(&line);
+        }
+    }
+    print_line("");
+    print_line(
+        "| subgroup asked | workgroup asked | precision | kernel | SIMD | instructions | cycles | spills:fills | sends | Xe-LP model ms |",
+    );
+    print_line("|---|---|---|---|---|---|---|---|---|---|");
+    for r in compiled {
+        let num = |name: &str| {
+            r.stat(name)
+                .map(|v| format!("{v:.0}"))
+                .unwrap_or_else(|| "-".into())
+        };
+        print_line(&format!(
+            "| {} | {} | {:?} | {} | {} | {} | {} | {}:{} | {} | {} |",
+            r.subgroup_asked
+                .map(|s| s.to_string())
+                .unwrap_or_else(|| "driver".into()),
+            r.workgroup_asked
+                .map(|[x, y, z]| format!("{x}x{y}x{z}"))
+                .unwrap_or_else(|| "default".into()),
+            r.precision,
+            variant(r),
+            r.simd()
+                .map(|s| s.to_string())
+                .unwrap_or_else(|| "-".into()),
+            num("Instruction Count"),
+            num("Cycle Count"),
+            num("Spill Count"),
+            num("Fill Count"),
+            num("SEND Count"),
+            r.xe_lp_model_ms
+                .map(|m| format!("{m:.3}"))
+                .unwrap_or_else(|| "-".into()),
+        ));
+    }
+}
+
+/// A short name for a kernel row (the shader and its variant's parameters).
+fn variant(r: &SweepRow) -> String {
+    r.kernel
+        .as_ref()
+        .map(|k| k.variant.clone())
+        .unwrap_or_default()
 }

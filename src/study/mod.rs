@@ -4,6 +4,7 @@
 //! reference, and knows nothing of Vulkan); each concern is its own file so the metrics and the
 //! frontier are unit-tested without a GPU.
 
+pub mod kernel_sweep;
 pub mod metrics;
 pub mod pareto;
 pub mod perturb;
