@@ -6,7 +6,10 @@
 #   - xvfb and xauth (the viewer's scripted test runs under a virtual X server), and the X11
 #     client libraries winit opens at run time (libX11-xcb, libXcursor, libXrandr, libXi,
 #     libxkbcommon-x11); runtime packages only, no -dev packages are needed to build;
-#   - python3-venv, then the tests' Python environment (tools/pyenv.sh: a cached venv).
+#   - python3-venv, then the tests' Python environment (tools/pyenv.sh: a cached venv);
+#   - the stub Tiger Lake (tools/gen12/setup.sh: Intel's ANV and Mesa's no-op DRM shim built
+#     from Debian's Mesa source, about 8 minutes on 2 cores the first time, cached under
+#     ~/.cache/morphray/gen12), for tests/gen12.rs and `morphray kernels` on Gen12.
 # Rust itself is expected to be installed (rustup); this script does not touch it.
 set -euo pipefail
 
@@ -32,4 +35,5 @@ install_missing() {
 }
 install_missing
 "$(dirname "$0")/pyenv.sh"
+"$(dirname "$0")/gen12/setup.sh"
 echo "setup: done"

@@ -63,6 +63,17 @@ pub fn run(args: &KernelsArgs, global: &super::GlobalOptions) -> Result<(), Erro
         let kernels: Vec<Value> = reports.iter().map(kernel_json).collect();
         print_line(&json(&serde_json::json!({
             "device": device,
+            // The device's own limits (clamped by --profile when one is given), for checking a
+            // profile against what a driver reports.
+            "limits": {
+                "max_image_dimension_3d": adapter.max_image_dimension_3d,
+                "subgroup_size": adapter.subgroup_size,
+                "subgroup_size_range": adapter.subgroup_size_range,
+                "max_workgroup_invocations": adapter.max_workgroup_invocations,
+                "timestamp_valid_bits": adapter.timestamp_valid_bits,
+                "unified_memory": adapter.unified_memory,
+                "float_atomics": adapter.float_atomics,
+            },
             "statistics_available": reports.iter().all(|r| r.executables.is_some()),
             "kernels": kernels,
         })));
@@ -130,7 +141,12 @@ fn print_text(device: &str, reports: &[KernelReport]) {
             r.variant, r.name
         ));
         for e in r.executables.iter().flatten() {
-            print_line(&format!("    {}: {}", e.name, stat_text(e)));
+            print_line(&format!(
+                "    {} (SIMD{}): {}",
+                e.name,
+                e.subgroup_size,
+                stat_text(e)
+            ));
         }
     }
 }

@@ -148,6 +148,8 @@ pub struct Engine {
     nearest: Arc<Sampler>,
     linear: Arc<Sampler>,
     placeholders: Placeholders,
+    /// The placeholder images are in the layout sampling needs.
+    placeholders_ready: bool,
     pipeline_cache: Arc<PipelineCache>,
     counters: EngineCounters,
     /// Pipelines being created on worker threads (`pipelines.rs`), and those threads.
@@ -207,24 +209,9 @@ impl Engine {
             normal: Image::new(&device, normal)?,
             occupancy: Buffer::with_data(&device, occupancy, &[0u8; 16])?,
         };
-        let mut rec = Recording::new(&device, "placeholder layouts")?;
-        // Moves the placeholders once into the layout sampling needs; they are never written.
-        rec.barriers(
-            &[],
-            &[
-                (
-                    &placeholders.gradient,
-                    Access::Nothing,
-                    Access::ComputeSampled,
-                ),
-                (
-                    &placeholders.normal,
-                    Access::Nothing,
-                    Access::ComputeSampled,
-                ),
-            ],
-        );
-        rec.submit()?.wait()?;
+        // Their layout transition waits for the first frame (`ensure_placeholder_layouts`): an
+        // engine that only compiles (`morphray kernels`, on a stub device that cannot execute)
+        // submits nothing, and no start-up waits for a submission.
         Ok(Engine {
             device,
             config,
@@ -235,6 +222,7 @@ impl Engine {
             nearest,
             linear,
             placeholders,
+            placeholders_ready: false,
             pipeline_cache,
             counters: EngineCounters::default(),
             pending: Vec::new(),
@@ -243,6 +231,34 @@ impl Engine {
             pipeline_times: PipelineTimes::default(),
             ahead_window: None,
         })
+    }
+
+    /// Moves the placeholder images once into the layout sampling needs (one small submission
+    /// before the first frame that may bind them); they are never written.
+    pub(crate) fn ensure_placeholder_layouts(&mut self) -> GpuResult<()> {
+        if self.placeholders_ready {
+            return Ok(());
+        }
+        let mut rec = Recording::new(&self.device, "placeholder layouts")?;
+        // Orders nothing before (fresh images): moves both to SHADER_READ_ONLY for sampling.
+        rec.barriers(
+            &[],
+            &[
+                (
+                    &self.placeholders.gradient,
+                    Access::Nothing,
+                    Access::ComputeSampled,
+                ),
+                (
+                    &self.placeholders.normal,
+                    Access::Nothing,
+                    Access::ComputeSampled,
+                ),
+            ],
+        );
+        rec.submit()?.wait()?;
+        self.placeholders_ready = true;
+        Ok(())
     }
 
     /// What the engine has compiled and run so far.

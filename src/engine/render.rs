@@ -282,6 +282,7 @@ impl Engine {
         scene: &Scene,
         read_back: bool,
     ) -> GpuResult<RecordedFrame> {
+        self.ensure_placeholder_layouts()?;
         self.counters.frames += 1;
         let effects = scene.effects;
         let needed = effects.derivative_outputs();

@@ -110,7 +110,9 @@ pub struct AdapterInfo {
     pub rejections: Vec<String>,
     /// The device profile clamping these properties (`gen12`, a file's name), if any.
     pub profile: Option<String>,
-    /// Whether shaders may use float atomics (a profile of a device without them says no).
+    /// Whether the device has float atomic add on buffers or in shared memory
+    /// (VK_EXT_shader_atomic_float; a profile of a device without them clears it). No shader
+    /// needs them today; a module declaring them is refused where this is false.
     pub float_atomics: bool,
 }
 
@@ -247,21 +249,34 @@ fn describe(
         .push_next(&mut driver)
         .push_next(&mut subgroup)
         .push_next(&mut size_control);
+    // SAFETY: enumeration on a device of this instance.
+    let extensions = unsafe { raw.enumerate_device_extension_properties(physical) }
+        .map_err(vk_err("vkEnumerateDeviceExtensionProperties"))?;
+    let has_atomic_float = extensions
+        .iter()
+        .any(|e| e.extension_name_as_c_str() == Ok(ash::ext::shader_atomic_float::NAME));
     let mut features13 = vk::PhysicalDeviceVulkan13Features::default();
+    let mut atomic_float = vk::PhysicalDeviceShaderAtomicFloatFeaturesEXT::default();
     let mut features2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut features13);
-    // SAFETY: query calls on a device enumerated from this instance, with valid out-structs.
-    let (queue_families, memory, extensions) = unsafe {
+    if has_atomic_float {
+        features2 = features2.push_next(&mut atomic_float);
+    }
+    // SAFETY: query calls on a device enumerated from this instance, with valid out-structs
+    // (the atomic-float struct chained only when the device has its extension).
+    let (queue_families, memory) = unsafe {
         raw.get_physical_device_properties2(physical, &mut properties2);
         raw.get_physical_device_features2(physical, &mut features2);
         (
             raw.get_physical_device_queue_family_properties(physical),
             raw.get_physical_device_memory_properties(physical),
-            raw.enumerate_device_extension_properties(physical)
-                .map_err(vk_err("vkEnumerateDeviceExtensionProperties"))?,
         )
     };
     let properties = properties2.properties;
     let features = features2.features;
+    // Float atomic add on buffers or in shared memory (what a float reduction would need).
+    let float_atomics = has_atomic_float
+        && (atomic_float.shader_buffer_float32_atomic_add == vk::TRUE
+            || atomic_float.shader_shared_float32_atomic_add == vk::TRUE);
     let name = properties
         .device_name_as_c_str()
         .map(|s| s.to_string_lossy().into_owned())
@@ -394,6 +409,6 @@ fn describe(
         unified_memory,
         rejections,
         profile: None,
-        float_atomics: true,
+        float_atomics,
     })
 }
