@@ -812,6 +812,7 @@ impl Viewer {
         screenshot: bool,
         frame_start: Instant,
     ) -> Result<(), FrameError> {
+        let _span = crate::files::trace::span("viewer frame (record, compose, present)", "render");
         let scene = self.rendered_scene();
         let continuous = self.always_raymarch();
         let Some(gpu) = &mut self.gpu else {
