@@ -46,7 +46,7 @@ use crate::engine::{Engine, EngineConfig, RenderTarget, TwinStep, twin_step};
 use crate::files::png::{PngError, Provenance, write_rgba8};
 use crate::files::write::{OutputKind, check_output};
 use crate::gpu::swapchain::{Surface, Swapchain};
-use crate::gpu::{Device, GpuError, PassTiming, Presentation, Recording};
+use crate::gpu::{Device, FRAMES_IN_FLIGHT, GpuError, PassTiming, Presentation, Recording};
 use crate::passes::derivatives::DerivativeOutputs;
 use crate::passes::present::{COMPOSITE_FORMAT, FrameSpec, Painter};
 use crate::scene::{Effects, Scene, SceneRecipe, WindowSet};
@@ -83,7 +83,9 @@ pub struct ViewerConfig {
 /// One device's GPU objects; dropped and rebuilt after a device loss.
 struct Gpu {
     painter: Painter,
-    targets: [Option<RenderTarget>; 2],
+    /// One raymarch target per frame in flight: a new frame renders into one while the
+    /// composition of the previous may still read the other.
+    targets: [Option<RenderTarget>; FRAMES_IN_FLIGHT],
     engine: Engine,
     swapchain: Option<Swapchain>,
     surface: Option<Arc<Surface>>,
@@ -128,7 +130,7 @@ impl Gpu {
         let painter = Painter::new(&device)?;
         Ok(Gpu {
             painter,
-            targets: [None, None],
+            targets: std::array::from_fn(|_| None),
             engine,
             swapchain,
             surface,
@@ -841,7 +843,10 @@ impl Viewer {
             });
             let blocked = self.render_blocked == Some((scene, view_rect));
             if (!unchanged || continuous) && !blocked {
-                let index = self.last.map(|l| (l.target + 1) % 2).unwrap_or(0);
+                let index = self
+                    .last
+                    .map(|l| (l.target + 1) % FRAMES_IN_FLIGHT)
+                    .unwrap_or(0);
                 gpu.painter.release_target(index)?;
                 let fits = gpu.targets[index]
                     .as_ref()
