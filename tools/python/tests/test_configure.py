@@ -1,0 +1,27 @@
+"""configure(): the memory budget and the device are arguments; changing them replaces the
+process's one engine, and volumes of the old engine say so instead of rendering wrongly."""
+
+import pytest
+
+import morphray
+
+
+def test_a_memory_budget_bricks_and_configure_replaces_the_engine():
+    before = morphray.phantom((24, 24, 24))
+    name = morphray.device_name()
+    assert isinstance(name, str) and name
+    try:
+        morphray.configure(memory_budget=1 << 20)
+        small = morphray.phantom((64, 64, 64))
+        assert small.layout == "bricked"
+        image = small.render(size=(32, 32), jitter=False)
+        assert (image[..., :3] > 0).any()
+        with pytest.raises(morphray.MemoryBudgetError, match="bricked"):
+            small.derive("gradient")
+        # The session's volume lives on the engine that was replaced.
+        with pytest.raises(morphray.Error, match="open it again"):
+            before.render(size=(8, 8))
+    finally:
+        morphray.configure()
+    with pytest.raises(ValueError, match="memory_budget"):
+        morphray.configure(memory_budget=0)
