@@ -151,6 +151,10 @@ pub enum Command {
     /// format, memory type), the total, predicted per-pass costs and the degradations the memory
     /// budget forced; then set the volume up and print what the engine actually holds.
     Plan(PlanArgs),
+    /// Process a BIDS dataset (BIDS-App conventions): `participant` writes each scan's Table-1
+    /// row, peaks and three thumbnails as BIDS Derivatives; `group` writes a TSV and an HTML
+    /// report from them.
+    Batch(super::batch::BatchArgs),
 }
 
 /// Options of `plan`.
