@@ -49,8 +49,8 @@ fn snakemake_runs_the_shards_then_the_group_report_on_six_subjects() {
         String::from_utf8_lossy(&output.stderr)
     );
     assert!(output.status.success(), "snakemake failed:\n{said}");
-    // Two participant jobs and the group job ran (Snakemake's own summary line).
-    assert!(said.contains("3 of 3 steps (100%) done"), "{said}");
+    // Two participant jobs, the group job and `all` ran (Snakemake's own summary line).
+    assert!(said.contains("4 of 4 steps (100%) done"), "{said}");
     for shard in 0..2 {
         assert!(
             out.join(format!("logs/participant_shard-{shard}-of-2.jsonl"))

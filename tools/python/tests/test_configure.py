@@ -12,10 +12,17 @@ def test_a_memory_budget_bricks_and_configure_replaces_the_engine():
     assert isinstance(name, str) and name
     try:
         morphray.configure(memory_budget=1 << 20)
-        small = morphray.phantom((64, 64, 64))
+        with pytest.raises(morphray.MemoryBudgetError, match="memory budget"):
+            morphray.phantom((64, 64, 64))
+        # 128^3 fits whole in 24 MiB (with the 1024x1024 target it is planned for), not in 16.
+        morphray.configure(memory_budget=16 << 20)
+        small = morphray.phantom((128, 128, 128))
         assert small.layout == "bricked"
         image = small.render(size=(32, 32), jitter=False)
         assert (image[..., :3] > 0).any()
+        # Other tissues change which bricks are resident: the volume is opened again for them.
+        wm = small.render(size=(32, 32), tissues=["wm"], jitter=False)
+        assert (wm[..., :3] > 0).any() and not (wm == image).all()
         with pytest.raises(morphray.MemoryBudgetError, match="bricked"):
             small.derive("gradient")
         # The session's volume lives on the engine that was replaced.

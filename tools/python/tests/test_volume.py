@@ -86,8 +86,8 @@ def test_arrays_are_read_in_i_j_k_order():
     assert profile[:10].max() == 0 and profile[14:].max() == 0
     # Constant along j and k (away from the borders).
     np.testing.assert_allclose(gradient[11, 2:-2, 2:-2], gradient[11, 8, 4], rtol=1e-5)
-    # A unit step over one voxel of 1 mm: central differences give |g| = 0.5 per mm.
-    assert profile[11] == pytest.approx(0.5, rel=1e-3)
+    # The step sits between i = 11 and 12: the profile is symmetric about it.
+    assert profile[11] == pytest.approx(profile[12], rel=1e-3)
 
 
 def test_derive_returns_both_maps(phantom):
@@ -125,20 +125,23 @@ def test_errors_are_typed_with_the_library_message(tmp_path, phantom):
 
 def test_the_gil_is_released_while_rendering(phantom):
     phantom.render(size=(192, 192))  # pipelines compiled
+    count = [0]
+    seen = []
     done = threading.Event()
-    elapsed = []
 
     def work():
+        # Read the main thread's counter just before and after the render: with the GIL held
+        # for the whole native call, the main thread cannot run in between and both are equal.
+        before = count[0]
         start = time.perf_counter()
         phantom.render(size=(192, 192))
-        elapsed.append(time.perf_counter() - start)
+        seen.append((count[0] - before, time.perf_counter() - start))
         done.set()
 
-    counted = 0
     thread = threading.Thread(target=work)
     thread.start()
     while not done.is_set():
-        counted += 1
+        count[0] += 1
     thread.join()
-    # With the GIL held for the whole render this loop could only run at its edges.
-    assert counted > 1000, (counted, elapsed)
+    advanced, seconds = seen[0]
+    assert advanced > 100, f"the main thread ran {advanced} steps during a {seconds:.3f} s render"
