@@ -156,6 +156,9 @@ pub fn run(args: &BatchArgs, global: &super::GlobalOptions) -> Result<(), Error>
     if let Some(b) = bar {
         b.finish_and_clear();
     }
+    for note in &report.notes {
+        eprintln!("morphray: note: {note}");
+    }
     print_line(&format!(
         "participant: {} scans: {} done, {} skipped (finished earlier), {} failed in {:.1} s; log {}",
         report.scans,

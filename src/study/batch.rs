@@ -115,6 +115,8 @@ pub struct ParticipantReport {
     pub wall_s: f64,
     /// The shard's JSON-lines log.
     pub log: PathBuf,
+    /// Things the user may want to know that did not fail a scan (a pipeline cache not saved).
+    pub notes: Vec<String>,
 }
 
 fn ms(since: Instant) -> f64 {
@@ -136,6 +138,16 @@ impl Worker {
     }
 }
 
+/// The scene of the thumbnails (the command line's default DVR), or for peaks only a MIP scene:
+/// it needs no derived volumes, so no derivative pass runs on a scan that is never rendered.
+fn recipe(thumbnails: bool) -> SceneRecipe {
+    let mut recipe = SceneRecipe::default();
+    if !thumbnails {
+        recipe.effects.mode = crate::scene::RenderMode::Mip;
+    }
+    recipe
+}
+
 /// Processes one scan; returns its summary JSON and times, or its one-line error.
 fn process(
     worker: &mut Worker,
@@ -148,7 +160,7 @@ fn process(
     let open = OpenOptions {
         read: ReadOptions::default(),
         image: [size, size],
-        recipe: SceneRecipe::default(),
+        recipe: recipe(options.thumbnails),
         first_frame: options.thumbnails,
     };
     let source = VolumeSource::File(scan.path.clone());
@@ -328,6 +340,15 @@ pub fn run_participant(
         match &result {
             Ok(_) => report.done += 1,
             Err(_) => report.failed += 1,
+        }
+        if report.done == 1 && result.is_ok() {
+            // The pipelines are all compiled now: the next process (shard, rerun) starts warm.
+            // Failing to save the cache costs the next start time only, so it is a note.
+            if let Some(Err(e)) = worker.as_ref().map(|w| w.engine.persist_pipeline_cache()) {
+                report
+                    .notes
+                    .push(format!("{e}; the next start compiles its pipelines again"));
+            }
         }
         progress(Progress::Scan {
             scan,
