@@ -130,6 +130,15 @@ fn participant_and_group_levels_write_derivatives_skip_the_broken_scan_and_resum
         .modified()
         .unwrap();
     assert_eq!(written, after);
+    // A peaks-only run leaves thumbnails to a later run, which does not skip those scans.
+    std::fs::remove_file(anat.join("sub-01_desc-lateral_T1w.png")).unwrap();
+    let third = morphray(&args, &[]);
+    assert!(
+        text(&third).contains("3 scans: 1 done, 1 skipped"),
+        "{}",
+        text(&third)
+    );
+    assert!(anat.join("sub-01_desc-lateral_T1w.png").is_file());
 
     let group = morphray(&["batch", s(&bids), s(&out), "group"], &[]);
     assert!(group.status.success(), "{}", text(&group));

@@ -308,7 +308,7 @@ pub fn run_participant(
     let todo: Vec<(&Scan, ScanOutputs)> = scans
         .iter()
         .map(|s| (s, ScanOutputs::of(&options.out, s)))
-        .filter(|(_, o)| !o.finished())
+        .filter(|(_, o)| !o.finished(options.thumbnails))
         .collect();
     let mut report = ParticipantReport {
         scans: scans.len(),

@@ -59,9 +59,10 @@ impl ScanOutputs {
         }
     }
 
-    /// Whether the scan was finished by an earlier run.
-    pub fn finished(&self) -> bool {
-        self.summary.is_file()
+    /// Whether the scan was finished by an earlier run (with its thumbnails when `thumbnails`:
+    /// a peaks-only run does not stop a later run from adding them).
+    pub fn finished(&self, thumbnails: bool) -> bool {
+        self.summary.is_file() && (!thumbnails || self.thumbnails.iter().all(|t| t.is_file()))
     }
 }
 
