@@ -32,3 +32,15 @@ def test_a_memory_budget_bricks_and_configure_replaces_the_engine():
         morphray.configure()
     with pytest.raises(ValueError, match="memory_budget"):
         morphray.configure(memory_budget=0)
+
+
+def test_the_device_is_an_argument_and_a_wrong_one_is_a_device_error():
+    try:
+        morphray.configure(device="no such gpu")
+        with pytest.raises(morphray.DeviceError, match="no such gpu"):
+            morphray.phantom((24, 24, 24))
+        # By index, as `morphray devices` numbers them.
+        morphray.configure(device="0")
+        assert morphray.phantom((24, 24, 24)).shape == (24, 24, 24)
+    finally:
+        morphray.configure()
