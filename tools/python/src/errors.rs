@@ -7,7 +7,7 @@
 //! expects. The message is the library's one-line message, which names the file and says what
 //! to do.
 
-use morphray::engine::{OpenError, SessionError};
+use morphray::engine::OpenError;
 use morphray::gpu::GpuError;
 use pyo3::exceptions::{PyException, PyValueError};
 use pyo3::prelude::*;
@@ -52,16 +52,6 @@ pub fn open(e: OpenError) -> PyErr {
     match e {
         OpenError::Gpu(e) => gpu(e),
         e @ OpenError::DoesNotFit(_) => MemoryBudgetError::new_err(e.to_string()),
-    }
-}
-
-/// An error of the library's open path.
-pub fn session(e: SessionError) -> PyErr {
-    match e {
-        SessionError::Recipe(e) => PyValueError::new_err(e.to_string()),
-        SessionError::Input(e) => InputError::new_err(e.to_string()),
-        SessionError::Gpu(e) => gpu(e),
-        SessionError::Open(e) => open(e),
     }
 }
 

@@ -6,6 +6,8 @@
 //! - A bricked volume (over the memory budget) keeps its host copy: which bricks are resident
 //!   depends on the scene's windows and mode, so a render with other tissues, windows or mode
 //!   opens it again with that recipe rather than showing missing bricks.
+//! - A file is read and inflated before the engine is locked, so threads opening several files
+//!   overlap their reads with each other's GPU work.
 //! - Arrays come in as (i, j, k)-indexed numpy arrays (nibabel's order) and are copied once into
 //!   the engine's x-fastest order; maps go out in the same (i, j, k) order.
 
@@ -20,7 +22,7 @@ use morphray::scene::plan::{Layout, Plan};
 use morphray::scene::{DerivedPrecision, SceneRecipe};
 use morphray::study::batch_summary::ScanSummary;
 use morphray::volume::phantom::PhantomSpec;
-use morphray::volume::source::{ReadOptions, VolumeSource};
+use morphray::volume::source::{self, ReadOptions, VolumeSource};
 use morphray::volume::{LinearMap, Samples, Volume as HostVolume};
 use numpy::ndarray::{Array3, ShapeBuilder};
 use numpy::{IntoPyArray, PyArray3, PyReadonlyArray2, PyReadonlyArray3, PyUntypedArrayMethods};
@@ -87,29 +89,10 @@ fn open_host(state: &mut State, volume: HostVolume, label: String) -> PyResult<V
 
 fn open_source(py: Python<'_>, source: VolumeSource, frame: usize) -> PyResult<Volume> {
     py.detach(|| {
-        let mut state = state::lock();
-        let recipe = recipe(&SceneSettings::default())?;
-        let read = {
-            let (engine, _) = state.engine()?;
-            engine.open_source(&source, &open_options(&recipe, frame))
-        };
-        // Read once more through `open_host` would cost a second preparation: reuse the open.
-        let (read, opened) = read.map_err(errors::session)?;
-        let generation = state.generation;
-        let bricked = matches!(opened.plan.layout, Layout::Bricked { .. });
-        Ok(Volume {
-            label: read.label.clone(),
-            dims: opened.twin.prepared.dims,
-            warnings: read.volume.warnings.clone(),
-            inner: Mutex::new(Inner {
-                twin: opened.twin,
-                report: opened.report,
-                plan: opened.plan,
-                recipe,
-                host: bricked.then_some(read.volume),
-                generation,
-            }),
-        })
+        // Read and inflate before taking the engine: other threads' GPU work goes on meanwhile.
+        let read = source::read(&source, &ReadOptions { frame, hash: false })
+            .map_err(|e| errors::InputError::new_err(e.to_string()))?;
+        open_host(&mut state::lock(), read.volume, read.label)
     })
 }
 
