@@ -150,3 +150,19 @@ def test_the_gil_is_released_while_rendering(phantom):
     ran = {int((t - start) * 1000) for t in ticks if start <= t <= end}
     assert millis >= 40, f"the render took {millis} ms: too short to tell"
     assert len(ran) > 0.1 * millis + 10, f"the main thread ran in {len(ran)} of {millis} ms"
+
+
+def test_derived_maps_are_per_mm_of_i_norm():
+    # A step of 100 between i = 11 and 12; central differences give 50 per voxel, in I_norm
+    # units 50 / (range_hi - range_lo), per mm divided by the spacing (curvature by its square).
+    data = np.zeros((24, 16, 8), dtype=np.float32)
+    data[12:] = 100.0
+    maps = {}
+    for spacing in (1.0, 2.0):
+        vol = morphray.open((data, np.diag([spacing, spacing, spacing, 1.0])))
+        row = vol.peaks()["table1"]
+        expected = 50.0 / (row["range_hi"] - row["range_lo"]) / spacing
+        maps[spacing] = vol.derive()
+        assert maps[spacing]["gradient"][11, 8, 4] == pytest.approx(expected, rel=1e-3)
+    k1, k2 = maps[1.0]["curvature"][11, 8, 4], maps[2.0]["curvature"][11, 8, 4]
+    assert k1 != 0 and k2 == pytest.approx(k1 / 4, rel=1e-3)
