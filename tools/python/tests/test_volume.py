@@ -166,3 +166,17 @@ def test_derived_maps_are_per_mm_of_i_norm():
         assert maps[spacing]["gradient"][11, 8, 4] == pytest.approx(expected, rel=1e-3)
     k1, k2 = maps[1.0]["curvature"][11, 8, 4], maps[2.0]["curvature"][11, 8, 4]
     assert k1 != 0 and k2 == pytest.approx(k1 / 4, rel=1e-3)
+
+
+def test_a_frame_of_a_4d_image_or_file(tmp_path):
+    data, affine = head_array((32, 32, 32))
+    series = np.stack([data, (data // 2).astype(np.int16)], axis=3)
+    image = nib.Nifti1Image(series, affine)
+    path = tmp_path / "series.nii"
+    nib.save(image, path)
+    second = morphray.open((series[..., 1], affine)).peaks()["table1"]
+    assert morphray.open(image, frame=1).peaks()["table1"] == second
+    assert morphray.open(path, frame=1).peaks()["table1"]["imax"] == second["imax"]
+    assert second["imax"] == float(data.max() // 2)
+    with pytest.raises(morphray.InputError, match="frame"):
+        morphray.open(image, frame=2)
