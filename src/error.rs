@@ -42,7 +42,7 @@ pub enum Error {
     Open(#[from] crate::engine::OpenError),
     /// No plan of the scene fits the memory budget, even fully degraded.
     #[error(transparent)]
-    DoesNotFit(#[from] crate::scene::plan::DoesNotFit),
+    DoesNotFit(#[from] crate::engine::plan::DoesNotFit),
     /// Arguments that parse but do not make sense together.
     #[error("{0}")]
     Usage(String),

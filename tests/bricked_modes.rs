@@ -6,9 +6,9 @@
 mod common;
 
 use ash::vk;
+use morphray::engine::plan::Layout;
 use morphray::engine::{Engine, EngineConfig, OpenedVolume};
 use morphray::gpu::{DeviceConfig, Validation};
-use morphray::scene::plan::Layout;
 use morphray::scene::{RenderMode, SceneRecipe, TissueClass};
 use morphray::volume::Samples;
 use morphray::volume::phantom::{PhantomSpec, generate};

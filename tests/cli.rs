@@ -894,3 +894,57 @@ fn windows_opacities_and_colours_are_set_by_hand_and_recorded() {
         assert!(stderr(&o).contains(bad[0]), "{bad:?}: {}", stderr(&o));
     }
 }
+
+#[test]
+fn trace_records_host_phases_and_gpu_passes_as_chrome_trace_json() {
+    let phantom = generate(&PhantomSpec::cube(32)).unwrap();
+    let input = temp("traced.nii.gz");
+    write_nifti1(&phantom.volume, &input, true).unwrap();
+    let (out, trace) = (temp("traced.png"), temp("trace.json"));
+    let o = morphray(&[
+        "--trace",
+        trace.to_str().unwrap(),
+        "render",
+        input.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--size",
+        "24x20",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let doc: serde_json::Value = serde_json::from_slice(&std::fs::read(&trace).unwrap()).unwrap();
+    let events = doc["traceEvents"].as_array().unwrap();
+    let complete: Vec<_> = events.iter().filter(|e| e["ph"] == "X").collect();
+    let named = |name: &str| complete.iter().any(|e| e["name"] == name);
+    for host in [
+        "read",
+        "inflate",
+        "vulkan instance",
+        "encode and write PNG",
+        "frame",
+    ] {
+        assert!(named(host), "no host phase {host} in {doc}");
+    }
+    for gpu in ["minmax", "normalize", "histogram", "raymarch"] {
+        let pass = complete
+            .iter()
+            .find(|e| e["name"] == gpu && e["cat"] == "gpu")
+            .unwrap_or_else(|| panic!("no GPU pass {gpu} in {doc}"));
+        assert!(pass["dur"].as_f64().unwrap() > 0.0);
+    }
+    // Every GPU pass on the GPU track, named as such, and every event has a start and length.
+    let gpu_tid = complete.iter().find(|e| e["cat"] == "gpu").unwrap()["tid"].clone();
+    assert!(
+        events
+            .iter()
+            .any(|e| e["ph"] == "M" && e["tid"] == gpu_tid && e["args"]["name"] == "GPU queue")
+    );
+    assert!(
+        complete
+            .iter()
+            .all(|e| e["ts"].as_f64().is_some() && e["dur"].as_f64().is_some())
+    );
+    // A trace that cannot be written fails before any work.
+    let o = morphray(&["--trace", "/nonexistent-dir/t.json", "peaks"]);
+    assert_one_line_failure(&o, "t.json");
+}

@@ -273,8 +273,8 @@ fn the_headless_example_renders_within_its_budget() {
 /// what renders; a file no reader can read is a format-independent input error naming it.
 #[test]
 fn a_file_opens_through_the_librarys_session_bricked_when_asked() {
+    use morphray::engine::plan::Layout;
     use morphray::engine::{OpenOptions, Session, SessionError};
-    use morphray::scene::plan::Layout;
     use morphray::volume::source::VolumeSource;
     let dir = std::env::temp_dir().join(format!("morphray-session-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();

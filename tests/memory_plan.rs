@@ -6,9 +6,9 @@
 mod common;
 
 use ash::vk;
+use morphray::engine::plan::Layout;
 use morphray::engine::{Engine, EngineConfig, OpenError, OpenedVolume};
 use morphray::gpu::{DeviceConfig, ImageDesc, Validation};
-use morphray::scene::plan::Layout;
 use morphray::scene::{GradientSource, RenderMode, Scene, SceneRecipe, TissueClass};
 use morphray::volume::phantom::{PhantomSpec, generate};
 use morphray::volume::{Samples, Volume};
@@ -270,12 +270,9 @@ fn a_volume_four_times_over_the_budget_renders_bricked_like_the_whole_volume() {
 
     // The same plan (effects and I_norm format) unbricked, on an engine without a budget.
     let mut large = common::engine();
-    let format = if bricked.plan.normalized_format == "R8_UNORM" {
-        vk::Format::R8_UNORM
-    } else {
-        vk::Format::R16_UNORM
-    };
-    large.set_normalized_format(format).unwrap();
+    large
+        .set_normalized_format(bricked.plan.normalized_format)
+        .unwrap();
     let mut twin = morphray::engine::Twin::new(large.prepare(&volume).unwrap());
     let mut target = large
         .render_target(IMAGE[0] * 2, IMAGE[1] * 2, vk::Format::R8G8B8A8_UNORM)

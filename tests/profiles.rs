@@ -6,11 +6,11 @@
 mod common;
 
 use ash::vk;
+use morphray::engine::plan::Layout;
 use morphray::engine::upload::UploadPath;
 use morphray::engine::{Engine, EngineConfig, OpenedVolume};
 use morphray::gpu::{DeviceConfig, DeviceProfile, KernelTuning, Validation};
 use morphray::scene::SceneRecipe;
-use morphray::scene::plan::Layout;
 use morphray::volume::Volume;
 use morphray::volume::phantom::{PhantomSpec, generate};
 

@@ -87,6 +87,32 @@ fn every_pipeline_is_created_without_validation_errors() {
 }
 
 #[test]
+fn objects_are_named_and_passes_labelled_for_capture_tools_without_validation_errors() {
+    // The validation layer brings VK_EXT_debug_utils, so names and labels are on here; the layer
+    // checks every name and every begin/end label pair of a whole render.
+    let mut engine = common::engine();
+    assert!(engine.device().debug_names_enabled());
+    let before = engine.device().debug_names_set();
+    let volume =
+        morphray::volume::phantom::generate(&morphray::volume::phantom::PhantomSpec::cube(24))
+            .unwrap()
+            .volume;
+    let mut opened = engine
+        .open_volume(&volume, [16, 12], &morphray::scene::SceneRecipe::default())
+        .unwrap();
+    let mut target = engine
+        .render_target(16, 12, ash::vk::Format::R8G8B8A8_UNORM)
+        .unwrap();
+    engine
+        .render_twin(&mut target, &mut opened.twin, &opened.scene)
+        .unwrap();
+    // Buffers, images and their views, pipelines and layouts, descriptor sets: dozens.
+    let named = engine.device().debug_names_set() - before;
+    assert!(named >= 20, "only {named} objects were named");
+    common::assert_no_validation_errors(&engine);
+}
+
+#[test]
 fn every_pipeline_is_created_under_the_gen12_profile_with_its_workgroup_and_subgroup() {
     // Gen12: no float atomics (a module declaring them is refused at creation), 8x8 workgroups
     // for the tunable kernels, and the smallest subgroup size both this device and Xe-LP have.

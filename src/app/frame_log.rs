@@ -142,10 +142,17 @@ impl FrameLog {
         self.records.insert(serial, record);
     }
 
-    /// Completes a frame with its composition times; prints completed frames in order (a
-    /// frame waited for early, to stamp a latency, waits for the ones before it).
-    pub fn completed(&mut self, serial: u64, compose: Vec<PassTiming>) {
+    /// Completes a frame with the times of its one submission: the raymarch (when the frame
+    /// rendered one) goes with the compute passes, the rest is composition. Prints completed
+    /// frames in order (a frame waited for early, to stamp a latency, waits for the ones before
+    /// it).
+    pub fn completed(&mut self, serial: u64, passes: Vec<PassTiming>) {
         if let Some(record) = self.records.get_mut(&serial) {
+            let (raymarch, compose): (Vec<_>, Vec<_>) =
+                passes.into_iter().partition(|p| p.name == "raymarch");
+            if !raymarch.is_empty() {
+                record.compute.push(("raymarch".into(), raymarch));
+            }
             record.compose = compose;
             record.complete = true;
         }
@@ -330,6 +337,38 @@ mod tests {
             log.frames()[0]
                 .line()
                 .contains("[load phantom: minmax 1.00 ms]")
+        );
+    }
+
+    #[test]
+    fn one_submission_times_split_into_the_raymarch_and_the_composition() {
+        let mut log = FrameLog::new(false);
+        let mut record = FrameRecord {
+            number: 1,
+            ..FrameRecord::default()
+        };
+        record.compute.push((
+            "derived volume (curvature)".into(),
+            vec![pass("derivatives", 9.0)],
+        ));
+        log.submitted(7, record);
+        log.completed(
+            7,
+            vec![
+                pass("raymarch", 2.0),
+                pass("compose", 0.1),
+                pass("interface", 0.5),
+                pass("to window", 0.2),
+            ],
+        );
+        let frame = &log.frames()[0];
+        assert_eq!(frame.compute_names(), ["derivatives", "raymarch"]);
+        let compose: Vec<&str> = frame.compose.iter().map(|p| p.name.as_str()).collect();
+        assert_eq!(compose, ["compose", "interface", "to window"]);
+        assert!(
+            frame.line().contains("raymarch 2.00 ms"),
+            "{}",
+            frame.line()
         );
     }
 

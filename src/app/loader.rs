@@ -19,11 +19,11 @@
 //!   first frame already runs the raymarch alone.
 
 use crate::analysis::TissueReport;
+use crate::engine::plan::Plan;
 use crate::engine::{Derived, Engine, EngineConfig, OpenOptions, PreparedVolume, Twin};
 use crate::gpu::{Device, GpuError, PassTiming};
 use crate::passes::derivatives::DerivativeOutputs;
 use crate::scene::Scene;
-use crate::scene::plan::Plan;
 use crate::volume::source::{self, VolumeSource};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};

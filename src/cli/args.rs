@@ -80,6 +80,12 @@ pub struct Cli {
     #[arg(long, global = true, value_enum, default_value_t = ContrastArg::Auto)]
     pub contrast: ContrastArg,
 
+    /// Write a trace of the run (Chrome trace JSON; opens in ui.perfetto.dev and
+    /// chrome://tracing): host phases (read, inflate, instance, device, pipelines, prepare,
+    /// frames) on their threads and every GPU pass, from timestamps, on a "GPU queue" track.
+    #[arg(long, global = true, value_name = "OUT.json")]
+    pub trace: Option<std::path::PathBuf>,
+
     /// What to do.
     #[command(subcommand)]
     pub command: Command,
@@ -155,6 +161,38 @@ pub enum Command {
     /// row, peaks and three thumbnails as BIDS Derivatives; `group` writes a TSV and an HTML
     /// report from them.
     Batch(super::batch::BatchArgs),
+    /// Compile the kernels a scene's plan uses (or every variant, --all) on the chosen device
+    /// without running anything, and print the driver compiler's statistics per kernel (SIMD
+    /// width, instructions, cycles, spills, sends, registers, ... where the driver reports them
+    /// through VK_KHR_pipeline_executable_properties; Intel's ANV does, also on the stub Tiger
+    /// Lake of tools/gen12).
+    Kernels(KernelsArgs),
+}
+
+/// Options of `kernels`.
+#[derive(Debug, Args)]
+pub struct KernelsArgs {
+    /// NIfTI-1/2 file whose plan to compile; without one, the built-in digital phantom.
+    pub file: Option<PathBuf>,
+    /// Every variant the engine can build, not only the plan's.
+    #[arg(long)]
+    pub all: bool,
+    /// Compile the plan's kernels for every workgroup shape of the tunable passes (default,
+    /// 8x8, 16x16, 4x4x4, 8x8x4), required subgroup size (driver's, 8, 16, 32) and derived
+    /// precision (8-bit, f16, f32), and report the compiler's choices (SIMD width, spills,
+    /// instructions, cycles) beside the Xe-LP model's time bound of each pass.
+    #[arg(long, conflicts_with = "all")]
+    pub sweep: bool,
+    /// Print JSON: {"device", "kernels": [{"name", "variant", "workgroup", "subgroup",
+    /// "statistics": {...}}]}.
+    #[arg(long)]
+    pub json: bool,
+    /// Frame of a 4-D file (0-based).
+    #[arg(long, default_value_t = 0)]
+    pub frame: usize,
+    /// Scene whose plan to compile (the render options; --size defaults to 1024x1024).
+    #[command(flatten)]
+    pub scene: SceneArgs,
 }
 
 /// Options of `plan`.

@@ -15,11 +15,11 @@
 use super::args::BenchArgs;
 use super::output::{json, print_line, print_warnings};
 use super::session::{self, OpenTimings};
+use crate::engine::plan::{Layout, Plan};
 use crate::error::Error;
 use crate::files::write::{OutputKind, check_output, write_file};
 use crate::passes::cost::{self, DeviceModel, H100, PassCost, XE_LP};
 use crate::passes::derivatives::DerivativeOutputs;
-use crate::scene::plan::{Layout, Plan};
 use crate::scene::{GradientSource, RenderMode};
 use ash::vk;
 use std::time::Instant;
@@ -289,11 +289,7 @@ pub fn run(args: &BenchArgs, global: &super::GlobalOptions) -> Result<(), Error>
     // outputs for a moment; under a budget or bricking only what the plan runs is measured.
     let bricked = matches!(opened.plan.layout, Layout::Bricked { .. });
     let full_study = global.memory_budget.is_none() && !bricked;
-    let normalized_bytes = if opened.plan.normalized_format == "R8_UNORM" {
-        1.0
-    } else {
-        2.0
-    };
+    let normalized_bytes = crate::engine::plan::texel_bytes(opened.plan.normalized_format) as f64;
     let mut passes = Vec::new();
     if !bricked {
         let (mut minmax, mut normalize, mut histogram) = (Vec::new(), Vec::new(), Vec::new());
@@ -553,7 +549,7 @@ fn print_text(r: &BenchReport<'_>) {
         print_line(&format!("kernel tuning: {:?}", r.tuning));
     }
     print_line(&format!(
-        "plan: {} layout, I_norm {}; planned {:.1} MiB held, {:.1} MiB at the preparation peak; ledger while rendering {:.1} MiB",
+        "plan: {} layout, I_norm {:?}; planned {:.1} MiB held, {:.1} MiB at the preparation peak; ledger while rendering {:.1} MiB",
         match r.plan.layout {
             Layout::Whole => "whole",
             Layout::Bricked { .. } => "bricked",

@@ -10,6 +10,7 @@ mod batch;
 mod bench;
 mod devices;
 mod info;
+mod kernels;
 pub mod output;
 mod peaks;
 mod plan;
@@ -149,12 +150,25 @@ pub fn run(cli: &Cli) -> Result<(), CommandError> {
         contrast: cli.contrast.into(),
     };
     let global = &global;
+    if let Some(path) = &cli.trace {
+        // Before the work: a trace that cannot be written fails now, not after it.
+        use crate::files::write::{OutputKind, check_output};
+        check_output(path, OutputKind::Json, &[], false).map_err(Error::from)?;
+        crate::files::trace::enable(ttfp::process_start_instant());
+    }
     let result = match &cli.command {
         #[cfg(feature = "viewer")]
-        Command::View(args) => return view::run(args, global),
-        other => run_engine_command(other, global),
+        Command::View(args) => view::run(args, global),
+        other => run_engine_command(other, global).map_err(CommandError::from),
     };
-    Ok(result?)
+    if let Some(path) = &cli.trace {
+        // Written whatever the outcome: a trace of a failing run is as useful.
+        let document = output::json(&crate::files::trace::document());
+        if let Err(e) = crate::files::write::write_file(path, document.as_bytes()) {
+            output::print_warnings(&[format!("the trace was not written: {e}")]);
+        }
+    }
+    result
 }
 
 /// Every command but `view`: they fail only with the library's errors.
@@ -170,6 +184,7 @@ fn run_engine_command(command: &Command, global: &GlobalOptions) -> Result<(), E
         Command::Devices => devices::run(),
         Command::Plan(args) => plan::run(args, global),
         Command::Batch(args) => batch::run(args, global),
+        Command::Kernels(args) => kernels::run(args, global),
         Command::Phantom(args) => {
             // Before generating: an existing scan is never replaced without --force.
             use crate::files::write::{OutputKind, check_output};

@@ -10,10 +10,10 @@
 use super::args::PlanArgs;
 use super::output::{json, print_line, print_warnings};
 use super::session;
+use crate::engine::plan::{Layout, Plan};
 use crate::error::Error;
 use crate::gpu::{AllocationRecord, DeviceProfile, KernelTuning};
 use crate::passes::cost::{DeviceModel, XE_LP};
-use crate::scene::plan::{Layout, Plan};
 use ash::vk;
 
 /// One pass with its predicted time bound on the Xe-LP model.
@@ -145,7 +145,7 @@ fn print_text(r: &PlanReport<'_>) {
         ),
     };
     print_line(&format!(
-        "effects: {:?}, curvature {}, shading {}, gradient {:?}; I_norm {}; {layout}",
+        "effects: {:?}, curvature {}, shading {}, gradient {:?}; I_norm {:?}; {layout}",
         p.effects.mode,
         on_off(p.effects.curvature),
         on_off(p.effects.shading),
@@ -178,7 +178,7 @@ fn print_text(r: &PlanReport<'_>) {
             "{:<34} {:>12}  {:<16} {:<24} {}",
             a.name,
             a.bytes,
-            a.format,
+            a.format_label(),
             a.memory_type,
             if a.transient {
                 "while preparing"

@@ -223,7 +223,7 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
             "scene": scene,
             "device": opened.engine.device().adapter().name,
             "layout": opened.plan.layout,
-            "normalized_format": opened.plan.normalized_format,
+            "normalized_format": format!("{:?}", opened.plan.normalized_format),
             "normalization": opened.report.table1(),
             "contrast": opened.report.contrast,
             "degradations": opened.plan.degradations,

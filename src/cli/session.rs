@@ -11,11 +11,11 @@
 
 use super::args::SceneArgs;
 use super::render::recipe_from_args;
+use crate::engine::plan::Plan;
 use crate::engine::{EngineConfig, OpenOptions, Session};
 use crate::error::Error;
 use crate::gpu::{DeviceConfig, DeviceSelector, Validation};
 use crate::scene::SceneRecipe;
-use crate::scene::plan::Plan;
 use crate::volume::source::{ReadOptions, VolumeSource};
 use std::path::Path;
 

@@ -33,9 +33,9 @@ use super::args::BenchArgs;
 use super::bench::Spread;
 use super::output::print_line;
 use super::session;
+use crate::engine::plan::Layout;
 use crate::error::Error;
 use crate::passes::raymarch::RaymarchVariant;
-use crate::scene::plan::Layout;
 use ash::vk;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -103,6 +103,11 @@ fn unix_ns() -> u128 {
 /// Records the process's start (call first thing in `main`; later calls keep the first time).
 pub fn mark_process_start() {
     PROCESS_START.get_or_init(|| (Instant::now(), unix_ns()));
+}
+
+/// The process's start as an `Instant` (traces count from it).
+pub fn process_start_instant() -> Instant {
+    process_start().0
 }
 
 fn process_start() -> (Instant, u128) {

@@ -20,6 +20,7 @@
 use super::Engine;
 use super::prepare::{BrickAtlas, PrepareTimings, PreparedVolume, VolumeLayout};
 use super::upload::UploadPath;
+use crate::engine::plan::{STORAGE_BRICK, STORAGE_HALO, atlas_slots};
 use crate::gpu::{Access, Buffer, BufferDesc, GpuError, GpuResult, Image, ImageDesc, Recording};
 use crate::passes::histogram::BINS;
 use crate::passes::normalize::{self, Normalization};
@@ -27,7 +28,6 @@ use crate::passes::occupancy::BRICK_SIDE;
 use crate::reference;
 use crate::scene::Scene;
 use crate::scene::occupancy::BrickRanges;
-use crate::scene::plan::{STORAGE_BRICK, STORAGE_HALO, atlas_slots};
 use crate::volume::{SampleKind, Volume};
 use ash::vk;
 use std::sync::Arc;
@@ -122,9 +122,31 @@ fn texel_bytes(format: vk::Format) -> usize {
     if format == vk::Format::R8_UNORM { 1 } else { 2 }
 }
 
+/// The brick atlas of `extent` texels (resident slots with their halos), as
+/// [`Engine::upload_bricks`] creates it and as the pass plan declares it.
+pub fn atlas_desc(extent: [u32; 3], format: vk::Format) -> ImageDesc {
+    ImageDesc::volume("normalized volume (brick atlas)", extent, format)
+}
+
+/// The brick table of `bricks` bricks (the slot of each, 0 when not resident).
+pub fn brick_table_desc(bricks: u64) -> BufferDesc {
+    BufferDesc::host_storage("brick table", 4 * bricks.max(1))
+}
+
+/// Each of `slots` atlas slots' box inside the volume (two packed words).
+pub fn slot_bounds_desc(slots: u64) -> BufferDesc {
+    BufferDesc::host_storage("atlas slot bounds", 8 * slots)
+}
+
+/// The staging buffer bricks go up through, `bytes` of slots per batch.
+pub fn brick_staging_desc(bytes: u64) -> BufferDesc {
+    BufferDesc::staging("brick upload (staging)", bytes)
+}
+
 impl Engine {
     /// Normalizes `volume` on the host into `format` (R8_UNORM or R16_UNORM) with its histogram.
     pub fn prepare_on_host(&self, volume: &Volume, format: vk::Format) -> GpuResult<HostPrepared> {
+        let _span = crate::files::trace::span("prepare on the host (bricked)", "prepare");
         let start = Instant::now();
         if format != vk::Format::R8_UNORM && format != vk::Format::R16_UNORM {
             return Err(GpuError::InvalidRequest(format!(
@@ -226,17 +248,14 @@ impl Engine {
         };
         let [sx, sy, sz] = [sx as usize, sy as usize, sz as usize];
         let atlas_dims = [(sx * slot) as u32, (sy * slot) as u32, (sz * slot) as u32];
-        let atlas = Image::new(
-            &self.device,
-            ImageDesc::volume("normalized volume (brick atlas)", atlas_dims, host.format),
-        )?;
+        let atlas = Image::new(&self.device, atlas_desc(atlas_dims, host.format))?;
         let mut table = vec![0u32; storage.ranges.len()];
         for (s, &b) in resident.iter().enumerate() {
             table[b] = s as u32 + 1;
         }
         let table_buffer = Buffer::with_data(
             &self.device,
-            BufferDesc::host_storage("brick table", (4 * table.len().max(1)) as u64),
+            brick_table_desc(table.len() as u64),
             bytemuck::cast_slice(if table.is_empty() {
                 &[0u32][..]
             } else {
@@ -249,10 +268,7 @@ impl Engine {
         let slot_texels = slot * slot * slot;
         let staging = Buffer::new(
             &self.device,
-            BufferDesc::staging(
-                "brick upload (staging)",
-                (slots_per_batch.min(count) * slot_texels * bytes) as u64,
-            ),
+            brick_staging_desc((slots_per_batch.min(count) * slot_texels * bytes) as u64),
         )?;
         let grid = storage.grid;
         let mut first = true;
@@ -371,7 +387,7 @@ impl Engine {
         }
         let slot_bounds = Buffer::with_data(
             &self.device,
-            BufferDesc::host_storage("atlas slot bounds", (8 * bounds.len()) as u64),
+            slot_bounds_desc(bounds.len() as u64),
             bytemuck::cast_slice(&bounds),
         )?;
         let layout = VolumeLayout::Bricked(BrickAtlas {

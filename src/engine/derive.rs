@@ -17,6 +17,15 @@ pub struct Derived {
     pub gpu_timings: Vec<PassTiming>,
 }
 
+/// The derivative pass's max |g| slots and their host copy (as [`Engine::derive`] creates them,
+/// and as the pass plan declares them).
+pub fn gradient_maximum_descs() -> [BufferDesc; 2] {
+    [
+        BufferDesc::gpu_storage("gradient maximum", STAT_BYTES),
+        BufferDesc::readback("gradient maximum (host)", STAT_BYTES),
+    ]
+}
+
 impl Engine {
     /// Computes the requested derived volumes of `prepared` (nothing else). 8-bit storage needs
     /// the maximum first (its scale), so it runs a max-only dispatch before the storing one.
@@ -25,6 +34,7 @@ impl Engine {
         prepared: &PreparedVolume,
         outputs: DerivativeOutputs,
     ) -> GpuResult<Derived> {
+        let _span = crate::files::trace::span("derived volumes", "prepare");
         let stores = outputs.magnitude || outputs.curvature;
         let voxel_mm = finest_spacing(prepared.linear_part);
         if outputs.precision != DerivedPrecision::Snorm8 || !stores {
@@ -61,14 +71,9 @@ impl Engine {
         let placeholder = self.placeholders.occupancy.clone();
         self.counters.derivative_runs += 1;
         let pass = self.derivative_pass(outputs)?;
-        let stats_gpu = Buffer::new(
-            &device,
-            BufferDesc::gpu_storage("gradient maximum", STAT_BYTES),
-        )?;
-        let stats_host = Buffer::new(
-            &device,
-            BufferDesc::readback("gradient maximum (host)", STAT_BYTES),
-        )?;
+        let [stats_gpu, stats_host] = gradient_maximum_descs();
+        let stats_gpu = Buffer::new(&device, stats_gpu)?;
+        let stats_host = Buffer::new(&device, stats_host)?;
         let mut rec = Recording::new(&device, "derivatives")?;
         rec.begin_pass("derivatives");
         let volumes = pass.record(

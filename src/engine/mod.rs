@@ -15,9 +15,11 @@
 
 mod bricked;
 mod derive;
+pub mod kernels;
 mod occupancy;
 mod open;
 mod pipelines;
+pub mod plan;
 mod prepare;
 mod probe;
 pub mod readback;
@@ -125,26 +127,13 @@ pub struct EngineCounters {
 /// Image sizes as this device will allocate them (for plans).
 struct DeviceImageSizes<'a>(&'a Device);
 
-impl crate::scene::plan::ImageSizes for DeviceImageSizes<'_> {
-    fn image_bytes(&self, extent: [u32; 3], format: vk::Format, volume: bool) -> u64 {
-        let desc = if volume {
-            ImageDesc::volume("plan", extent, format)
-        } else {
-            ImageDesc::render_target("plan", extent[0], extent[1], format)
-        };
-        self.0.image_memory_bytes(&desc)
+impl plan::ImageSizes for DeviceImageSizes<'_> {
+    fn image_bytes(&self, desc: &ImageDesc) -> u64 {
+        self.0.image_memory_bytes(desc)
     }
 
-    fn buffer_bytes(&self, bytes: u64, memory: crate::scene::plan::Memory) -> u64 {
-        use crate::scene::plan::Memory;
-        let desc = match memory {
-            Memory::DeviceLocal => BufferDesc::gpu_storage("plan", bytes),
-            Memory::HostVisible | Memory::Unified => BufferDesc::host_storage("plan", bytes),
-            Memory::Uniform => BufferDesc::uniform("plan", bytes),
-            Memory::Readback => BufferDesc::readback("plan", bytes),
-            Memory::Staging => BufferDesc::staging("plan", bytes),
-        };
-        self.0.buffer_memory_bytes(&desc)
+    fn buffer_bytes(&self, desc: &BufferDesc) -> u64 {
+        self.0.buffer_memory_bytes(desc)
     }
 }
 
@@ -178,6 +167,25 @@ impl Drop for Engine {
     }
 }
 
+/// The engine's 1-texel stand-ins, bound where a variant declares an input it never reads (as
+/// [`Engine::with_device`] creates them, and as the pass plan declares them): a gradient image,
+/// a normal image and an occupancy buffer.
+pub fn placeholder_descs() -> (ImageDesc, ImageDesc, BufferDesc) {
+    (
+        ImageDesc::volume(
+            "placeholder (gradient)",
+            [1, 1, 1],
+            vk::Format::R16G16_SFLOAT,
+        ),
+        ImageDesc::volume(
+            "placeholder (normals)",
+            [1, 1, 1],
+            vk::Format::R8G8B8A8_SNORM,
+        ),
+        BufferDesc::host_storage("placeholder (occupancy)", 16),
+    )
+}
+
 impl Engine {
     /// Creates the device and the shared objects; pipelines are created on first use.
     pub fn new(config: EngineConfig) -> GpuResult<Engine> {
@@ -193,28 +201,11 @@ impl Engine {
         let pipeline_cache = Arc::new(PipelineCache::new(&device, &config.pipeline_cache)?);
         let nearest = Sampler::new(&device, Filter::Nearest)?;
         let linear = Sampler::new(&device, Filter::Linear)?;
+        let (gradient, normal, occupancy) = placeholder_descs();
         let placeholders = Placeholders {
-            gradient: Image::new(
-                &device,
-                ImageDesc::volume(
-                    "placeholder (gradient)",
-                    [1, 1, 1],
-                    vk::Format::R16G16_SFLOAT,
-                ),
-            )?,
-            normal: Image::new(
-                &device,
-                ImageDesc::volume(
-                    "placeholder (normals)",
-                    [1, 1, 1],
-                    vk::Format::R8G8B8A8_SNORM,
-                ),
-            )?,
-            occupancy: Buffer::with_data(
-                &device,
-                BufferDesc::host_storage("placeholder (occupancy)", 16),
-                &[0u8; 16],
-            )?,
+            gradient: Image::new(&device, gradient)?,
+            normal: Image::new(&device, normal)?,
+            occupancy: Buffer::with_data(&device, occupancy, &[0u8; 16])?,
         };
         let mut rec = Recording::new(&device, "placeholder layouts")?;
         // Moves the placeholders once into the layout sampling needs; they are never written.
@@ -292,7 +283,7 @@ impl Engine {
         volume: &crate::volume::Volume,
         image: [u32; 2],
         occupied_fraction: f64,
-    ) -> crate::scene::plan::PlanInput {
+    ) -> crate::engine::plan::PlanInput {
         let dims = volume.dims.map(|d| u32::try_from(d).unwrap_or(u32::MAX));
         self.plan_input_for(dims, volume.samples.kind(), image, occupied_fraction)
     }
@@ -304,9 +295,9 @@ impl Engine {
         sample_kind: crate::volume::SampleKind,
         image: [u32; 2],
         occupied_fraction: f64,
-    ) -> crate::scene::plan::PlanInput {
+    ) -> crate::engine::plan::PlanInput {
         let a = self.device.adapter();
-        crate::scene::plan::PlanInput {
+        crate::engine::plan::PlanInput {
             dims,
             sample_kind,
             image,
@@ -316,6 +307,7 @@ impl Engine {
             budget: self.memory_budget(),
             occupied_fraction,
             force_bricking: self.config.force_bricking,
+            robust_range: self.config.normalize == crate::analysis::NormalizeMode::Robust,
         }
     }
 
@@ -327,8 +319,8 @@ impl Engine {
         volume: &crate::volume::Volume,
         image: [u32; 2],
         occupied_fraction: f64,
-    ) -> Result<crate::scene::plan::Plan, crate::scene::plan::DoesNotFit> {
-        crate::scene::plan::plan(
+    ) -> Result<crate::engine::plan::Plan, crate::engine::plan::DoesNotFit> {
+        crate::engine::plan::plan(
             effects,
             &self.plan_input(volume, image, occupied_fraction),
             &DeviceImageSizes(&self.device),

@@ -9,6 +9,21 @@ use crate::scene::occupancy::BrickRanges;
 use crate::scene::{Classification, Scene};
 use std::sync::Arc;
 
+/// The per-brick ranges of `bricks` bricks and their host copy (as [`Engine::brick_ranges`]
+/// creates them, and as the pass plan declares them).
+pub fn brick_range_descs(bricks: u64) -> [BufferDesc; 2] {
+    [
+        BufferDesc::gpu_storage("brick ranges", 8 * bricks),
+        BufferDesc::readback("brick ranges (host)", 8 * bricks),
+    ]
+}
+
+/// One frame in flight's occupancy bits for `bricks` bricks (32 to a word), written by the host
+/// before the frame that reads them.
+pub fn occupancy_bits_desc(bricks: u64) -> BufferDesc {
+    BufferDesc::host_storage("occupancy bits", 4 * bricks.div_ceil(32))
+}
+
 impl Engine {
     /// The per-brick I_norm ranges of `prepared` (one GPU pass the first time, cached after).
     pub fn brick_ranges(&mut self, prepared: &PreparedVolume) -> GpuResult<Arc<BrickRanges>> {
@@ -32,14 +47,9 @@ impl Engine {
         };
         let grid = brick_grid(prepared.dims);
         let bricks = (grid[0] * grid[1] * grid[2]) as u64;
-        let gpu = Buffer::new(
-            &self.device,
-            BufferDesc::gpu_storage("brick ranges", 8 * bricks),
-        )?;
-        let host = Buffer::new(
-            &self.device,
-            BufferDesc::readback("brick ranges (host)", 8 * bricks),
-        )?;
+        let [gpu, host] = brick_range_descs(bricks);
+        let gpu = Buffer::new(&self.device, gpu)?;
+        let host = Buffer::new(&self.device, host)?;
         let mut rec = Recording::new(&self.device, "brick ranges")?;
         rec.begin_pass("occupancy");
         pass.record(&mut rec, &prepared.normalized, &self.nearest, &gpu)?;

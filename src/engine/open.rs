@@ -21,8 +21,8 @@ use super::bricked::HostPrepared;
 use super::prepare::{PrepareTimings, PreparedVolume};
 use super::twin::Twin;
 use crate::analysis::{TissueReport, analyze_with};
+use crate::engine::plan::{DoesNotFit, Layout, Plan, STORAGE_BRICK, STORAGE_HALO};
 use crate::gpu::GpuError;
-use crate::scene::plan::{DoesNotFit, Layout, Plan, STORAGE_BRICK, STORAGE_HALO};
 use crate::scene::{Scene, SceneRecipe};
 use crate::volume::Volume;
 use ash::vk;
@@ -112,12 +112,7 @@ impl Engine {
         let effects = recipe.effects;
         let (prepared, report, mut scene, plan) = match first {
             Ok(plan) if plan.layout == Layout::Whole => {
-                let format = if plan.normalized_format == "R8_UNORM" {
-                    vk::Format::R8_UNORM
-                } else {
-                    vk::Format::R16_UNORM
-                };
-                self.set_normalized_format(format)?;
+                self.set_normalized_format(plan.normalized_format)?;
                 let prepared = self.prepare(volume)?;
                 timings.prepare = prepared.timings.clone();
                 let before_peaks = Instant::now();
@@ -145,7 +140,7 @@ impl Engine {
                 let before_plan = Instant::now();
                 let plan = self.plan(effects, volume, image, fraction)?;
                 timings.plan_ms += ms(before_plan);
-                let host = if plan.normalized_format == "R8_UNORM" {
+                let host = if plan.normalized_format == vk::Format::R8_UNORM {
                     self.prepare_on_host(volume, vk::Format::R8_UNORM)?
                 } else {
                     host

@@ -52,6 +52,18 @@ pub(crate) enum PipelineKey {
     Raymarch(RaymarchVariant),
 }
 
+impl PipelineKey {
+    /// The pipeline as plans name its variant (traces).
+    fn describe(&self) -> String {
+        match self {
+            PipelineKey::Kind(kind) => format!("analysis passes ({})", kind.name()),
+            PipelineKey::Derivative(o) => super::kernels::derivative_variant_name(o),
+            PipelineKey::Occupancy => "occupancy".into(),
+            PipelineKey::Raymarch(v) => v.describe(),
+        }
+    }
+}
+
 /// What a worker built.
 enum Built {
     Kind(KindPasses),
@@ -98,6 +110,7 @@ fn build(
     parallel: bool,
 ) -> GpuResult<Built> {
     let raw = cache.raw();
+    let _span = crate::files::trace::span(format!("pipeline {}", key.describe()), "pipelines");
     Ok(match key {
         PipelineKey::Kind(kind) if !parallel => Built::Kind(KindPasses {
             minmax: MinMaxPass::new(device, kind, raw)?,
@@ -137,7 +150,7 @@ fn build(
 
 /// The pipelines that preparing a volume (of `kind`, when known) and rendering a first frame of
 /// `effects` use, analysis passes first.
-fn first_frame_keys(
+pub(super) fn first_frame_keys(
     effects: &Effects,
     kind: Option<SampleKind>,
     bricked: bool,

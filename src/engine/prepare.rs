@@ -10,8 +10,28 @@ use crate::passes::histogram::BINS;
 use crate::passes::minmax::decode_result;
 use crate::passes::normalize::{self, Normalization};
 use crate::volume::{SampleKind, Volume};
+use ash::vk;
 use std::sync::Arc;
 use std::time::Instant;
+
+/// The min/max result and the host buffer it is copied to (as [`Engine::prepare`] creates
+/// them, and as the pass plan declares them).
+pub fn minmax_descs() -> [BufferDesc; 2] {
+    [
+        BufferDesc::gpu_storage("min/max result", 8),
+        BufferDesc::readback("min/max result (host)", 8),
+    ]
+}
+
+/// The whole volume's I_norm image.
+pub fn normalized_desc(dims: [u32; 3], format: vk::Format) -> ImageDesc {
+    ImageDesc::volume("normalized volume", dims, format)
+}
+
+/// The histogram's bins (read back through [`super::readback::readback_desc`]).
+pub fn histogram_desc() -> BufferDesc {
+    BufferDesc::gpu_storage("histogram bins", (BINS * 4) as u64)
+}
 
 /// Host-side times of [`Engine::prepare`] (GPU pass times are in `PreparedVolume::gpu_timings`).
 /// The per-pass walls follow one another and add up to (nearly) `wall_ms`.
@@ -154,6 +174,10 @@ impl Engine {
     /// Uploads `volume` and computes min/max, I_norm and its histogram on the GPU.
     pub fn prepare(&mut self, volume: &Volume) -> GpuResult<PreparedVolume> {
         let start = Instant::now();
+        let _span = crate::files::trace::span(
+            "prepare (upload, min/max, range, normalize, histogram)",
+            "prepare",
+        );
         let dims = checked_dims(self, volume)?;
         self.counters.prepares += 1;
         let kind = volume.samples.kind();
@@ -175,8 +199,9 @@ impl Engine {
         let pipelines_ms = ms(before_pipelines);
         let passes = self.kind_passes(kind)?;
         let before_minmax = Instant::now();
-        let range_gpu = Buffer::new(&device, BufferDesc::gpu_storage("min/max result", 8))?;
-        let range_host = Buffer::new(&device, BufferDesc::readback("min/max result (host)", 8))?;
+        let [range_gpu, range_host] = minmax_descs();
+        let range_gpu = Buffer::new(&device, range_gpu)?;
+        let range_host = Buffer::new(&device, range_host)?;
         rec.begin_pass("minmax");
         passes
             .minmax
@@ -213,14 +238,8 @@ impl Engine {
         // drivers may signal fences of queued submissions together (lavapipe does), which would
         // hide where one pass ends; the GPU idles only for one submission's latency.
         let before_normalize = Instant::now();
-        let normalized = Image::new(
-            &device,
-            ImageDesc::volume("normalized volume", dims, normalized_format),
-        )?;
-        let bins = Buffer::new(
-            &device,
-            BufferDesc::gpu_storage("histogram bins", (BINS * 4) as u64),
-        )?;
+        let normalized = Image::new(&device, normalized_desc(dims, normalized_format))?;
+        let bins = Buffer::new(&device, histogram_desc())?;
         let mut rec = Recording::new(&device, "normalize")?;
         rec.begin_pass("normalize");
         passes

@@ -79,10 +79,7 @@ pub fn read_image_bytes(
 ) -> GpuResult<Vec<u8>> {
     let (texel_bytes, _) = layout_of(image.format())?;
     let size = image.texel_count() * texel_bytes as u64;
-    let readback = Buffer::new(
-        device,
-        BufferDesc::readback(&format!("{} (readback)", image.name()), size),
-    )?;
+    let readback = Buffer::new(device, readback_desc(image.name(), size))?;
     let mut rec = Recording::new(device, &format!("reading back {}", image.name()))?;
     // Orders the image's last use before the copy and moves it to TRANSFER_SRC.
     rec.barriers(&[], &[(image, current, Access::TransferRead)]);
@@ -109,6 +106,12 @@ pub fn read_image(device: &Device, image: &Arc<Image>, current: Access) -> GpuRe
     })
 }
 
+/// The transient host buffer that `bytes` of the resource named `of` are read back through (as
+/// [`read_buffer`] and [`read_image_bytes`] create it, and as the pass plan declares it).
+pub fn readback_desc(of: &str, bytes: u64) -> BufferDesc {
+    BufferDesc::readback(&format!("{of} (readback)"), bytes)
+}
+
 /// Copies the first `out.len()` bytes of a GPU buffer last written as `current` to the host.
 pub fn read_buffer(
     device: &Device,
@@ -116,10 +119,7 @@ pub fn read_buffer(
     current: Access,
     out: &mut [u8],
 ) -> GpuResult<()> {
-    let readback = Buffer::new(
-        device,
-        BufferDesc::readback(&format!("{} (readback)", buffer.name()), out.len() as u64),
-    )?;
+    let readback = Buffer::new(device, readback_desc(buffer.name(), out.len() as u64))?;
     let mut rec = Recording::new(device, &format!("reading back {}", buffer.name()))?;
     // Orders the buffer's last write before the copy.
     rec.barriers(&[(buffer, current, Access::TransferRead)], &[]);

@@ -21,7 +21,7 @@
 
 use super::Engine;
 use super::derive::Derived;
-use super::occupancy::OccupancyCache;
+use super::occupancy::{OccupancyCache, occupancy_bits_desc};
 use super::prepare::PreparedVolume;
 use super::prepare::VolumeLayout;
 use crate::gpu::{
@@ -114,6 +114,57 @@ impl RenderTarget {
     }
 }
 
+/// What a render target holds, as [`Engine::render_target`] creates it and as the pass plan
+/// declares it.
+pub struct RenderTargetDescs {
+    /// The output image.
+    pub image: ImageDesc,
+    /// Its host copy.
+    pub readback: BufferDesc,
+    /// The raymarch's uniforms, one buffer per frame in flight.
+    pub uniforms: [BufferDesc; FRAMES_IN_FLIGHT],
+    /// The raymarch's sample counters and their host copy.
+    pub counters: [BufferDesc; 2],
+}
+
+/// The descriptions of a `width` x `height` target in `format` (RGBA8 or RGBA32F).
+pub fn render_target_descs(
+    width: u32,
+    height: u32,
+    format: vk::Format,
+) -> GpuResult<RenderTargetDescs> {
+    if width == 0 || height == 0 {
+        return Err(GpuError::InvalidRequest(format!(
+            "image size {width}x{height} has a zero side"
+        )));
+    }
+    let texel = match format {
+        vk::Format::R8G8B8A8_UNORM => 4,
+        vk::Format::R32G32B32A32_SFLOAT => 16,
+        other => {
+            return Err(GpuError::InvalidRequest(format!(
+                "render targets are RGBA8 or RGBA32F, not {other:?}"
+            )));
+        }
+    };
+    let size = std::mem::size_of::<RaymarchUniforms>() as u64;
+    let counter_bytes = (COUNTER_WORDS * 4) as u64;
+    Ok(RenderTargetDescs {
+        image: ImageDesc::render_target("render target", width, height, format),
+        readback: BufferDesc::readback(
+            "render target (host)",
+            width as u64 * height as u64 * texel,
+        ),
+        uniforms: std::array::from_fn(|frame| {
+            BufferDesc::uniform(&format!("raymarch uniforms (frame {frame})"), size)
+        }),
+        counters: [
+            BufferDesc::gpu_storage("raymarch sample counters", counter_bytes),
+            BufferDesc::readback("raymarch sample counters (host)", counter_bytes),
+        ],
+    })
+}
+
 impl Engine {
     /// Creates a `width` x `height` render target in `format` (RGBA8_UNORM for pictures,
     /// R32G32B32A32_SFLOAT for accuracy studies).
@@ -123,48 +174,19 @@ impl Engine {
         height: u32,
         format: vk::Format,
     ) -> GpuResult<RenderTarget> {
-        if width == 0 || height == 0 {
-            return Err(GpuError::InvalidRequest(format!(
-                "image size {width}x{height} has a zero side"
-            )));
+        let descs = render_target_descs(width, height, format)?;
+        let image = Image::new(&self.device, descs.image)?;
+        let readback = Buffer::new(&self.device, descs.readback)?;
+        let mut uniforms = Vec::with_capacity(FRAMES_IN_FLIGHT);
+        for desc in descs.uniforms {
+            uniforms.push(Buffer::new(&self.device, desc)?);
         }
-        let texel = match format {
-            vk::Format::R8G8B8A8_UNORM => 4,
-            vk::Format::R32G32B32A32_SFLOAT => 16,
-            other => {
-                return Err(GpuError::InvalidRequest(format!(
-                    "render targets are RGBA8 or RGBA32F, not {other:?}"
-                )));
-            }
-        };
-        let image = Image::new(
-            &self.device,
-            ImageDesc::render_target("render target", width, height, format),
-        )?;
-        let readback = Buffer::new(
-            &self.device,
-            BufferDesc::readback("render target (host)", width as u64 * height as u64 * texel),
-        )?;
-        let size = std::mem::size_of::<RaymarchUniforms>() as u64;
-        let uniforms = [
-            Buffer::new(
-                &self.device,
-                BufferDesc::uniform("raymarch uniforms (frame 0)", size),
-            )?,
-            Buffer::new(
-                &self.device,
-                BufferDesc::uniform("raymarch uniforms (frame 1)", size),
-            )?,
-        ];
-        let counter_bytes = (COUNTER_WORDS * 4) as u64;
-        let counters = Buffer::new(
-            &self.device,
-            BufferDesc::gpu_storage("raymarch sample counters", counter_bytes),
-        )?;
-        let counters_host = Buffer::new(
-            &self.device,
-            BufferDesc::readback("raymarch sample counters (host)", counter_bytes),
-        )?;
+        let uniforms: [Arc<Buffer>; FRAMES_IN_FLIGHT] = uniforms
+            .try_into()
+            .map_err(|_| GpuError::Internal("one uniform buffer per frame in flight".into()))?;
+        let [counters, counters_host] = descs.counters;
+        let counters = Buffer::new(&self.device, counters)?;
+        let counters_host = Buffer::new(&self.device, counters_host)?;
         Ok(RenderTarget {
             width,
             height,
@@ -226,6 +248,7 @@ impl Engine {
         out: Option<&mut [u8]>,
     ) -> GpuResult<Frame> {
         let read_back = target.read_back || out.is_some();
+        let _span = crate::files::trace::span("frame", "render");
         let mut rec = Recording::new(&self.device, "raymarch")?;
         let recorded = self.record_frame(&mut rec, target, prepared, derived, scene, read_back)?;
         let gpu_timings = rec.submit()?.wait()?;
@@ -333,7 +356,7 @@ impl Engine {
                 _ => {
                     let b = Buffer::new(
                         &self.device,
-                        BufferDesc::host_storage("occupancy bits", bytes.len() as u64),
+                        occupancy_bits_desc(ranges.grid.iter().map(|&g| g as u64).product()),
                     )?;
                     target.occupancy[frame_slot] = Some(b.clone());
                     target.occupancy_written[frame_slot] = 0;

@@ -17,6 +17,12 @@ use crate::reference::fine_histogram::fine_histogram;
 use crate::volume::{LinearMap, SampleKind, Volume};
 use std::sync::Arc;
 
+/// The fine histogram's counts (read back through [`super::readback::readback_desc`]), as the
+/// robust range creates them and as the pass plan declares them.
+pub fn fine_histogram_desc() -> BufferDesc {
+    BufferDesc::gpu_storage("fine histogram", RESULT_BYTES)
+}
+
 impl Engine {
     /// The normalization the engine's mode asks for, given eq. 1's min/max plan `minmax`:
     /// `minmax` itself in min/max mode (or for a constant volume), else the robust range's.
@@ -66,10 +72,7 @@ impl Engine {
     ) -> GpuResult<Option<RobustRange>> {
         let device = self.device.clone();
         let voxels = minmax.params.dims.iter().map(|&d| d as u64).product();
-        let counts = Buffer::new(
-            &device,
-            BufferDesc::gpu_storage("fine histogram", RESULT_BYTES),
-        )?;
+        let counts = Buffer::new(&device, fine_histogram_desc())?;
         let mut mapping = *minmax;
         let mut bytes = vec![0u8; RESULT_BYTES as usize];
         for pass in 1.. {

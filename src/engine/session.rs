@@ -21,8 +21,8 @@
 use super::open::{OpenError, OpenTimings as VolumeTimings, OpenedVolume};
 use super::{Engine, EngineConfig, PipelineTimes, Twin};
 use crate::analysis::TissueReport;
+use crate::engine::plan::{Layout, Plan};
 use crate::gpu::{Device, DeviceTimings, GpuError};
-use crate::scene::plan::{Layout, Plan};
 use crate::scene::{RecipeError, Scene, SceneRecipe};
 use crate::volume::source::{
     self, InputError, LoadTimings, ReadOptions, SourceVolume, VolumeSource,
@@ -246,7 +246,7 @@ impl Engine {
         plan: &Plan,
         effects: crate::scene::Effects,
         image: [u32; 2],
-    ) -> Result<Plan, crate::scene::plan::DoesNotFit> {
+    ) -> Result<Plan, crate::engine::plan::DoesNotFit> {
         let fraction = match plan.layout {
             Layout::Whole => 1.0,
             Layout::Bricked { grid, resident, .. } => {
@@ -256,6 +256,6 @@ impl Engine {
         };
         let prepared = &twin.prepared;
         let input = self.plan_input_for(prepared.dims, prepared.kind, image, fraction);
-        crate::scene::plan::plan(effects, &input, &super::DeviceImageSizes(self.device()))
+        crate::engine::plan::plan(effects, &input, &super::DeviceImageSizes(self.device()))
     }
 }

@@ -20,6 +20,26 @@ pub enum UploadPath {
     Staged,
 }
 
+/// Bytes of the sample buffer for `sample_bytes` of samples: a multiple of 16 (the kernels read
+/// whole 16-byte vectors), at least 16.
+pub fn padded_sample_bytes(sample_bytes: u64) -> u64 {
+    sample_bytes.div_ceil(16).max(1) * 16
+}
+
+/// The sample buffer and, on a discrete device, its staging buffer (as [`upload_samples`] creates
+/// them, and as the pass plan declares them): on unified memory the host writes the buffer the
+/// kernels read, otherwise a staging copy goes to device-local memory.
+pub fn sample_descs(padded: u64, unified_memory: bool) -> (BufferDesc, Option<BufferDesc>) {
+    if unified_memory {
+        (BufferDesc::host_storage("volume samples", padded), None)
+    } else {
+        (
+            BufferDesc::gpu_storage("volume samples", padded),
+            Some(BufferDesc::staging("volume samples (staging)", padded)),
+        )
+    }
+}
+
 /// Uploads `samples`; for a staged upload the copy is recorded into `rec` (as pass `upload`),
 /// followed by the barrier that makes it visible to compute shaders.
 pub fn upload_samples(
@@ -28,7 +48,7 @@ pub fn upload_samples(
     samples: &Samples,
 ) -> GpuResult<(Arc<Buffer>, UploadPath)> {
     let bytes = samples.as_bytes();
-    let padded = (bytes.len() as u64).div_ceil(16).max(1) * 16;
+    let padded = padded_sample_bytes(bytes.len() as u64);
     let limit = device.adapter().max_storage_buffer_range as u64;
     if padded > limit {
         return Err(GpuError::Unsupported(format!(
@@ -37,21 +57,19 @@ pub fn upload_samples(
         )));
     }
     let pad = vec![0u8; (padded - bytes.len() as u64) as usize];
-    if device.adapter().unified_memory {
-        let buffer = Buffer::new(device, BufferDesc::host_storage("volume samples", padded))?;
+    let (sample_desc, staging_desc) = sample_descs(padded, device.adapter().unified_memory);
+    let Some(staging_desc) = staging_desc else {
+        let buffer = Buffer::new(device, sample_desc)?;
         buffer.write(0, bytes)?;
         buffer.write(bytes.len() as u64, &pad)?;
         // Host writes before vkQueueSubmit are visible to the submitted work (Vulkan's implicit
         // host-write ordering), so no barrier is needed here.
         return Ok((buffer, UploadPath::Direct));
-    }
-    let staging = Buffer::new(
-        device,
-        BufferDesc::staging("volume samples (staging)", padded),
-    )?;
+    };
+    let staging = Buffer::new(device, staging_desc)?;
     staging.write(0, bytes)?;
     staging.write(bytes.len() as u64, &pad)?;
-    let buffer = Buffer::new(device, BufferDesc::gpu_storage("volume samples", padded))?;
+    let buffer = Buffer::new(device, sample_desc)?;
     rec.begin_pass("upload");
     rec.copy_buffer(&staging, &buffer, padded);
     rec.end_pass();

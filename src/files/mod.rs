@@ -12,4 +12,5 @@
 pub mod png;
 pub mod read;
 pub mod stdout;
+pub mod trace;
 pub mod write;

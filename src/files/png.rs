@@ -61,6 +61,7 @@ pub fn write_rgba8(
     rgba: &[u8],
     provenance: &Provenance,
 ) -> Result<(), PngError> {
+    let _span = super::trace::span("encode and write PNG", "io");
     let mut file = AtomicFile::create(path)?;
     encode(&mut file, width, height, rgba, provenance).map_err(|e| match e {
         // The disk's own words ("no space left on device"), not "cannot encode".

@@ -98,6 +98,9 @@ pub struct AdapterInfo {
     pub has_memory_budget: bool,
     /// Whether `subgroupSizeControl` and `computeFullSubgroups` are available.
     pub has_subgroup_size_control: bool,
+    /// Whether the driver reports its compiler's statistics per pipeline
+    /// (VK_KHR_pipeline_executable_properties).
+    pub has_pipeline_executable_properties: bool,
     /// Memory heaps: (size in bytes, device-local).
     pub heaps: Vec<(u64, bool)>,
     /// True when every device-local heap is also reachable by host-visible memory types (CPU
@@ -383,6 +386,9 @@ fn describe(
         max_workgroup_subgroups: size_control.max_compute_workgroup_subgroups,
         max_push_constants_size: properties.limits.max_push_constants_size,
         has_memory_budget: has_extension(ash::ext::memory_budget::NAME),
+        has_pipeline_executable_properties: has_extension(
+            ash::khr::pipeline_executable_properties::NAME,
+        ),
         has_subgroup_size_control,
         heaps,
         unified_memory,

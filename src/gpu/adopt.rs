@@ -116,6 +116,7 @@ impl Device {
             tuning,
             owned: false,
             timings: Default::default(),
+            pipeline_statistics: false,
         })
     }
 }

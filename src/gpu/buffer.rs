@@ -6,7 +6,7 @@
 
 use super::device::{Device, DeviceShared};
 use super::error::{GpuError, GpuResult, vk_err};
-use super::memory::{self, MemoryIntent, TrackedAllocation};
+use super::memory::{MemoryIntent, TrackedAllocation};
 use ash::vk;
 use std::sync::{Arc, Mutex};
 
@@ -113,6 +113,52 @@ impl Device {
     }
 }
 
+/// Creates a buffer of `desc`, allocates and binds its memory, and maps it when the host touches
+/// it; on failure nothing is left behind. Shared by [`Buffer::new`] and the device's own
+/// breadcrumb buffer (which cannot be a `Buffer`: a `Buffer` holds the device).
+pub(crate) fn create_bound(
+    shared: &DeviceShared,
+    desc: &BufferDesc,
+) -> GpuResult<(vk::Buffer, TrackedAllocation, Option<std::ptr::NonNull<u8>>)> {
+    let info = vk::BufferCreateInfo::default()
+        .size(desc.size)
+        .usage(desc.usage)
+        .sharing_mode(vk::SharingMode::EXCLUSIVE);
+    // SAFETY: valid create info on a live device.
+    let raw = unsafe { shared.raw.create_buffer(&info, None) }.map_err(vk_err("vkCreateBuffer"))?;
+    // SAFETY: raw was just created on this device.
+    let requirements = unsafe { shared.raw.get_buffer_memory_requirements(raw) };
+    let bound = shared.allocate_bound(
+        &desc.name,
+        requirements,
+        desc.intent,
+        true,
+        "vkBindBufferMemory",
+        // SAFETY: an unbound buffer of this device, memory allocated for its requirements.
+        |memory, offset| unsafe { shared.raw.bind_buffer_memory(raw, memory, offset) },
+    );
+    let tracked = match bound {
+        Ok(t) => t,
+        Err(e) => {
+            // SAFETY: the buffer has no memory and was never used.
+            unsafe { shared.raw.destroy_buffer(raw, None) };
+            return Err(e);
+        }
+    };
+    let mapped = tracked.allocation.mapped_ptr().map(|p| p.cast::<u8>());
+    if desc.intent != MemoryIntent::GpuOnly && mapped.is_none() {
+        shared.free_memory(tracked);
+        // SAFETY: never used.
+        unsafe { shared.raw.destroy_buffer(raw, None) };
+        return Err(GpuError::Unsupported(format!(
+            "host-visible memory for `{}` could not be mapped",
+            desc.name
+        )));
+    }
+    shared.name_object(raw, &desc.name);
+    Ok((raw, tracked, mapped))
+}
+
 impl Buffer {
     /// Creates a buffer and binds memory to it.
     pub fn new(device: &Device, desc: BufferDesc) -> GpuResult<Arc<Buffer>> {
@@ -123,55 +169,7 @@ impl Buffer {
             )));
         }
         let shared = &device.shared;
-        let info = vk::BufferCreateInfo::default()
-            .size(desc.size)
-            .usage(desc.usage)
-            .sharing_mode(vk::SharingMode::EXCLUSIVE);
-        // SAFETY: valid create info on a live device.
-        let raw =
-            unsafe { shared.raw.create_buffer(&info, None) }.map_err(vk_err("vkCreateBuffer"))?;
-        // SAFETY: raw was just created on this device.
-        let requirements = unsafe { shared.raw.get_buffer_memory_requirements(raw) };
-        let tracked = match memory::allocate(
-            &shared.allocator,
-            &shared.ledger,
-            &shared.memory_properties,
-            &desc.name,
-            requirements,
-            desc.intent,
-            true,
-        ) {
-            Ok(t) => t,
-            Err(e) => {
-                // SAFETY: the buffer has no memory and was never used.
-                unsafe { shared.raw.destroy_buffer(raw, None) };
-                return Err(e);
-            }
-        };
-        // SAFETY: memory and offset come from an allocation made for these requirements.
-        let bound = unsafe {
-            shared.raw.bind_buffer_memory(
-                raw,
-                tracked.allocation.memory(),
-                tracked.allocation.offset(),
-            )
-        };
-        if let Err(e) = bound {
-            shared.free_memory(tracked);
-            // SAFETY: as above.
-            unsafe { shared.raw.destroy_buffer(raw, None) };
-            return Err(GpuError::from_vk("vkBindBufferMemory", e));
-        }
-        let mapped = tracked.allocation.mapped_ptr().map(|p| p.cast::<u8>());
-        if desc.intent != MemoryIntent::GpuOnly && mapped.is_none() {
-            shared.free_memory(tracked);
-            // SAFETY: as above.
-            unsafe { shared.raw.destroy_buffer(raw, None) };
-            return Err(GpuError::Unsupported(format!(
-                "host-visible memory for `{}` could not be mapped",
-                desc.name
-            )));
-        }
+        let (raw, tracked, mapped) = create_bound(shared, &desc)?;
         Ok(Arc::new(Buffer {
             raw,
             desc,

@@ -99,6 +99,13 @@ impl Recording {
         if let Some(t) = &mut self.timestamps {
             t.begin(&self.device, self.cmd, name);
         }
+        if let Some(utils) = &self.device.debug_utils
+            && let Ok(label) = std::ffi::CString::new(name.replace('\0', " "))
+        {
+            let info = vk::DebugUtilsLabelEXT::default().label_name(&label);
+            // SAFETY: a command buffer in the recording state; the label is closed in end_pass.
+            unsafe { utils.cmd_begin_debug_utils_label(self.cmd, &info) };
+        }
         self.pass_names.push(name.to_string());
         self.pass_open = true;
     }
@@ -111,6 +118,10 @@ impl Recording {
         self.pass_open = false;
         if let Some(t) = &self.timestamps {
             t.end(&self.device, self.cmd);
+        }
+        if let Some(utils) = &self.device.debug_utils {
+            // SAFETY: closes the label begin_pass opened in this command buffer.
+            unsafe { utils.cmd_end_debug_utils_label(self.cmd) };
         }
         let index = self.pass_names.len() as u64 - 1;
         if let Some((buffer, base)) = self.crumbs
@@ -449,6 +460,7 @@ impl Recording {
             )),
         };
         let submission = Submission {
+            submitted_at: std::time::Instant::now(),
             device: device.clone(),
             fence: lease.fence,
             lease: Some(lease),
@@ -511,6 +523,8 @@ pub struct Submission {
     label: String,
     submitted: bool,
     finished: bool,
+    // When vkQueueSubmit2 returned (places the passes on a trace's GPU track).
+    submitted_at: std::time::Instant,
 }
 
 impl Submission {
@@ -518,10 +532,16 @@ impl Submission {
     /// has no timestamps).
     pub fn wait(mut self) -> GpuResult<Vec<PassTiming>> {
         self.wait_fence()?;
+        let completed = std::time::Instant::now();
         let timings = match &self.timestamps {
             Some(t) => t.results(&self.device),
             None => Ok(Vec::new()),
         };
+        if let Ok(passes) = &timings {
+            let named: Vec<(&str, f64)> =
+                passes.iter().map(|p| (p.name.as_str(), p.gpu_ms)).collect();
+            crate::files::trace::gpu_passes(self.submitted_at, completed, &named);
+        }
         // The queries were read: the lease may record again.
         self.give_back()?;
         timings

@@ -121,6 +121,7 @@ impl DescriptorSet {
             .first()
             .copied()
             .ok_or_else(|| GpuError::Internal("vkAllocateDescriptorSets returned no set".into()))?;
+        device.name_object(set.raw, &format!("{} set {set_index}", shader.name));
 
         let mut buffer_infos = Vec::new();
         let mut image_infos = Vec::new();

@@ -35,6 +35,9 @@ pub struct DeviceConfig {
     pub profile: Option<DeviceProfile>,
     /// Workgroup and subgroup sizes of the tunable kernels.
     pub tuning: KernelTuning,
+    /// Ask the driver for its compiler's statistics of every pipeline (enables
+    /// VK_KHR_pipeline_executable_properties where the device has it; `morphray kernels`).
+    pub pipeline_statistics: bool,
 }
 
 /// Host times of creating a device, milliseconds (all zero for an adopted device). The path to
@@ -65,6 +68,8 @@ pub(crate) struct DeviceParts {
     pub(crate) tuning: KernelTuning,
     pub(crate) owned: bool,
     pub(crate) timings: DeviceTimings,
+    /// VK_KHR_pipeline_executable_properties was enabled (pipelines capture statistics).
+    pub(crate) pipeline_statistics: bool,
 }
 
 /// What a device needs beyond compute to draw an interface and show it in a window (the
@@ -94,6 +99,12 @@ pub struct DeviceShared {
     pub(crate) recycler: Recycler,
     /// Faults in destructors (failed frees, resets), reported here instead of skipped.
     pub(crate) faults: FaultLog,
+    /// Object names and command labels (VK_EXT_debug_utils), when the instance has it.
+    pub(crate) debug_utils: Option<ash::ext::debug_utils::Device>,
+    /// How many objects were named (tests check that naming happens).
+    pub(crate) names_set: std::sync::atomic::AtomicU64,
+    /// The compiler-statistics entry points, when enabled ([`DeviceConfig::pipeline_statistics`]).
+    pub(crate) executable_properties: Option<ash::khr::pipeline_executable_properties::Device>,
     // False for an integrator's device (`Device::adopt`): the integrator destroys it.
     pub(crate) owned: bool,
     // Dropped last: the instance must outlive the device.
@@ -129,16 +140,21 @@ impl Device {
         let ms = |since: Instant| since.elapsed().as_secs_f64() * 1e3;
         let mut timings = DeviceTimings::default();
         let start = Instant::now();
+        let span = crate::files::trace::span("vulkan instance", "gpu-setup");
         let instance = Instance::with_extensions(config.validation, surface_extensions)?;
         timings.instance_ms = ms(start);
+        drop(span);
         timings.loader_ms = instance.loader_ms;
         let start = Instant::now();
         let selector = match &config.selector {
             DeviceSelector::Auto => DeviceSelector::from_env(),
             other => other.clone(),
         };
+        let span = crate::files::trace::span("adapter choice", "gpu-setup");
         let (physical, adapter) = select(&instance, &selector)?;
         timings.adapter_ms = ms(start);
+        drop(span);
+        let _span = crate::files::trace::span("device and allocator", "gpu-setup");
         let start = Instant::now();
         // A profile clamps what the engine may use (never more than the device offers).
         let adapter = match &config.profile {
@@ -165,6 +181,13 @@ impl Device {
             // Dynamic rendering (core and required in 1.3) only for the viewer's interface.
             .dynamic_rendering(presentation.is_some());
         let mut extensions = Vec::new();
+        let statistics = config.pipeline_statistics && adapter.has_pipeline_executable_properties;
+        let mut executable_info =
+            vk::PhysicalDevicePipelineExecutablePropertiesFeaturesKHR::default()
+                .pipeline_executable_info(true);
+        if statistics {
+            extensions.push(ash::khr::pipeline_executable_properties::NAME.as_ptr());
+        }
         if adapter.has_memory_budget {
             extensions.push(ash::ext::memory_budget::NAME.as_ptr());
         }
@@ -179,6 +202,11 @@ impl Device {
             .enabled_features(&features)
             .enabled_extension_names(&extensions)
             .push_next(&mut features13);
+        let create_info = if statistics {
+            create_info.push_next(&mut executable_info)
+        } else {
+            create_info
+        };
         // SAFETY: physical comes from this instance; create_info points to locals alive here.
         let raw = unsafe { instance.raw.create_device(physical, &create_info, None) }
             .map_err(vk_err("vkCreateDevice"))?;
@@ -194,6 +222,7 @@ impl Device {
             tuning,
             owned: true,
             timings,
+            pipeline_statistics: statistics,
         };
         let before_allocator = Instant::now();
         let mut device = Self::assemble(parts)?;
@@ -216,7 +245,13 @@ impl Device {
             tuning,
             owned,
             timings,
+            pipeline_statistics,
         } = parts;
+        let debug_utils = instance
+            .debug_utils
+            .then(|| ash::ext::debug_utils::Device::new(&instance.raw, &raw));
+        let executable_properties = pipeline_statistics
+            .then(|| ash::khr::pipeline_executable_properties::Device::new(&instance.raw, &raw));
         // SAFETY: query on the physical device this device was created from.
         let memory_properties =
             unsafe { instance.raw.get_physical_device_memory_properties(physical) };
@@ -255,6 +290,9 @@ impl Device {
                 timings,
                 recycler: Recycler::default(),
                 faults: FaultLog::default(),
+                executable_properties,
+                debug_utils,
+                names_set: Default::default(),
                 owned,
                 instance: ManuallyDrop::new(instance),
             }),
@@ -279,6 +317,18 @@ impl Device {
     /// True when the Khronos validation layer is active.
     pub fn validation_enabled(&self) -> bool {
         self.shared.instance.validation_enabled()
+    }
+
+    /// True when objects are named and passes labelled for capture tools (VK_EXT_debug_utils).
+    pub fn debug_names_enabled(&self) -> bool {
+        self.shared.debug_utils.is_some()
+    }
+
+    /// How many objects have been named so far (0 without VK_EXT_debug_utils).
+    pub fn debug_names_set(&self) -> u64 {
+        self.shared
+            .names_set
+            .load(std::sync::atomic::Ordering::Relaxed)
     }
 
     /// Live allocations.
@@ -392,6 +442,63 @@ impl Device {
 }
 
 impl DeviceShared {
+    /// Names `handle` for capture tools (RenderDoc, GPA, Nsight) and validation messages, when
+    /// VK_EXT_debug_utils is enabled; a failure is recorded in the fault log (diagnostics must
+    /// not fail the work they describe).
+    pub(crate) fn name_object<H: vk::Handle>(&self, handle: H, name: &str) {
+        let Some(utils) = &self.debug_utils else {
+            return;
+        };
+        let Ok(name) = std::ffi::CString::new(name.replace('\0', " ")) else {
+            return;
+        };
+        let info = vk::DebugUtilsObjectNameInfoEXT::default()
+            .object_handle(handle)
+            .object_name(&name);
+        // SAFETY: a live handle of this device, a NUL-terminated name alive for the call.
+        match unsafe { utils.set_debug_utils_object_name(&info) } {
+            Ok(()) => {
+                self.names_set
+                    .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            }
+            Err(e) => self
+                .faults
+                .record(&GpuError::from_vk("vkSetDebugUtilsObjectNameEXT", e)),
+        }
+    }
+
+    /// Allocates memory for a resource with `requirements` and binds it with `bind` (given the
+    /// memory and offset; `call` names the bind call in errors). On failure nothing stays
+    /// allocated, and the caller destroys its still-unbound handle. The one sequence behind
+    /// every buffer and image (`Buffer::new`, `Image::new`, the recycler's breadcrumbs).
+    pub(crate) fn allocate_bound(
+        &self,
+        name: &str,
+        requirements: vk::MemoryRequirements,
+        intent: memory::MemoryIntent,
+        linear: bool,
+        call: &'static str,
+        bind: impl FnOnce(vk::DeviceMemory, u64) -> Result<(), vk::Result>,
+    ) -> GpuResult<TrackedAllocation> {
+        let tracked = memory::allocate(
+            &self.allocator,
+            &self.ledger,
+            &self.memory_properties,
+            name,
+            requirements,
+            intent,
+            linear,
+        )?;
+        // SAFETY: the allocation is live (its memory handle is valid until it is freed), and
+        // memory and offset come from an allocation made for these requirements.
+        let memory = unsafe { tracked.allocation.memory() };
+        if let Err(e) = bind(memory, tracked.allocation.offset()) {
+            self.free_memory(tracked);
+            return Err(GpuError::from_vk(call, e));
+        }
+        Ok(tracked)
+    }
+
     /// Frees device memory; a failure is recorded in the fault log (callers are destructors or
     /// error paths that already return another error).
     pub(crate) fn free_memory(&self, tracked: TrackedAllocation) {

@@ -6,7 +6,7 @@
 
 use super::device::{Device, DeviceShared};
 use super::error::{GpuError, GpuResult, vk_err};
-use super::memory::{self, MemoryIntent, TrackedAllocation};
+use super::memory::{MemoryIntent, TrackedAllocation};
 use ash::vk;
 use std::sync::{Arc, Mutex};
 
@@ -118,15 +118,16 @@ impl Image {
             unsafe { shared.raw.create_image(&info, None) }.map_err(vk_err("vkCreateImage"))?;
         // SAFETY: raw was just created on this device.
         let requirements = unsafe { shared.raw.get_image_memory_requirements(raw) };
-        let tracked = match memory::allocate(
-            &shared.allocator,
-            &shared.ledger,
-            &shared.memory_properties,
+        let bound = shared.allocate_bound(
             &desc.name,
             requirements,
             MemoryIntent::GpuOnly,
             false,
-        ) {
+            "vkBindImageMemory",
+            // SAFETY: an unbound image of this device, memory allocated for its requirements.
+            |memory, offset| unsafe { shared.raw.bind_image_memory(raw, memory, offset) },
+        );
+        let tracked = match bound {
             Ok(t) => t,
             Err(e) => {
                 // SAFETY: unused image without memory.
@@ -139,18 +140,6 @@ impl Image {
             // SAFETY: unused image.
             unsafe { shared.raw.destroy_image(raw, None) };
         };
-        // SAFETY: allocation made for these requirements.
-        let bound = unsafe {
-            shared.raw.bind_image_memory(
-                raw,
-                tracked.allocation.memory(),
-                tracked.allocation.offset(),
-            )
-        };
-        if let Err(e) = bound {
-            destroy(tracked);
-            return Err(GpuError::from_vk("vkBindImageMemory", e));
-        }
         let view_type = if desc.image_type == vk::ImageType::TYPE_3D {
             vk::ImageViewType::TYPE_3D
         } else {
@@ -169,6 +158,8 @@ impl Image {
                 return Err(GpuError::from_vk("vkCreateImageView", e));
             }
         };
+        shared.name_object(raw, &desc.name);
+        shared.name_object(view, &format!("{} (view)", desc.name));
         Ok(Arc::new(Image {
             raw,
             view,

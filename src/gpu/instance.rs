@@ -52,6 +52,8 @@ pub struct Instance {
     messenger: Option<(ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
     log: Arc<ValidationLog>,
     validation_enabled: bool,
+    // VK_EXT_debug_utils is enabled: objects get names and passes labels (capture tools).
+    pub(crate) debug_utils: bool,
     // False for an integrator's instance (see `Instance::adopt`): the integrator destroys it.
     owned: bool,
     // Opening the loader and the layer and version queries before vkCreateInstance (ms).
@@ -103,10 +105,19 @@ impl Instance {
             .api_version(vk::API_VERSION_1_3);
         let mut layer_names: Vec<*const c_char> = Vec::new();
         let mut extension_names: Vec<*const c_char> = Vec::new();
+        // SAFETY: plain enumeration call on a loaded entry.
+        let available = unsafe { entry.enumerate_instance_extension_properties(None) }
+            .map_err(vk_err("vkEnumerateInstanceExtensionProperties"))?;
+        // Object names and pass labels for RenderDoc, GPA and Nsight whenever the loader offers
+        // the extension (it costs nothing at run time without a capture tool attached).
+        let debug_utils = use_validation
+            || available
+                .iter()
+                .any(|e| e.extension_name_as_c_str() == Ok(ext::debug_utils::NAME));
+        if debug_utils {
+            extension_names.push(ext::debug_utils::NAME.as_ptr());
+        }
         if !extra.is_empty() {
-            // SAFETY: plain enumeration call on a loaded entry.
-            let available = unsafe { entry.enumerate_instance_extension_properties(None) }
-                .map_err(vk_err("vkEnumerateInstanceExtensionProperties"))?;
             for wanted in extra {
                 if !available
                     .iter()
@@ -122,7 +133,6 @@ impl Instance {
         }
         if use_validation {
             layer_names.push(VALIDATION_LAYER.as_ptr());
-            extension_names.push(ext::debug_utils::NAME.as_ptr());
             extension_names.push(ext::validation_features::NAME.as_ptr());
         }
         let enabled_features = [vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION];
@@ -166,6 +176,7 @@ impl Instance {
             messenger,
             log,
             validation_enabled: use_validation,
+            debug_utils,
             owned: true,
             loader_ms,
         })
@@ -181,6 +192,7 @@ impl Instance {
             messenger: None,
             log: new_log(),
             validation_enabled: false,
+            debug_utils: false,
             owned: false,
             loader_ms: 0.0,
         }

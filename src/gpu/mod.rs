@@ -28,6 +28,7 @@ pub mod instance;
 pub mod memory;
 pub mod pipeline;
 pub mod pipeline_cache;
+pub mod pipeline_stats;
 pub mod profile;
 pub mod recycler;
 #[cfg(test)]

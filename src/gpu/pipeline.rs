@@ -55,7 +55,7 @@ pub struct ComputePipeline {
     shader: &'static ShaderInfo,
     workgroup_size: [u32; 3],
     subgroup_size: Option<u32>,
-    device: Arc<DeviceShared>,
+    pub(crate) device: Arc<DeviceShared>,
 }
 
 pub(crate) fn descriptor_type(kind: BindingKind) -> vk::DescriptorType {
@@ -217,7 +217,14 @@ impl ComputePipeline {
         if subgroup_size.is_some() {
             stage = stage.push_next(&mut required);
         }
+        // Statistics are captured only when asked for (drivers may keep more per pipeline).
+        let flags = if shared.executable_properties.is_some() {
+            vk::PipelineCreateFlags::CAPTURE_STATISTICS_KHR
+        } else {
+            vk::PipelineCreateFlags::empty()
+        };
         let create = [vk::ComputePipelineCreateInfo::default()
+            .flags(flags)
             .stage(stage)
             .layout(pipeline.layout)];
         // SAFETY: module, layout and cache belong to this device.
@@ -234,6 +241,8 @@ impl ComputePipeline {
                 result: vk::Result::ERROR_UNKNOWN,
             });
         }
+        shared.name_object(pipeline.raw, shader.name);
+        shared.name_object(pipeline.layout, &format!("{} (layout)", shader.name));
         Ok(Arc::new(pipeline))
     }
 

@@ -27,9 +27,10 @@
 //!   bounded. A lease whose work was lost or timed out is leaked, never reused or destroyed
 //!   under the GPU's feet; a lease that fails to reset is destroyed and the failure reported.
 
+use super::buffer::{BufferDesc, create_bound};
 use super::device::DeviceShared;
 use super::error::{GpuError, GpuResult, vk_err};
-use super::memory::{self, MemoryIntent, TrackedAllocation};
+use super::memory::{MemoryIntent, TrackedAllocation};
 use super::timestamps::MAX_PASSES;
 use ash::vk;
 use std::ptr::NonNull;
@@ -316,57 +317,20 @@ fn fill(device: &DeviceShared, lease: &mut Lease) -> GpuResult<()> {
     Ok(())
 }
 
+/// The breadcrumb buffer as it is created (and as the pass plan declares it): written only by
+/// `vkCmdFillBuffer`, read by the host after a device loss.
+pub fn breadcrumb_desc() -> BufferDesc {
+    BufferDesc {
+        name: "pass breadcrumbs".into(),
+        size: CRUMB_BUFFER_BYTES,
+        usage: vk::BufferUsageFlags::TRANSFER_DST,
+        intent: MemoryIntent::Readback,
+    }
+}
+
 /// The device's breadcrumb buffer, every slot free.
 fn create_crumbs(device: &DeviceShared) -> GpuResult<Crumbs> {
-    let raw = &device.raw;
-    let info = vk::BufferCreateInfo::default()
-        .size(CRUMB_BUFFER_BYTES)
-        .usage(vk::BufferUsageFlags::TRANSFER_DST)
-        .sharing_mode(vk::SharingMode::EXCLUSIVE);
-    // SAFETY: valid create info on a live device.
-    let buffer = unsafe { raw.create_buffer(&info, None) }.map_err(vk_err("vkCreateBuffer"))?;
-    let destroy_buffer = || {
-        // SAFETY: never bound or used.
-        unsafe { raw.destroy_buffer(buffer, None) }
-    };
-    // SAFETY: the buffer was just created on this device.
-    let requirements = unsafe { raw.get_buffer_memory_requirements(buffer) };
-    let tracked = match memory::allocate(
-        &device.allocator,
-        &device.ledger,
-        &device.memory_properties,
-        "pass breadcrumbs",
-        requirements,
-        MemoryIntent::Readback,
-        true,
-    ) {
-        Ok(t) => t,
-        Err(e) => {
-            destroy_buffer();
-            return Err(e);
-        }
-    };
-    let mapped = tracked.allocation.mapped_ptr().map(|p| p.cast::<u8>());
-    // SAFETY: memory and offset come from an allocation made for these requirements.
-    let bound = unsafe {
-        raw.bind_buffer_memory(
-            buffer,
-            tracked.allocation.memory(),
-            tracked.allocation.offset(),
-        )
-    };
-    let failure = match (bound, mapped) {
-        (Err(e), _) => Some(GpuError::from_vk("vkBindBufferMemory", e)),
-        (Ok(()), None) => Some(GpuError::Unsupported(
-            "host-visible memory for the pass breadcrumbs could not be mapped".into(),
-        )),
-        (Ok(()), Some(_)) => None,
-    };
-    if let Some(e) = failure {
-        device.free_memory(tracked);
-        destroy_buffer();
-        return Err(e);
-    }
+    let (buffer, tracked, mapped) = create_bound(device, &breadcrumb_desc())?;
     Ok(Crumbs {
         buffer,
         memory: Some(tracked),

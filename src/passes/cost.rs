@@ -44,6 +44,15 @@ pub fn minmax(sample_bytes: f64) -> PassCost {
     }
 }
 
+/// One refinement of the robust range's fine histogram: every sample read once (one refinement
+/// on a clean scan, two or three with hot voxels far outside the data).
+pub fn fine_histogram(sample_bytes: f64) -> PassCost {
+    PassCost {
+        bytes_read: sample_bytes,
+        ..Default::default()
+    }
+}
+
 /// Normalization: samples read, the normalized volume written.
 pub fn normalize(sample_bytes: f64, voxels: f64, normalized_texel_bytes: f64) -> PassCost {
     PassCost {

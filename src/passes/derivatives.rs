@@ -150,7 +150,34 @@ pub struct DerivativePass {
     outputs: DerivativeOutputs,
 }
 
+/// The pass's two output images for a volume of `extent` texels, as `record` creates them and
+/// as the pass plan declares them: the gradient (|g|, and the curvature channel when asked) and
+/// the normals. An output not asked for is a 1-texel image named "(unused placeholder)" (the
+/// shader declares both; the engine drops it after the pass).
+pub fn output_descs(outputs: &DerivativeOutputs, extent: [u32; 3]) -> [ImageDesc; 2] {
+    let image = |name: &str, wanted: bool, format| {
+        if wanted {
+            ImageDesc::volume(name, extent, format)
+        } else {
+            ImageDesc::volume(&format!("{name} (unused placeholder)"), [1, 1, 1], format)
+        }
+    };
+    [
+        image(
+            "gradient magnitude",
+            outputs.magnitude || outputs.curvature,
+            gradient_format(outputs.precision, outputs.curvature),
+        ),
+        image("normals", outputs.normal, vk::Format::R8G8B8A8_SNORM),
+    ]
+}
+
 impl DerivativePass {
+    /// The compiled pipeline (for its statistics and workgroup).
+    pub fn pipeline(&self) -> &Arc<ComputePipeline> {
+        &self.pipeline
+    }
+
     /// Creates the pipeline specialized for `outputs`.
     pub fn new(
         device: &Device,
@@ -192,19 +219,9 @@ impl DerivativePass {
     ) -> GpuResult<DerivedVolumes> {
         let extent = normalized.extent();
         let m = world_transform(linear_part)?;
-        let want_gradient = self.outputs.magnitude || self.outputs.curvature;
-        let gradient_format = gradient_format(self.outputs.precision, self.outputs.curvature);
-        let image = |name: &str, wanted: bool, format| {
-            let size = if wanted { extent } else { [1, 1, 1] };
-            let name = if wanted {
-                name.to_string()
-            } else {
-                format!("{name} (unused placeholder)")
-            };
-            Image::new(device, ImageDesc::volume(&name, size, format))
-        };
-        let gradient = image("gradient magnitude", want_gradient, gradient_format)?;
-        let normal = image("normals", self.outputs.normal, vk::Format::R8G8B8A8_SNORM)?;
+        let [gradient, normal] = output_descs(&self.outputs, extent);
+        let gradient = Image::new(device, gradient)?;
+        let normal = Image::new(device, normal)?;
         let set = DescriptorSet::new(
             &self.pipeline,
             0,
@@ -246,7 +263,7 @@ impl DerivativePass {
         let groups = self.pipeline.workgroups_for(extent);
         rec.dispatch(&self.pipeline, &[set], bytemuck::bytes_of(&params), groups)?;
         Ok(DerivedVolumes {
-            gradient: want_gradient.then_some(gradient),
+            gradient: (self.outputs.magnitude || self.outputs.curvature).then_some(gradient),
             normal: self.outputs.normal.then_some(normal),
             outputs: self.outputs,
             store_scale,

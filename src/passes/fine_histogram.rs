@@ -53,6 +53,11 @@ pub struct FineHistogramPass {
 }
 
 impl FineHistogramPass {
+    /// The compiled pipeline (for its statistics and workgroup).
+    pub fn pipeline(&self) -> &Arc<ComputePipeline> {
+        &self.pipeline
+    }
+
     /// Creates the pipeline specialized for `kind`.
     pub fn new(device: &Device, kind: SampleKind, cache: vk::PipelineCache) -> GpuResult<Self> {
         let pipeline = ComputePipeline::new(

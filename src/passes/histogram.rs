@@ -46,6 +46,11 @@ pub struct HistogramPass {
 }
 
 impl HistogramPass {
+    /// The compiled pipeline (for its statistics and workgroup).
+    pub fn pipeline(&self) -> &Arc<ComputePipeline> {
+        &self.pipeline
+    }
+
     /// Creates the pipeline variant for `kind`.
     pub fn new(device: &Device, kind: SampleKind, cache: vk::PipelineCache) -> GpuResult<Self> {
         let shader = variant(

@@ -40,6 +40,11 @@ pub struct MinMaxPass {
 }
 
 impl MinMaxPass {
+    /// The compiled pipeline (for its statistics and workgroup).
+    pub fn pipeline(&self) -> &Arc<ComputePipeline> {
+        &self.pipeline
+    }
+
     /// Creates the pipeline variant for `kind`.
     pub fn new(device: &Device, kind: SampleKind, cache: vk::PipelineCache) -> GpuResult<Self> {
         let shader = variant(

@@ -158,6 +158,11 @@ pub struct NormalizePass {
 }
 
 impl NormalizePass {
+    /// The compiled pipeline (for its statistics and workgroup).
+    pub fn pipeline(&self) -> &Arc<ComputePipeline> {
+        &self.pipeline
+    }
+
     /// Creates the pipeline specialized for `kind`.
     pub fn new(device: &Device, kind: SampleKind, cache: vk::PipelineCache) -> GpuResult<Self> {
         let pipeline = ComputePipeline::new(

@@ -33,6 +33,11 @@ pub struct OccupancyPass {
 }
 
 impl OccupancyPass {
+    /// The compiled pipeline (for its statistics and workgroup).
+    pub fn pipeline(&self) -> &Arc<ComputePipeline> {
+        &self.pipeline
+    }
+
     /// Creates the pipeline.
     pub fn new(device: &Device, cache: vk::PipelineCache) -> GpuResult<Self> {
         Ok(OccupancyPass {

@@ -242,8 +242,12 @@ impl Painter {
     }
 
     /// Records and submits one frame in the next slot (the caller waited for that slot with
-    /// [`Painter::wait_slot`] before acquiring its swapchain image).
-    pub fn paint(&mut self, mut spec: FrameSpec) -> GpuResult<()> {
+    /// [`Painter::wait_slot`] before acquiring its swapchain image). `frame` is a recording the
+    /// caller began with this frame's compute work (the raymarch, through
+    /// `Engine::record_render`): the composition is appended to it, so the frame is one
+    /// submission and the host never waits for the raymarch on its own; its pass times come
+    /// back with the composition's in [`Completed`].
+    pub fn paint(&mut self, mut spec: FrameSpec, frame: Option<Recording>) -> GpuResult<()> {
         // Whatever happens below, the deltas are consumed (egui asserts that in debug builds).
         let mut textures = Deltas(std::mem::take(&mut spec.textures));
         let slot = self.next_slot;
@@ -273,7 +277,10 @@ impl Painter {
         }
 
         let [width, height] = spec.size;
-        let mut rec = Recording::new(&self.device, "frame composition")?;
+        let mut rec = match frame {
+            Some(rec) => rec,
+            None => Recording::new(&self.device, "frame composition")?,
+        };
         rec.begin_pass("compose");
         // Orders the previous frame's read of the composed image (copy to the window) before
         // this frame's clear, and moves it to TRANSFER_DST.

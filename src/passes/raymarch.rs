@@ -119,6 +119,11 @@ pub struct RaymarchPass {
 }
 
 impl RaymarchPass {
+    /// The compiled pipeline (for its statistics and workgroup).
+    pub fn pipeline(&self) -> &Arc<ComputePipeline> {
+        &self.pipeline
+    }
+
     /// Creates the pipeline for `variant`.
     pub fn new(
         device: &Device,

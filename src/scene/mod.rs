@@ -9,7 +9,6 @@ pub mod camera;
 pub mod classification;
 pub mod geometry;
 pub mod occupancy;
-pub mod plan;
 pub mod recipe;
 pub mod uniforms;
 pub mod variant;

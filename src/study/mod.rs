@@ -9,6 +9,7 @@ pub mod batch_group;
 pub mod batch_outputs;
 pub mod batch_summary;
 pub mod bids;
+pub mod kernel_sweep;
 pub mod metrics;
 pub mod pareto;
 pub mod perturb;

@@ -14,8 +14,8 @@
 //! it while the device starts. Both are the path every morphray command and the viewer use.
 
 use ash::vk;
+use morphray::engine::plan::Plan;
 use morphray::engine::{Engine, EngineConfig};
-use morphray::scene::plan::Plan;
 use morphray::scene::{RenderMode, SceneRecipe};
 use morphray::volume::{LinearMap, Samples, Volume};
 
@@ -149,7 +149,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for a in plan.allocations.iter().filter(|a| !a.transient) {
         println!(
             "  {:<34} {:>10} bytes  {:<16} {}",
-            a.name, a.bytes, a.format, a.memory_type
+            a.name,
+            a.bytes,
+            a.format_label(),
+            a.memory_type
         );
     }
     println!(

@@ -46,7 +46,7 @@ use crate::engine::{Engine, EngineConfig, RenderTarget, TwinStep, twin_step};
 use crate::files::png::{PngError, Provenance, write_rgba8};
 use crate::files::write::{OutputKind, check_output};
 use crate::gpu::swapchain::{Surface, Swapchain};
-use crate::gpu::{Device, GpuError, PassTiming, Presentation};
+use crate::gpu::{Device, GpuError, PassTiming, Presentation, Recording};
 use crate::passes::derivatives::DerivativeOutputs;
 use crate::passes::present::{COMPOSITE_FORMAT, FrameSpec, Painter};
 use crate::scene::{Effects, Scene, SceneRecipe, WindowSet};
@@ -827,8 +827,9 @@ impl Viewer {
                 "a frame (simulated by the script)".into(),
             )));
         }
-        // The raymarch.
-        let mut raymarch: Vec<PassTiming> = Vec::new();
+        // The raymarch, recorded into the frame's one submission (the composition is appended
+        // to it by the painter).
+        let mut frame_recording: Option<Recording> = None;
         let mut fresh = false;
         if let (Some(current), Some(scene)) = (&self.current, scene)
             && view_rect[2] > 0
@@ -864,11 +865,17 @@ impl Viewer {
                     return Ok(());
                 };
                 let twin = &current.loaded.twin;
-                match gpu
-                    .engine
-                    .render(target, &twin.prepared, twin.derived(), &scene)
-                {
-                    Ok(frame) => raymarch = frame.gpu_timings,
+                let mut rec = Recording::new(&gpu.device, "frame").map_err(FrameError::Gpu)?;
+                match gpu.engine.record_render(
+                    &mut rec,
+                    target,
+                    &twin.prepared,
+                    twin.derived(),
+                    &scene,
+                ) {
+                    // Nothing to read after the wait: the viewer keeps no pixels or counts, and
+                    // the pass times come back with the composition's.
+                    Ok(_recorded) => frame_recording = Some(rec),
                     Err(e) => {
                         // Out of memory, or a scene a bricked volume's resident bricks cannot
                         // show: retrying the same scene every frame would fail the same way.
@@ -945,7 +952,7 @@ impl Viewer {
             window: acquired,
             screenshot,
         };
-        gpu.painter.paint(spec)?;
+        gpu.painter.paint(spec, frame_recording)?;
         self.serial = serial;
         if let (Some(swapchain), Some(a)) = (gpu.swapchain.as_mut(), acquired)
             && swapchain.present(&a)?
@@ -956,10 +963,7 @@ impl Viewer {
         // Bookkeeping: log record, first pixel, action latencies.
         if let (Some(current), Some(shown)) = (&mut self.current, shown) {
             self.volume_frames += 1;
-            let mut compute = std::mem::take(&mut self.arrived);
-            if fresh {
-                compute.push(("raymarch".into(), raymarch.clone()));
-            }
+            let compute = std::mem::take(&mut self.arrived);
             self.log.submitted(
                 serial,
                 FrameRecord {
@@ -992,14 +996,6 @@ impl Viewer {
                     .resolve(self.volume_frames, &shown.scene, Some(shown.volume), now);
             }
         }
-        if !raymarch.is_empty() || fresh {
-            let mut passes: Vec<(String, f64)> = raymarch
-                .iter()
-                .map(|p| (p.name.clone(), p.gpu_ms))
-                .collect();
-            passes.retain(|(n, _)| !n.is_empty());
-            self.status.passes = passes;
-        }
         Ok(())
     }
 
@@ -1007,11 +1003,14 @@ impl Viewer {
     fn flush_completed(&mut self) {
         let Some(gpu) = &mut self.gpu else { return };
         for done in gpu.painter.take_completed() {
+            // A frame that raymarched reports its own raymarch; one that only recomposed keeps
+            // the last raymarch's time on show.
+            let raymarched = done.passes.iter().any(|p| p.name == "raymarch");
             let mut passes: Vec<(String, f64)> = self
                 .status
                 .passes
                 .iter()
-                .filter(|(n, _)| n == "raymarch")
+                .filter(|(n, _)| n == "raymarch" && !raymarched)
                 .cloned()
                 .collect();
             passes.extend(done.passes.iter().map(|p| (p.name.clone(), p.gpu_ms)));

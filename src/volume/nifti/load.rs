@@ -57,6 +57,7 @@ pub fn load_file_timed(
     let image_given = is_image_name(&name);
 
     let clock = Instant::now();
+    let read_span = crate::files::trace::span("read", "io");
     let header_path = if image_given {
         companion(path, false)?
     } else {
@@ -64,18 +65,22 @@ pub fn load_file_timed(
     };
     let first = read_file(&header_path)?;
     times.read_ms += ms(clock);
+    drop(read_span);
     // After the clock: hashing is the caller's work, not reading.
     if !image_given {
         on_read(&first);
     }
 
     let clock = Instant::now();
+    let inflate_span = crate::files::trace::span("inflate", "io");
     let (header_bytes, header_members) = bounded::inflate_if_gzip(first)?;
     let decoded = header::decode(&header_bytes)?;
     times.inflate_ms += ms(clock);
+    drop(inflate_span);
 
     if decoded.storage == Storage::SingleFile && !image_given {
         let clock = Instant::now();
+        let _span = crate::files::trace::span("convert", "io");
         let mut loaded = build_single(decoded, header_bytes, &name, opts, header_members)?;
         loaded.header.set_gzip_members(header_members);
         times.convert_ms += ms(clock);
@@ -83,6 +88,7 @@ pub fn load_file_timed(
     }
 
     let clock = Instant::now();
+    let read_span = crate::files::trace::span("read image", "io");
     let image_path = if image_given {
         path.to_path_buf()
     } else {
@@ -90,15 +96,19 @@ pub fn load_file_timed(
     };
     let image = read_file(&image_path)?;
     times.read_ms += ms(clock);
+    drop(read_span);
     if image_given {
         on_read(&image);
     }
 
     let clock = Instant::now();
+    let inflate_span = crate::files::trace::span("inflate image", "io");
     let (image, image_members) = bounded::inflate_image(image, &decoded)?;
     times.inflate_ms += ms(clock);
+    drop(inflate_span);
 
     let clock = Instant::now();
+    let _span = crate::files::trace::span("convert", "io");
     let members = header_members + image_members;
     let mut loaded = build_pair(decoded, &header_bytes, image, &name, opts, members)?;
     loaded.header.set_gzip_members(members);

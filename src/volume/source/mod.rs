@@ -158,6 +158,7 @@ pub fn read(source: &VolumeSource, options: &ReadOptions) -> Result<SourceVolume
         VolumeSource::File(path) => reader_for(path).read(path, options),
         VolumeSource::Phantom(spec) => {
             let start = Instant::now();
+            let _span = crate::files::trace::span("generate phantom", "io");
             let generated = phantom::generate(spec)?;
             let timings = LoadTimings {
                 phantom_ms: start.elapsed().as_secs_f64() * 1e3,

@@ -1,0 +1,364 @@
+//! The plan's unit tests: example scenes plan exactly what they need, and the degradation
+//! ladder's order.
+
+use super::*;
+use crate::scene::{CurvatureSource, Quality, RenderMode};
+use ash::vk;
+
+/// The effects these tests were written for: derived volumes in f16 (the library default is
+/// 8-bit, checked in `the_default_stores_derived_volumes_in_8_bits`).
+fn f16_effects() -> Effects {
+    let mut e = Effects::default();
+    e.quality.derived_precision = DerivedPrecision::F16;
+    e
+}
+
+#[test]
+fn the_default_stores_derived_volumes_in_8_bits() {
+    let p = plan(Effects::default(), &input(), &TexelSizes).unwrap();
+    let g = p
+        .allocations
+        .iter()
+        .find(|a| a.name == "gradient magnitude")
+        .unwrap();
+    assert_eq!(
+        (g.format_label().as_str(), g.bytes),
+        ("R8_SNORM", 256 * 256 * 192)
+    );
+    // No degradation is left for the 8-bit step to make.
+    assert!(p.degradations.is_empty());
+}
+
+fn input() -> PlanInput {
+    PlanInput {
+        dims: [256, 256, 192],
+        sample_kind: SampleKind::I16,
+        image: [1920, 1080],
+        max_image_dimension_3d: 16384,
+        max_storage_buffer_range: u32::MAX as u64,
+        unified_memory: false,
+        budget: u64::MAX,
+        occupied_fraction: 1.0,
+        force_bricking: false,
+        robust_range: true,
+    }
+}
+
+/// Allocations every plan holds whatever the scene (stand-ins, target, uniforms, counters).
+const FIXED: [&str; 10] = [
+    "placeholder (gradient)",
+    "placeholder (normals)",
+    "placeholder (occupancy)",
+    "pass breadcrumbs",
+    "render target",
+    "render target (host)",
+    "raymarch uniforms (frame 0)",
+    "raymarch uniforms (frame 1)",
+    "raymarch sample counters",
+    "raymarch sample counters (host)",
+];
+
+/// The held allocations that depend on the scene.
+fn names(p: &Plan) -> Vec<&str> {
+    p.allocations
+        .iter()
+        .filter(|a| !a.transient && !FIXED.contains(&a.name.as_str()))
+        .map(|a| a.name.as_str())
+        .collect()
+}
+
+fn held(p: &Plan, name: &str) -> (String, u64) {
+    let a = p.allocations.iter().find(|a| a.name == name).unwrap();
+    (a.format_label(), a.bytes)
+}
+
+const N: u64 = 256 * 256 * 192;
+
+#[test]
+fn example_scenes_plan_exactly_the_passes_and_memory_they_need() {
+    let dvr = |curvature, shading| Effects {
+        curvature,
+        shading,
+        ..f16_effects()
+    };
+    let analysis = ["minmax", "fine histogram", "normalize", "histogram"];
+    // DVR, no curvature, no shading: |g| only, as R16F.
+    let p = plan(dvr(false, false), &input(), &TexelSizes).unwrap();
+    assert_eq!(
+        passes(&p),
+        [&analysis[..], &["derivatives", "occupancy", "raymarch"]].concat()
+    );
+    assert_eq!(
+        names(&p),
+        [
+            "normalized volume",
+            "gradient magnitude",
+            "occupancy bits",
+            "occupancy bits"
+        ]
+    );
+    assert_eq!(held(&p, "gradient magnitude"), ("R16_SFLOAT".into(), 2 * N));
+    assert!(
+        p.variants
+            .iter()
+            .any(|v| v.contains("WANT_CURVATURE=false, WANT_NORMAL=false"))
+    );
+    // Curvature on: the same passes, a second channel (the Hessian variant).
+    let c = plan(dvr(true, false), &input(), &TexelSizes).unwrap();
+    assert_eq!(passes(&c), passes(&p));
+    assert_eq!(
+        held(&c, "gradient magnitude"),
+        ("R16G16_SFLOAT".into(), 4 * N)
+    );
+    assert_eq!(c.total_bytes - p.total_bytes, 2 * N);
+    assert!(c.variants.iter().any(|v| v.contains("WANT_CURVATURE=true")));
+    // Shading on: normals, 4 bytes a voxel.
+    let s = plan(dvr(false, true), &input(), &TexelSizes).unwrap();
+    assert_eq!(
+        names(&s),
+        [
+            "normalized volume",
+            "gradient magnitude",
+            "normals",
+            "occupancy bits",
+            "occupancy bits"
+        ]
+    );
+    assert_eq!(s.total_bytes - p.total_bytes, 4 * N);
+    // Gradients on the fly: the derivative pass only reduces max |g|; nothing is stored.
+    let f = plan(
+        Effects {
+            gradient_source: GradientSource::OnTheFly,
+            ..dvr(true, true)
+        },
+        &input(),
+        &TexelSizes,
+    )
+    .unwrap();
+    assert_eq!(
+        names(&f),
+        ["normalized volume", "occupancy bits", "occupancy bits"]
+    );
+    assert!(
+        f.variants
+            .iter()
+            .any(|v| v.contains("CURVATURE=on-the-fly"))
+    );
+    // Tissue visibility is not an effect: every plan above is the same for any tissue set,
+    // because `plan` never sees the classification.
+}
+
+fn passes(p: &Plan) -> Vec<&str> {
+    p.passes.iter().map(|x| x.name.as_str()).collect()
+}
+
+#[test]
+fn mip_needs_no_derivative_pass_and_no_derived_memory() {
+    let p = plan(
+        Effects {
+            mode: RenderMode::Mip,
+            ..f16_effects()
+        },
+        &input(),
+        &TexelSizes,
+    )
+    .unwrap();
+    assert_eq!(
+        passes(&p),
+        [
+            "minmax",
+            "fine histogram",
+            "normalize",
+            "histogram",
+            "raymarch"
+        ]
+    );
+    assert_eq!(names(&p), ["normalized volume"]);
+    assert!(p.variants.iter().all(|v| !v.starts_with("derivatives")));
+}
+
+#[test]
+fn the_robust_range_plans_its_fine_histogram_and_min_max_normalization_does_not() {
+    let transient = |p: &Plan| {
+        p.allocations
+            .iter()
+            .filter(|a| a.transient)
+            .map(|a| a.name.clone())
+            .collect::<Vec<_>>()
+    };
+    let robust = plan(f16_effects(), &input(), &TexelSizes).unwrap();
+    let minmax = plan(
+        f16_effects(),
+        &PlanInput {
+            robust_range: false,
+            ..input()
+        },
+        &TexelSizes,
+    )
+    .unwrap();
+    assert!(passes(&robust).contains(&"fine histogram"));
+    assert!(!passes(&minmax).contains(&"fine histogram"));
+    assert!(robust.variants.contains(&"fine_histogram_i16".to_string()));
+    let extra: Vec<_> = transient(&robust)
+        .into_iter()
+        .filter(|n| !transient(&minmax).contains(n))
+        .collect();
+    assert_eq!(extra, ["fine histogram", "fine histogram (readback)"]);
+    // Held memory is the same; only the preparation peak grows, by the two count buffers.
+    assert_eq!(robust.total_bytes, minmax.total_bytes);
+    let counts = crate::passes::fine_histogram::RESULT_BYTES;
+    assert_eq!(robust.peak_bytes - minmax.peak_bytes, 2 * counts);
+}
+
+#[test]
+fn dvr_without_curvature_holds_no_curvature_and_shading_off_no_normals() {
+    let plain = plan(f16_effects(), &input(), &TexelSizes).unwrap();
+    let g = plain
+        .allocations
+        .iter()
+        .find(|a| a.name == "gradient magnitude")
+        .unwrap();
+    assert_eq!(
+        (g.format_label().as_str(), g.bytes),
+        ("R16_SFLOAT", 2 * 256 * 256 * 192)
+    );
+    assert!(!names(&plain).contains(&"normals"));
+    let curved = plan(
+        Effects {
+            curvature: true,
+            ..f16_effects()
+        },
+        &input(),
+        &TexelSizes,
+    )
+    .unwrap();
+    let g = curved
+        .allocations
+        .iter()
+        .find(|a| a.name == "gradient magnitude")
+        .unwrap();
+    assert_eq!(
+        (g.format_label().as_str(), g.bytes),
+        ("R16G16_SFLOAT", 4 * 256 * 256 * 192)
+    );
+    let shaded = plan(
+        Effects {
+            shading: true,
+            ..f16_effects()
+        },
+        &input(),
+        &TexelSizes,
+    )
+    .unwrap();
+    assert!(names(&shaded).contains(&"normals"));
+    assert_eq!(shaded.total_bytes - plain.total_bytes, 4 * 256 * 256 * 192);
+    // Curvature on the fly stores no curvature channel.
+    let fly = Effects {
+        curvature: true,
+        quality: Quality {
+            curvature_source: CurvatureSource::OnTheFly,
+            ..f16_effects().quality
+        },
+        ..f16_effects()
+    };
+    let p = plan(fly, &input(), &TexelSizes).unwrap();
+    assert_eq!(
+        p.allocations
+            .iter()
+            .find(|a| a.name == "gradient magnitude")
+            .unwrap()
+            .format,
+        Some(vk::Format::R16_SFLOAT)
+    );
+}
+
+#[test]
+fn budgets_degrade_in_order_then_brick_then_refuse() {
+    let full = plan(
+        Effects {
+            curvature: true,
+            shading: true,
+            ..f16_effects()
+        },
+        &input(),
+        &TexelSizes,
+    )
+    .unwrap();
+    let mut tight = input();
+    tight.budget = full.peak_bytes - 1;
+    let p = plan(full.effects, &tight, &TexelSizes).unwrap();
+    assert_eq!(
+        p.degradations[0].accuracy_setting,
+        "default (8-bit derived volumes)"
+    );
+    assert_eq!(p.degradations.len(), 1);
+    assert!(p.peak_bytes <= tight.budget);
+    // Where gradients on the fly are needed anyway, the 8-bit step bought nothing and is not
+    // applied (the plan keeps only the steps it needs).
+    let no_derived = plan(
+        Effects {
+            gradient_source: GradientSource::OnTheFly,
+            ..full.effects
+        },
+        &input(),
+        &TexelSizes,
+    )
+    .unwrap();
+    tight.budget = no_derived.peak_bytes;
+    let p = plan(full.effects, &tight, &TexelSizes).unwrap();
+    let settings: Vec<_> = p.degradations.iter().map(|d| d.accuracy_setting).collect();
+    assert_eq!(settings, ["gradient on the fly"]);
+    assert_eq!(p.effects.quality.derived_precision, DerivedPrecision::F16);
+    tight.budget = 40 << 20;
+    tight.occupied_fraction = 0.2;
+    let p = plan(full.effects, &tight, &TexelSizes).unwrap();
+    assert!(
+        matches!(p.layout, Layout::Bricked { .. }),
+        "{:?}",
+        p.degradations
+    );
+    assert!(p.peak_bytes <= tight.budget);
+    tight.budget = 1 << 20;
+    let err = plan(full.effects, &tight, &TexelSizes).unwrap_err();
+    assert!(
+        err.to_string()
+            .contains("does not fit the memory budget of 1048576 bytes"),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_side_over_the_3d_limit_forces_bricking() {
+    let mut i = input();
+    i.dims = [2100, 64, 64];
+    i.max_image_dimension_3d = 2048;
+    let p = plan(f16_effects(), &i, &TexelSizes).unwrap();
+    assert!(matches!(
+        p.layout,
+        Layout::Bricked {
+            grid: [66, 2, 2],
+            ..
+        }
+    ));
+    assert!(p.degradations[0].what.contains("3D image limit of 2048"));
+}
+
+#[test]
+fn a_volume_thinner_than_a_brick_is_refused_before_bricking_takes_thousands_of_times_its_size() {
+    // 70000 x 1 x 1 (280 KB as f32) once built an 886 MiB atlas: every 32-voxel run of the
+    // line took a whole 38^3 slot.
+    let mut i = input();
+    i.dims = [70000, 1, 1];
+    i.max_image_dimension_3d = 2048;
+    let err = plan(f16_effects(), &i, &TexelSizes).unwrap_err();
+    let text = err.to_string();
+    assert!(text.contains("cannot be bricked within"), "{text}");
+    assert!(text.contains("3D image limit of 2048"), "{text}");
+    assert!(err.smallest_bytes > bricking_limit(i.dims), "{err:?}");
+    assert!(!text.contains("memory budget"), "{text}");
+    // A head-sized volume bricks well within the limit.
+    i.dims = [2100, 256, 192];
+    let p = plan(f16_effects(), &i, &TexelSizes).unwrap();
+    assert!(matches!(p.layout, Layout::Bricked { .. }));
+    assert!(p.peak_bytes <= bricking_limit(i.dims));
+}
