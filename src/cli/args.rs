@@ -157,6 +157,10 @@ pub enum Command {
     /// format, memory type), the total, predicted per-pass costs and the degradations the memory
     /// budget forced; then set the volume up and print what the engine actually holds.
     Plan(PlanArgs),
+    /// Process a BIDS dataset (BIDS-App conventions): `participant` writes each scan's Table-1
+    /// row, peaks and three thumbnails as BIDS Derivatives; `group` writes a TSV and an HTML
+    /// report from them.
+    Batch(super::batch::BatchArgs),
     /// Compile the kernels a scene's plan uses (or every variant, --all) on the chosen device
     /// without running anything, and print the driver compiler's statistics per kernel (SIMD
     /// width, instructions, cycles, spills, sends, registers, ... where the driver reports them

@@ -6,6 +6,7 @@
 
 mod accuracy;
 pub mod args;
+mod batch;
 mod bench;
 mod devices;
 mod info;
@@ -182,6 +183,7 @@ fn run_engine_command(command: &Command, global: &GlobalOptions) -> Result<(), E
         Command::Accuracy(args) => accuracy::run(args, global),
         Command::Devices => devices::run(),
         Command::Plan(args) => plan::run(args, global),
+        Command::Batch(args) => batch::run(args, global),
         Command::Kernels(args) => kernels::run(args, global),
         Command::Phantom(args) => {
             // Before generating: an existing scan is never replaced without --force.

@@ -4,6 +4,11 @@
 //! reference, and knows nothing of Vulkan); each concern is its own file so the metrics and the
 //! frontier are unit-tested without a GPU.
 
+pub mod batch;
+pub mod batch_group;
+pub mod batch_outputs;
+pub mod batch_summary;
+pub mod bids;
 pub mod kernel_sweep;
 pub mod metrics;
 pub mod pareto;

@@ -4,6 +4,7 @@
 //! passes silently.
 #![allow(dead_code)]
 
+pub mod bids;
 pub mod mni152;
 pub mod volumes;
 

@@ -1,0 +1,216 @@
+//! `morphray batch` as a cohort user runs it, on a generated 3-subject BIDS dataset whose last
+//! scan is broken: BIDS Derivatives written per scan, the broken scan logged and skipped, a
+//! rerun that skips finished scans, shards (by flag and by Slurm variables) that split the list,
+//! and the group level's TSV and HTML report.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn morphray(args: &[&str], env: &[(&str, &str)]) -> Output {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_morphray"));
+    command.args(args);
+    for key in [
+        "SLURM_ARRAY_TASK_ID",
+        "SLURM_ARRAY_TASK_COUNT",
+        "SLURM_ARRAY_TASK_MIN",
+    ] {
+        command.env_remove(key);
+    }
+    command.envs(env.iter().copied());
+    command.output().expect("the morphray binary runs")
+}
+
+fn text(o: &Output) -> String {
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
+}
+
+fn temp(name: &str) -> PathBuf {
+    std::env::temp_dir().join(format!("morphray-batch-{}-{name}", std::process::id()))
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+fn summaries(out: &Path) -> Vec<String> {
+    let mut found = Vec::new();
+    for sub in ["sub-01", "sub-02", "sub-03"] {
+        let path = out.join(format!("{sub}/anat/{sub}_desc-peaks_T1w.json"));
+        if path.is_file() {
+            found.push(sub.to_string());
+        }
+    }
+    found
+}
+
+#[test]
+fn participant_and_group_levels_write_derivatives_skip_the_broken_scan_and_resume() {
+    let bids = temp("bids");
+    let out = temp("out");
+    let _ = std::fs::remove_dir_all(&out);
+    common::bids::write_dataset(&bids, 3, 32, true);
+    let args = [
+        "batch",
+        s(&bids),
+        s(&out),
+        "participant",
+        "--thumbnail-size",
+        "48",
+    ];
+    let first = morphray(&args, &[]);
+    assert!(first.status.success(), "{}", text(&first));
+    let said = text(&first);
+    assert!(
+        said.contains("3 scans: 2 done, 0 skipped (finished earlier), 1 failed"),
+        "{said}"
+    );
+    assert!(
+        said.contains("warning: sub-03/anat/sub-03_T1w.nii.gz skipped"),
+        "{said}"
+    );
+
+    let description: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("dataset_description.json")).unwrap())
+            .unwrap();
+    assert_eq!(description["DatasetType"], "derivative");
+    assert_eq!(description["GeneratedBy"][0]["Name"], "morphray");
+
+    let anat = out.join("sub-01/anat");
+    let summary: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(anat.join("sub-01_desc-peaks_T1w.json")).unwrap())
+            .unwrap();
+    assert_eq!(summary["dims"], serde_json::json!([32, 32, 32]));
+    assert_eq!(summary["table1"]["total_voxels"], 32 * 32 * 32);
+    assert_eq!(summary["subject"], "01");
+    let mut views = Vec::new();
+    for view in ["anterior", "lateral", "superior"] {
+        let png = std::fs::read(anat.join(format!("sub-01_desc-{view}_T1w.png"))).unwrap();
+        assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+        assert_eq!(&png[16..24], &[0, 0, 0, 48, 0, 0, 0, 48], "48x48 thumbnail");
+        views.push(png);
+    }
+    assert!(
+        views[0] != views[1] && views[1] != views[2],
+        "three different views"
+    );
+    let error: serde_json::Value = serde_json::from_slice(
+        &std::fs::read(out.join("sub-03/anat/sub-03_desc-error_T1w.json")).unwrap(),
+    )
+    .unwrap();
+    assert!(
+        error["error"]
+            .as_str()
+            .unwrap()
+            .contains("sub-03_T1w.nii.gz"),
+        "{error}"
+    );
+    let log = std::fs::read_to_string(out.join("logs/participant_shard-0-of-1.jsonl")).unwrap();
+    assert_eq!(log.lines().count(), 3, "{log}");
+
+    // A rerun skips the finished scans (their summaries are untouched) and retries the broken one.
+    let written = std::fs::metadata(anat.join("sub-01_desc-peaks_T1w.json"))
+        .unwrap()
+        .modified()
+        .unwrap();
+    let again = morphray(&args, &[]);
+    assert!(again.status.success(), "{}", text(&again));
+    assert!(
+        text(&again).contains("3 scans: 0 done, 2 skipped (finished earlier), 1 failed"),
+        "{}",
+        text(&again)
+    );
+    let after = std::fs::metadata(anat.join("sub-01_desc-peaks_T1w.json"))
+        .unwrap()
+        .modified()
+        .unwrap();
+    assert_eq!(written, after);
+    // A peaks-only run leaves thumbnails to a later run, which does not skip those scans.
+    std::fs::remove_file(anat.join("sub-01_desc-lateral_T1w.png")).unwrap();
+    let third = morphray(&args, &[]);
+    assert!(
+        text(&third).contains("3 scans: 1 done, 1 skipped"),
+        "{}",
+        text(&third)
+    );
+    assert!(anat.join("sub-01_desc-lateral_T1w.png").is_file());
+
+    let group = morphray(&["batch", s(&bids), s(&out), "group"], &[]);
+    assert!(group.status.success(), "{}", text(&group));
+    let tsv = std::fs::read_to_string(out.join("group/morphray_table1.tsv")).unwrap();
+    let lines: Vec<&str> = tsv.lines().collect();
+    assert_eq!(lines.len(), 3, "{tsv}");
+    assert!(
+        lines[0].starts_with("scan\tsubject\tsession\tsuffix\t") && lines[0].contains("wm_norm")
+    );
+    assert!(
+        lines[1].starts_with("sub-01/anat/sub-01_T1w.nii.gz\t01\tn/a\tT1w\t"),
+        "{tsv}"
+    );
+    let html = std::fs::read_to_string(out.join("group/morphray_report.html")).unwrap();
+    assert_eq!(html.matches("<svg").count(), 3);
+    assert!(html.contains("src=\"../sub-02/anat/sub-02_desc-lateral_T1w.png\""));
+    assert!(html.contains("2 scans, 1 failed"));
+    assert!(html.contains("sub-03/anat/sub-03_T1w.nii.gz"));
+    std::fs::remove_dir_all(&out).unwrap();
+    std::fs::remove_dir_all(&bids).unwrap();
+}
+
+#[test]
+fn shards_by_flag_or_slurm_variables_split_the_scans_and_labels_select_subjects() {
+    let bids = temp("shards");
+    common::bids::write_dataset(&bids, 3, 24, false);
+    let run = |out: &Path, extra: &[&str], env: &[(&str, &str)]| {
+        let _ = std::fs::remove_dir_all(out);
+        let mut args = vec!["batch", s(&bids), s(out), "participant", "--no-thumbnails"];
+        args.extend_from_slice(extra);
+        let o = morphray(&args, env);
+        assert!(o.status.success(), "{}", text(&o));
+        summaries(out)
+    };
+    let a = temp("shard-a");
+    let b = temp("shard-b");
+    assert_eq!(run(&a, &["--shard", "0/2"], &[]), ["sub-01", "sub-03"]);
+    // Slurm arrays may start at 1: task 2 of 1..2 is shard 1/2.
+    let slurm = [
+        ("SLURM_ARRAY_TASK_ID", "2"),
+        ("SLURM_ARRAY_TASK_COUNT", "2"),
+        ("SLURM_ARRAY_TASK_MIN", "1"),
+    ];
+    assert_eq!(run(&b, &[], &slurm), ["sub-02"]);
+    assert!(b.join("logs/participant_shard-1-of-2.jsonl").is_file());
+    assert_eq!(
+        run(&a, &["--participant-label", "sub-02", "03"], &[]),
+        ["sub-02", "sub-03"]
+    );
+    let unknown = morphray(
+        &[
+            "batch",
+            s(&bids),
+            s(&a),
+            "participant",
+            "--participant-label",
+            "7",
+        ],
+        &[],
+    );
+    assert_eq!(unknown.status.code(), Some(1));
+    assert!(
+        text(&unknown).contains("no subject sub-7"),
+        "{}",
+        text(&unknown)
+    );
+    let bad = morphray(
+        &["batch", s(&bids), s(&a), "participant", "--shard", "2/2"],
+        &[],
+    );
+    assert_eq!(bad.status.code(), Some(1));
+    for dir in [&a, &b, &bids] {
+        std::fs::remove_dir_all(dir).unwrap();
+    }
+}

@@ -1,0 +1,391 @@
+//! `morphray.Volume`: a volume opened on the process's engine, with its analysis.
+//!
+//! Decisions:
+//! - The volume keeps its GPU data (the twin: normalized volume, histogram, derived volumes)
+//!   until the Python object is collected, so successive renders run the raymarch only.
+//! - A bricked volume (over the memory budget) keeps its host copy: which bricks are resident
+//!   depends on the scene's windows and mode, so a render with other tissues, windows or mode
+//!   opens it again with that recipe rather than showing missing bricks.
+//! - A file is read and inflated before the engine is locked, so threads opening several files
+//!   overlap their reads with each other's GPU work.
+//! - Arrays come in as (i, j, k)-indexed numpy arrays (nibabel's order) and are copied once into
+//!   the engine's x-fastest order; maps go out in the same (i, j, k) order.
+
+use crate::errors;
+use crate::recipe::{SceneSettings, recipe};
+use crate::state::{self, State};
+use morphray::analysis::TissueReport;
+use morphray::engine::plan::{Layout, Plan};
+use morphray::engine::{OpenOptions, Twin, VolumeLayout};
+use morphray::gpu::Access;
+use morphray::passes::derivatives::DerivativeOutputs;
+use morphray::scene::{DerivedPrecision, SceneRecipe};
+use morphray::study::batch_summary::ScanSummary;
+use morphray::volume::phantom::PhantomSpec;
+use morphray::volume::source::{self, ReadOptions, VolumeSource};
+use morphray::volume::{LinearMap, Samples, Volume as HostVolume};
+use numpy::ndarray::{Array3, ShapeBuilder};
+use numpy::{IntoPyArray, PyArray3, PyReadonlyArray2, PyReadonlyArray3, PyUntypedArrayMethods};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use std::path::PathBuf;
+use std::sync::Mutex;
+
+/// The image size volumes are planned for (the command line's default).
+const PLAN_IMAGE: [u32; 2] = [1024, 1024];
+
+struct Inner {
+    twin: Twin,
+    report: TissueReport,
+    plan: Plan,
+    /// The recipe the twin was prepared for.
+    recipe: SceneRecipe,
+    /// The host copy of a bricked volume (module doc).
+    host: Option<HostVolume>,
+    generation: u64,
+}
+
+/// A volume on the GPU with its tissue analysis.
+#[pyclass(frozen, module = "morphray")]
+pub struct Volume {
+    label: String,
+    dims: [u32; 3],
+    warnings: Vec<String>,
+    inner: Mutex<Inner>,
+}
+
+fn open_options(recipe: &SceneRecipe, frame: usize) -> OpenOptions {
+    OpenOptions {
+        read: ReadOptions { frame, hash: false },
+        image: PLAN_IMAGE,
+        recipe: recipe.clone(),
+        first_frame: false,
+    }
+}
+
+/// Opens `volume` (already read) on the process's engine.
+fn open_host(state: &mut State, volume: HostVolume, label: String) -> PyResult<Volume> {
+    let recipe = recipe(&SceneSettings::default())?;
+    let (engine, generation) = state.engine()?;
+    let opened = engine
+        .open_with(&volume, &open_options(&recipe, 0))
+        .map_err(errors::open)?;
+    let bricked = matches!(opened.plan.layout, Layout::Bricked { .. });
+    let dims = opened.twin.prepared.dims;
+    Ok(Volume {
+        label,
+        dims,
+        warnings: volume.warnings.clone(),
+        inner: Mutex::new(Inner {
+            twin: opened.twin,
+            report: opened.report,
+            plan: opened.plan,
+            recipe,
+            host: bricked.then_some(volume),
+            generation,
+        }),
+    })
+}
+
+fn open_source(py: Python<'_>, source: VolumeSource, frame: usize) -> PyResult<Volume> {
+    py.detach(|| {
+        // Read and inflate before taking the engine: other threads' GPU work goes on meanwhile.
+        let read = source::read(&source, &ReadOptions { frame, hash: false })
+            .map_err(|e| errors::InputError::new_err(e.to_string()))?;
+        open_host(&mut state::lock(), read.volume, read.label)
+    })
+}
+
+/// Opens a NIfTI/ANALYZE file (`frame`: which volume of a 4D file).
+#[pyfunction]
+#[pyo3(signature = (path, frame=0))]
+pub fn open_file(py: Python<'_>, path: PathBuf, frame: usize) -> PyResult<Volume> {
+    open_source(py, VolumeSource::File(path), frame)
+}
+
+/// Opens the synthetic head phantom of `dims` 1 mm voxels (the paper's cohort-A size by
+/// default).
+#[pyfunction]
+#[pyo3(signature = (dims=(256, 256, 192), seed=None, noise=true))]
+pub fn open_phantom(
+    py: Python<'_>,
+    dims: (usize, usize, usize),
+    seed: Option<u64>,
+    noise: bool,
+) -> PyResult<Volume> {
+    let spec = PhantomSpec {
+        dims: [dims.0, dims.1, dims.2],
+        spacing_mm: [1.0; 3],
+        seed: seed.unwrap_or(PhantomSpec::DEFAULT_SEED),
+        noise,
+    };
+    open_source(py, VolumeSource::Phantom(spec), 0)
+}
+
+/// The voxels of an (i, j, k)-indexed array in x-fastest order.
+fn x_fastest<T: Copy + numpy::Element>(array: &PyReadonlyArray3<'_, T>) -> Vec<T> {
+    array.as_array().t().iter().copied().collect()
+}
+
+fn samples_of(array: &Bound<'_, PyAny>) -> PyResult<(Samples, [usize; 3])> {
+    macro_rules! try_kind {
+        ($t:ty, $make:expr) => {
+            if let Ok(a) = array.extract::<PyReadonlyArray3<'_, $t>>() {
+                let shape = a.shape();
+                let dims = [shape[0], shape[1], shape[2]];
+                let values = x_fastest(&a);
+                #[allow(clippy::redundant_closure_call)]
+                return Ok(($make(values), dims));
+            }
+        };
+    }
+    try_kind!(u8, Samples::from_u8);
+    try_kind!(i8, |v: Vec<i8>| Samples::from_i8(&v));
+    try_kind!(u16, |v: Vec<u16>| Samples::from_u16(&v));
+    try_kind!(i16, |v: Vec<i16>| Samples::from_i16(&v));
+    try_kind!(f32, |v: Vec<f32>| Samples::from_f32(&v));
+    Err(errors::InputError::new_err(
+        "the array must be 3D of uint8, int8, uint16, int16 or float32 (morphray.open converts \
+         other dtypes to float32)",
+    ))
+}
+
+/// Opens a 3D array indexed (i, j, k) with its 4x4 index-to-world affine (RAS+ mm, as nibabel's
+/// `img.affine`).
+#[pyfunction]
+#[pyo3(signature = (array, affine, name="array"))]
+pub fn open_array(
+    py: Python<'_>,
+    array: &Bound<'_, PyAny>,
+    affine: PyReadonlyArray2<'_, f64>,
+    name: &str,
+) -> PyResult<Volume> {
+    let a = affine.as_array();
+    if a.shape() != [4, 4] {
+        return Err(errors::InputError::new_err(format!(
+            "the affine must be 4x4, not {:?}",
+            a.shape()
+        )));
+    }
+    let mut rows = [[0.0f64; 4]; 4];
+    for (r, row) in rows.iter_mut().enumerate() {
+        for (c, v) in row.iter_mut().enumerate() {
+            *v = a[[r, c]];
+        }
+    }
+    let (samples, dims) = samples_of(array)?;
+    let volume = HostVolume::from_voxels(name, dims, samples, rows, LinearMap::IDENTITY)
+        .map_err(|e| errors::InputError::new_err(e.to_string()))?;
+    let label = name.to_string();
+    py.detach(|| open_host(&mut state::lock(), volume, label))
+}
+
+impl Inner {
+    /// Opens the host copy again for `recipe` when the volume is bricked and the recipe's
+    /// windows, tissues or mode differ from what the resident bricks were chosen for.
+    fn reopen_if_needed(&mut self, state: &mut State, recipe: &SceneRecipe) -> PyResult<()> {
+        let Some(host) = &self.host else {
+            return Ok(());
+        };
+        let mut same = recipe.clone();
+        same.camera = self.recipe.camera;
+        if same == self.recipe {
+            return Ok(());
+        }
+        let (engine, _) = state.engine()?;
+        let opened = engine
+            .open_with(host, &open_options(recipe, 0))
+            .map_err(errors::open)?;
+        self.twin = opened.twin;
+        self.report = opened.report;
+        self.plan = opened.plan;
+        self.recipe = recipe.clone();
+        Ok(())
+    }
+}
+
+#[pymethods]
+impl Volume {
+    /// The input's name (file path, "phantom" or the array's name).
+    #[getter]
+    fn label(&self) -> &str {
+        &self.label
+    }
+
+    /// Voxels along i, j, k.
+    #[getter]
+    fn shape(&self) -> (u32, u32, u32) {
+        (self.dims[0], self.dims[1], self.dims[2])
+    }
+
+    /// The loader's repairs and warnings about the input.
+    #[getter]
+    fn warnings(&self) -> Vec<String> {
+        self.warnings.clone()
+    }
+
+    /// Whether the volume is held whole on the GPU or bricked (over the memory budget).
+    #[getter]
+    fn layout(&self) -> &'static str {
+        let inner = self.inner.lock().unwrap_or_else(|p| p.into_inner());
+        match inner.plan.layout {
+            Layout::Whole => "whole",
+            Layout::Bricked { .. } => "bricked",
+        }
+    }
+
+    /// The scan summary (Table-1 row, peaks, windows, contrast, warnings) as JSON text; the
+    /// Python `peaks()` parses it.
+    fn summary_json(&self) -> PyResult<String> {
+        let inner = self.inner.lock().unwrap_or_else(|p| p.into_inner());
+        let summary = ScanSummary::new(&self.label, self.dims, &inner.report, &self.warnings);
+        serde_json::to_string(&summary).map_err(|e| errors::Error::new_err(e.to_string()))
+    }
+
+    /// Renders one frame; returns an (H, W, 4) uint8 array (RGBA, rows top to bottom).
+    #[pyo3(signature = (width, height, mode="dvr".to_string(), tissues=None, windows="adaptive".to_string(),
+        azimuth=0.0, elevation=0.0, zoom=1.0, projection="perspective".to_string(),
+        curvature=false, shading=false, step=0.5, jitter=true, background=(0.0, 0.0, 0.0)))]
+    #[allow(clippy::too_many_arguments)]
+    fn render<'py>(
+        &self,
+        py: Python<'py>,
+        width: u32,
+        height: u32,
+        mode: String,
+        tissues: Option<Vec<String>>,
+        windows: String,
+        azimuth: f64,
+        elevation: f64,
+        zoom: f64,
+        projection: String,
+        curvature: bool,
+        shading: bool,
+        step: f64,
+        jitter: bool,
+        background: (f32, f32, f32),
+    ) -> PyResult<Bound<'py, PyArray3<u8>>> {
+        if !(1..=16384).contains(&width) || !(1..=16384).contains(&height) {
+            return Err(errors::usage(format!(
+                "size ({width}, {height}) must be 1..16384 pixels each way"
+            )));
+        }
+        let settings = SceneSettings {
+            mode,
+            tissues,
+            windows,
+            azimuth,
+            elevation,
+            zoom,
+            projection,
+            curvature,
+            shading,
+            step,
+            jitter,
+            background: [background.0, background.1, background.2],
+        };
+        let recipe = recipe(&settings)?;
+        let pixels = py.detach(|| -> PyResult<Vec<u8>> {
+            let mut state = state::lock();
+            let mut inner = self.inner.lock().unwrap_or_else(|p| p.into_inner());
+            let generation = inner.generation;
+            state.engine_and_target(generation, [width, height])?;
+            inner.reopen_if_needed(&mut state, &recipe)?;
+            let scene = recipe.scene_for(&inner.report);
+            let (engine, target) = state.engine_and_target(generation, [width, height])?;
+            let mut pixels = vec![0u8; width as usize * height as usize * 4];
+            engine
+                .render_twin_into(target, &mut inner.twin, &scene, &mut pixels)
+                .map_err(errors::gpu)?;
+            Ok(pixels)
+        })?;
+        let shape = (height as usize, width as usize, 4);
+        let array = Array3::from_shape_vec(shape, pixels)
+            .map_err(|e| errors::Error::new_err(e.to_string()))?;
+        Ok(array.into_pyarray(py))
+    }
+
+    /// The derived maps of the paper's eq. 3-4 as float32 (i, j, k) arrays: `"gradient"`
+    /// (|grad I_norm| per mm) and `"curvature"` (k = g^T H g per mm^2, I_norm units). Whole
+    /// volumes only (a bricked volume has no whole-volume map to export).
+    #[pyo3(signature = (maps=vec!["gradient".to_string(), "curvature".to_string()]))]
+    fn derive<'py>(&self, py: Python<'py>, maps: Vec<String>) -> PyResult<Bound<'py, PyDict>> {
+        let mut gradient = false;
+        let mut curvature = false;
+        for m in &maps {
+            match m.as_str() {
+                "gradient" => gradient = true,
+                "curvature" => curvature = true,
+                other => {
+                    return Err(errors::usage(format!(
+                        "unknown map `{other}`; use \"gradient\" or \"curvature\""
+                    )));
+                }
+            }
+        }
+        let (values, channels, scale) =
+            py.detach(|| -> PyResult<(Vec<f32>, usize, [f32; 2])> {
+                let mut state = state::lock();
+                let inner = self.inner.lock().unwrap_or_else(|p| p.into_inner());
+                if matches!(inner.twin.prepared.layout, VolumeLayout::Bricked(_)) {
+                    return Err(errors::MemoryBudgetError::new_err(
+                        "this volume is bricked (over the memory budget): its maps cannot be \
+                     exported whole; raise morphray.configure(memory_budget=...)",
+                    ));
+                }
+                if inner.generation != state.generation {
+                    return Err(errors::Error::new_err(
+                        "this volume was opened before morphray.configure() changed the device; \
+                     open it again",
+                    ));
+                }
+                let (engine, _) = state.engine()?;
+                let outputs = DerivativeOutputs {
+                    magnitude: true,
+                    curvature,
+                    normal: false,
+                    precision: DerivedPrecision::F32,
+                };
+                let derived = engine
+                    .derive(&inner.twin.prepared, outputs)
+                    .map_err(errors::gpu)?;
+                let image = derived.volumes.gradient.as_ref().ok_or_else(|| {
+                    errors::Error::new_err("the derivative pass returned no gradient volume")
+                })?;
+                let data = morphray::engine::readback::read_image(
+                    engine.device(),
+                    image,
+                    Access::ComputeSampled,
+                )
+                .map_err(errors::gpu)?;
+                Ok((data.values, data.channels, derived.volumes.store_scale))
+            })?;
+        let [x, y, z] = self.dims.map(|d| d as usize);
+        let out = PyDict::new(py);
+        let export = |name: &str, channel: usize| -> PyResult<()> {
+            let s = scale[channel.min(1)];
+            let map: Vec<f32> = values
+                .iter()
+                .skip(channel)
+                .step_by(channels.max(1))
+                .map(|v| v / s)
+                .collect();
+            // x fastest in memory: a Fortran-ordered (i, j, k) array.
+            let array = Array3::from_shape_vec((x, y, z).f(), map)
+                .map_err(|e| errors::Error::new_err(e.to_string()))?;
+            out.set_item(name, array.into_pyarray(py))
+        };
+        if gradient {
+            export("gradient", 0)?;
+        }
+        if curvature {
+            export("curvature", 1)?;
+        }
+        Ok(out)
+    }
+
+    fn __repr__(&self) -> String {
+        let [x, y, z] = self.dims;
+        format!("<morphray.Volume {} {x}x{y}x{z}>", self.label)
+    }
+}
