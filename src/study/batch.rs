@@ -5,6 +5,8 @@
 //! Decisions:
 //! - One engine (one device, one pipeline cache) for all the scans of a process: the device and
 //!   the pipelines are started once, so a scan costs its read, inflate, GPU work and encode.
+//! - The scans are read and inflated ahead on other cores ([`super::batch_prefetch`]) while the
+//!   engine works, so the host's inflate and the engine's work overlap.
 //! - A scan that fails (unreadable file, a volume that does not fit) is logged with its error,
 //!   recorded in its `desc-error` file and skipped; the batch goes on. A panic inside the engine
 //!   is contained the same way, and the engine is then started afresh, since its state is
@@ -17,6 +19,7 @@
 use super::batch_outputs::{
     ScanOutputs, VIEWS, append_line, log_path, write_dataset_description, write_json,
 };
+use super::batch_prefetch;
 use super::batch_summary::ScanSummary;
 use super::bids::{BidsError, Scan, Shard, discover};
 use crate::engine::{Engine, EngineConfig, OpenOptions, RenderTarget};
@@ -24,7 +27,7 @@ use crate::files::png::{Provenance, write_rgba8};
 use crate::files::write::OutputError;
 use crate::gpu::GpuError;
 use crate::scene::SceneRecipe;
-use crate::volume::source::{ReadOptions, VolumeSource};
+use crate::volume::source::{ReadOptions, SourceVolume};
 use ash::vk;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -67,6 +70,9 @@ pub struct ScanTimings {
     pub read_ms: f64,
     /// Inflating gzip.
     pub inflate_ms: f64,
+    /// How long the engine waited for this scan's read (0 when it was read ahead in time; the
+    /// read, inflate and convert times ran on a reader thread).
+    pub wait_ms: f64,
     /// Header checks and sample conversion.
     pub convert_ms: f64,
     /// Plan, upload, normalization, histogram, peaks and derived volumes (GPU work, waited for).
@@ -152,10 +158,12 @@ fn recipe(thumbnails: bool) -> SceneRecipe {
 fn process(
     worker: &mut Worker,
     scan: &Scan,
+    read: Result<SourceVolume, String>,
     outputs: &ScanOutputs,
     options: &ParticipantOptions,
 ) -> Result<(serde_json::Value, ScanTimings), String> {
     let start = Instant::now();
+    let read = read?;
     let size = options.thumbnail;
     let open = OpenOptions {
         read: ReadOptions::default(),
@@ -163,18 +171,17 @@ fn process(
         recipe: recipe(options.thumbnails),
         first_frame: options.thumbnails,
     };
-    let source = VolumeSource::File(scan.path.clone());
     let before_gpu = Instant::now();
-    let (read, mut opened) = worker
+    let mut opened = worker
         .engine
-        .open_source(&source, &open)
+        .open_with(&read.volume, &open)
         .map_err(|e| e.to_string())?;
     let load = read.timings.clone();
     let mut timings = ScanTimings {
         read_ms: load.read_ms,
         inflate_ms: load.inflate_ms,
         convert_ms: load.convert_ms,
-        gpu_ms: ms(before_gpu) - load.read_ms - load.inflate_ms - load.convert_ms,
+        gpu_ms: ms(before_gpu),
         ..ScanTimings::default()
     };
     std::fs::create_dir_all(&outputs.dir)
@@ -242,11 +249,12 @@ fn process(
 fn process_contained(
     worker: &mut Worker,
     scan: &Scan,
+    read: Result<SourceVolume, String>,
     outputs: &ScanOutputs,
     options: &ParticipantOptions,
 ) -> Option<Result<(serde_json::Value, ScanTimings), String>> {
     std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        process(worker, scan, outputs, options)
+        process(worker, scan, read, outputs, options)
     }))
     .ok()
 }
@@ -320,13 +328,49 @@ pub fn run_participant(
         todo: todo.len(),
         skipped: report.skipped,
     });
+    let paths = todo.iter().map(|(s, _)| s.path.clone()).collect();
+    std::thread::scope(|scope| {
+        let reads = batch_prefetch::start(scope, paths, batch_prefetch::reader_count());
+        process_all(&todo, &reads, options, config, &log, &mut report, progress)
+    })?;
+    report.wall_s = start.elapsed().as_secs_f64();
+    Ok(report)
+}
+
+/// Processes the scans to do in order, each from its read-ahead.
+fn process_all(
+    todo: &[(&Scan, ScanOutputs)],
+    reads: &[std::sync::mpsc::Receiver<batch_prefetch::Prefetched>],
+    options: &ParticipantOptions,
+    config: &EngineConfig,
+    log: &Path,
+    report: &mut ParticipantReport,
+    progress: &mut dyn FnMut(Progress<'_>),
+) -> Result<(), BatchError> {
     let mut worker = None;
-    for (scan, outputs) in &todo {
+    for (index, (scan, outputs)) in todo.iter().enumerate() {
         if worker.is_none() {
             worker = Some(Worker::new(config)?);
         }
         let Some(w) = worker.as_mut() else { continue };
-        let result = process_contained(w, scan, outputs, options).unwrap_or_else(|| {
+        let before_wait = Instant::now();
+        let prefetched = batch_prefetch::next(reads, index);
+        let wait_ms = prefetched
+            .ready_at
+            .saturating_duration_since(before_wait)
+            .as_secs_f64()
+            * 1e3;
+        let result = process_contained(w, scan, prefetched.read, outputs, options);
+        let result = result.map(|r| {
+            r.map(|(mut summary, mut timings)| {
+                timings.wait_ms = wait_ms;
+                if let Some(t) = summary.get_mut("timings_ms") {
+                    *t = serde_json::json!(timings);
+                }
+                (summary, timings)
+            })
+        });
+        let result = result.unwrap_or_else(|| {
             // The engine's state after a panic is unknown: the next scan starts a new one.
             worker = None;
             Err(
@@ -335,7 +379,7 @@ pub fn run_participant(
                     .into(),
             )
         });
-        record(scan, outputs, &log, &result)?;
+        record(scan, outputs, log, &result)?;
         let timings = result.as_ref().map(|(_, t)| *t).unwrap_or_default();
         match &result {
             Ok(_) => report.done += 1,
@@ -356,6 +400,5 @@ pub fn run_participant(
             timings: &timings,
         });
     }
-    report.wall_s = start.elapsed().as_secs_f64();
-    Ok(report)
+    Ok(())
 }
