@@ -35,7 +35,7 @@ ok = [r["timings_ms"] for r in rows if r.get("status") == "ok"]
 wall = end - start
 print(f"{name}: {len(ok)} scans in {wall:.1f} s wall (device start included): "
       f"{len(ok) / wall:.2f} scans/s")
-for key in ["read_ms", "inflate_ms", "convert_ms", "gpu_ms", "render_ms", "encode_ms", "total_ms"]:
+for key in ["read_ms", "inflate_ms", "convert_ms", "wait_ms", "gpu_ms", "render_ms", "encode_ms", "total_ms"]:
     values = [t.get(key, 0.0) for t in ok]
     print(f"  {key:<11} median {statistics.median(values):8.1f} ms   mean {statistics.mean(values):8.1f} ms")
 PY
