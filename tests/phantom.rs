@@ -430,26 +430,3 @@ fn bad_specs_are_typed_errors() {
     // A 1-voxel phantom is valid.
     assert_eq!(generate(&PhantomSpec::cube(1)).unwrap().labels.len(), 1);
 }
-
-/// Times cohort-A generation on all cores and on one (run with `--release --ignored --nocapture`).
-#[test]
-#[ignore]
-fn cohort_a_generation_time() {
-    let spec = PhantomSpec::cohort_a();
-    let _warm = generate(&PhantomSpec::cube(32)).unwrap();
-    let all = std::thread::available_parallelism().map_or(1, |n| n.get());
-    for threads in [all, 1] {
-        let mut times = Vec::new();
-        for _ in 0..5 {
-            let t = std::time::Instant::now();
-            let p = generate_with_threads(&spec, threads).unwrap();
-            times.push(t.elapsed().as_secs_f64() * 1e3);
-            assert_eq!(p.labels.len(), 12_582_912);
-        }
-        times.sort_by(f64::total_cmp);
-        eprintln!(
-            "cohort A (256x256x192) on {threads} thread(s): min {:.1} ms, median {:.1} ms, max {:.1} ms",
-            times[0], times[2], times[4]
-        );
-    }
-}

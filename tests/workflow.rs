@@ -69,3 +69,53 @@ fn snakemake_runs_the_shards_then_the_group_report_on_six_subjects() {
     assert!(html.contains("6 scans, 0 failed"));
     std::fs::remove_dir_all(&root).unwrap();
 }
+
+#[test]
+fn the_slurm_executor_plugin_plans_the_same_workflow_without_edits() {
+    // No cluster here: a dry run through Snakemake's Slurm executor plugin checks that the
+    // Snakefile's rules and resources are accepted by it as they are (the submission itself
+    // needs sbatch; README.md of tools/workflow says how to run it).
+    let snakemake = pyenv().join("bin/snakemake");
+    assert!(
+        snakemake.is_file(),
+        "{} is missing: run tools/setup.sh (or tools/pyenv.sh) first",
+        snakemake.display()
+    );
+    let root = std::env::temp_dir().join(format!("morphray-slurm-{}", std::process::id()));
+    let bids = root.join("bids");
+    common::bids::write_dataset(&bids, 2, 12, false);
+    let snakefile = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tools/workflow/Snakefile");
+    let output = Command::new(&snakemake)
+        .arg("-s")
+        .arg(&snakefile)
+        .args([
+            "--executor",
+            "slurm",
+            "--jobs",
+            "4",
+            "--dry-run",
+            "--directory",
+        ])
+        .arg(&root)
+        .arg("--config")
+        .arg(format!("bids={}", bids.display()))
+        .arg(format!("out={}", root.join("derivatives").display()))
+        .args(["shards=3"])
+        .output()
+        .expect("snakemake runs");
+    let said = format!(
+        "{}{}",
+        String::from_utf8_lossy(&output.stdout),
+        String::from_utf8_lossy(&output.stderr)
+    );
+    std::fs::remove_dir_all(&root).ok();
+    assert!(output.status.success(), "the Slurm dry run failed:\n{said}");
+    assert!(said.contains("This was a dry-run"), "{said}");
+    // Three participant jobs, then the group job.
+    let participant_jobs = said
+        .lines()
+        .find(|l| l.trim_start().starts_with("participant"))
+        .and_then(|l| l.split_whitespace().nth(1))
+        .and_then(|n| n.parse::<u32>().ok());
+    assert_eq!(participant_jobs, Some(3), "{said}");
+}
