@@ -7,6 +7,7 @@
 mod accuracy;
 pub mod args;
 mod bench;
+mod convert;
 mod devices;
 mod info;
 pub mod output;
@@ -29,6 +30,10 @@ pub fn main() -> ExitCode {
     // First: the time-to-first-pixel trials measure from here (and from before the exec).
     ttfp::mark_process_start();
     std::panic::set_hook(Box::new(|info| {
+        // A DICOM file that makes the parser panic is reported as a skipped file.
+        if crate::volume::source::dicom::panic_is_contained() {
+            return;
+        }
         let message = info
             .payload()
             .downcast_ref::<&str>()
@@ -148,6 +153,7 @@ pub fn run(cli: &Cli) -> Result<(), CommandError> {
         contrast: cli.contrast.into(),
     };
     let global = &global;
+    source::set_series(cli.series.clone());
     let result = match &cli.command {
         #[cfg(feature = "viewer")]
         Command::View(args) => return view::run(args, global),
@@ -168,6 +174,7 @@ fn run_engine_command(command: &Command, global: &GlobalOptions) -> Result<(), E
         Command::Accuracy(args) => accuracy::run(args, global),
         Command::Devices => devices::run(),
         Command::Plan(args) => plan::run(args, global),
+        Command::Convert(args) => convert::run(args),
         Command::Phantom(args) => {
             // Before generating: an existing scan is never replaced without --force.
             use crate::files::write::{OutputKind, check_output};
