@@ -246,7 +246,8 @@ fn read_one(path: &Path) -> Outcome {
     if file.read_exact(&mut head).is_err() || &head[128..132] != b"DICM" {
         return Outcome::NotDicom;
     }
-    let reader = std::io::BufReader::with_capacity(64 * 1024, file);
+    // The parser starts at the magic, which was just consumed.
+    let reader = (&b"DICM"[..]).chain(std::io::BufReader::with_capacity(64 * 1024, file));
     match parse_header(reader, path) {
         Ok(Some(h)) => Outcome::Image(Box::new(h)),
         Ok(None) => Outcome::NoPixels,
@@ -257,7 +258,8 @@ fn read_one(path: &Path) -> Outcome {
     }
 }
 
-/// Parses a header from what follows the 132-byte preamble and magic (file meta group first).
+/// Parses a header from what follows the 128-byte preamble (the `DICM` magic, then the file
+/// meta group).
 /// Ok(None): a valid DICOM object without pixel data. Also the fuzz target's entry point.
 pub fn parse_header(reader: impl Read, path: &Path) -> Result<Option<FileHeader>, String> {
     let parsed = contained(|| {
