@@ -60,6 +60,8 @@ pub struct Spec {
     pub multiframe: bool,
     /// Value offset (to tell series apart).
     pub offset: i32,
+    /// Voxel values (i fastest, cols x rows x slices) instead of the formula.
+    pub data: Option<std::sync::Arc<Vec<i32>>>,
 }
 
 fn no_rescale(_: usize) -> (f64, f64) {
@@ -90,6 +92,7 @@ impl Spec {
             duplicate: Vec::new(),
             multiframe: false,
             offset: 0,
+            data: None,
         }
     }
 
@@ -145,6 +148,10 @@ impl Spec {
 
     /// Stored value of pixel (column i, row j) of slice k.
     pub fn value(&self, i: usize, j: usize, k: usize) -> i32 {
+        if let Some(data) = &self.data {
+            let (c, r) = (self.cols as usize, self.rows as usize);
+            return data[i + c * (j + r * k)];
+        }
         let v = ((i * 7 + j * 13 + k * 101) % 3000) as i32 + self.offset;
         if self.signed { v - 1000 } else { v + 10 }
     }
@@ -308,6 +315,34 @@ fn scrambled_name(spec: &Spec, k: usize, copy: usize) -> String {
         h = (h ^ b as u64).wrapping_mul(1099511628211);
     }
     format!("{:012x}.dcm", h & 0xffff_ffff_ffff)
+}
+
+/// A spec whose voxels are those of `volume` (rounded), in an axial series with the
+/// volume's spacing and RAS origin (the volume's affine is taken as diagonal).
+pub fn from_volume(uid: &str, volume: &morphray::volume::Volume) -> Spec {
+    let [nx, ny, nz] = volume.dims;
+    let data: Vec<i32> = (0..nx * ny * nz)
+        .map(|i| volume.samples.get(i).round() as i32)
+        .collect();
+    let signed = data.iter().any(|&v| v < 0);
+    let a = &volume.orientation.affine;
+    // RAS origin to LPS; the columns of a diagonal RAS affine with positive x and y spacing
+    // point to LPS -x and -y: flip them into the directions.
+    let (sx, sy) = (a[0][0].signum(), a[1][1].signum());
+    Spec {
+        rows: ny as u16,
+        cols: nx as u16,
+        slices: nz,
+        row_dir: [-sx, 0.0, 0.0],
+        col_dir: [0.0, -sy, 0.0],
+        pixel_spacing: [volume.spacing_mm[1], volume.spacing_mm[0]],
+        gap: volume.spacing_mm[2] * a[2][2].signum() * sx * sy,
+        origin: [-a[0][3], -a[1][3], a[2][3]],
+        signed,
+        data: Some(std::sync::Arc::new(data)),
+        description: volume.name.clone(),
+        ..Spec::axial(uid)
+    }
 }
 
 /// Writes the series into `dir` (created); returns the files written.
