@@ -260,6 +260,16 @@ fn a_missing_slice_is_interpolated_with_a_warning() {
         "{:?}",
         v.warnings
     );
+    // Four slices with the second missing: gaps 2g and g, so the spacing is the smaller one
+    // (an upper median took 2g and gave 3 slices).
+    let short = folder("missing-short");
+    let four = Spec {
+        slices: 4,
+        skip: vec![1],
+        ..Spec::axial("1.2.826.0.1.3680043.2.1125.1.19")
+    };
+    writer::write_series(&short, &four);
+    assert_eq!(read(&short, None).unwrap().dims, [24, 20, 4]);
     // Slice 5 is the mean of slices 4 and 6 (rounded); every other slice as written.
     assert_matches(&v, &spec, |i, j, k| {
         if k == 5 {
@@ -383,4 +393,75 @@ fn a_file_without_a_dicom_name_is_claimed_by_its_magic() {
     std::fs::rename(&files[0], &plain_name).unwrap();
     assert_eq!(source::reader_for(&plain_name).name(), "DICOM");
     assert_eq!(source::reader_for(&dir).name(), "DICOM");
+}
+
+/// Seeds of the `dicom_series` fuzz target (tools/fuzz/README.md): small series in each
+/// encoding, each seed the concatenation of its files from the `DICM` magic on (the target
+/// splits there). Written under `$MORPHRAY_FUZZ_SEEDS/dicom_series/` when that is set; always
+/// checked to read back as the series they were made from.
+#[test]
+fn fuzz_seeds_are_series_that_read_back() {
+    let out =
+        std::env::var_os("MORPHRAY_FUZZ_SEEDS").map(|d| PathBuf::from(d).join("dicom_series"));
+    let small = |uid: &str| Spec {
+        rows: 3,
+        cols: 4,
+        slices: 3,
+        ..Spec::oblique(uid)
+    };
+    let seeds = [
+        ("native", small("1.2.826.0.1.3680043.2.1125.4.1")),
+        (
+            "implicit",
+            Spec {
+                encoding: writer::IMPLICIT_LE,
+                ..small("1.2.826.0.1.3680043.2.1125.4.2")
+            },
+        ),
+        (
+            "rle",
+            Spec {
+                encoding: writer::RLE,
+                ..small("1.2.826.0.1.3680043.2.1125.4.3")
+            },
+        ),
+        (
+            "jpeg",
+            Spec {
+                encoding: writer::JPEG_LOSSLESS,
+                ..small("1.2.826.0.1.3680043.2.1125.4.4")
+            },
+        ),
+        (
+            "enhanced",
+            Spec {
+                multiframe: true,
+                rescale: |k| (1.0, k as f64),
+                ..small("1.2.826.0.1.3680043.2.1125.4.5")
+            },
+        ),
+        (
+            "gap",
+            Spec {
+                slices: 4,
+                skip: vec![1],
+                rescale: |k| (2.0, k as f64),
+                ..small("1.2.826.0.1.3680043.2.1125.4.6")
+            },
+        ),
+    ];
+    for (name, spec) in seeds {
+        let dir = folder(&format!("seed-{name}"));
+        let files = writer::write_series(&dir, &spec);
+        let seed: Vec<u8> = files
+            .iter()
+            .flat_map(|f| std::fs::read(f).unwrap()[128..].to_vec())
+            .collect();
+        let v = read(&dir, None).unwrap();
+        assert_eq!(v.dims, [4, 3, spec.slices], "{name}");
+        if let Some(out) = &out {
+            std::fs::create_dir_all(out).unwrap();
+            std::fs::write(out.join(name), &seed).unwrap();
+        }
+    }
 }

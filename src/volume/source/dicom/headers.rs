@@ -247,7 +247,7 @@ fn read_one(path: &Path) -> Outcome {
         return Outcome::NotDicom;
     }
     // The parser starts at the magic, which was just consumed.
-    let reader = (&b"DICM"[..]).chain(std::io::BufReader::with_capacity(64 * 1024, file));
+    let reader = (&b"DICM"[..]).chain(std::io::BufReader::with_capacity(16 * 1024, file));
     match parse_header(reader, path) {
         Ok(Some(h)) => Outcome::Image(Box::new(h)),
         Ok(None) => Outcome::NoPixels,

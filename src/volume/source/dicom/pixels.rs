@@ -91,11 +91,14 @@ pub fn decode(layout: &Layout, scan: &Scan) -> Result<Decoded, PixelError> {
     let total = slice_bytes
         .checked_mul(layout.order.len())
         .ok_or_else(|| PixelError::Unsupported("the series is too large to hold".into()))?;
-    let mut bytes = Vec::new();
-    bytes
+    check_size(total, layout, scan)?;
+    // A failed reservation is an error rather than an abort; the samples themselves come from
+    // a zeroed allocation (pages the kernel zeroes as they are first written, not a memset of
+    // the whole volume before the decoders overwrite it).
+    Vec::<u8>::new()
         .try_reserve_exact(total)
         .map_err(|_| PixelError::Unsupported(format!("{total} bytes of samples do not fit")))?;
-    bytes.resize(total, 0);
+    let mut bytes = vec![0u8; total];
     let mut by_file: BTreeMap<usize, Vec<(usize, u32)>> = BTreeMap::new();
     for (slot, s) in layout.order.iter().enumerate() {
         by_file.entry(s.file).or_default().push((slot, s.frame));
@@ -113,6 +116,36 @@ pub fn decode(layout: &Layout, scan: &Scan) -> Result<Decoded, PixelError> {
     let samples =
         Samples::from_le_bytes(kind, bytes).map_err(|e| PixelError::Unsupported(e.to_string()))?;
     finish(samples, layout, slice_len)
+}
+
+/// Most bytes of samples one byte of a file can decode to: deflate's limit (RLE reaches 64,
+/// JPEG Lossless 32).
+const MAX_RATIO: u64 = 1032;
+
+/// Refuses a stack whose declared size its files cannot hold, before allocating it (a small
+/// file may declare 65535 x 65535 pixels).
+fn check_size(total: usize, layout: &Layout, scan: &Scan) -> Result<(), PixelError> {
+    let mut files: Vec<usize> = layout.order.iter().map(|s| s.file).collect();
+    files.sort_unstable();
+    files.dedup();
+    let on_disk: u64 = files
+        .iter()
+        .map(|&f| {
+            std::fs::metadata(&scan.images[f].path)
+                .map(|m| m.len())
+                .unwrap_or(0)
+        })
+        .sum();
+    // Resampling may add slices: compare the decoded frames, not the output.
+    let decoded = total as u64;
+    if decoded > on_disk.saturating_mul(MAX_RATIO) {
+        return Err(PixelError::Unsupported(format!(
+            "its headers declare {decoded} bytes of pixels, more than its {} file(s) of {on_disk} \
+             bytes can hold",
+            files.len()
+        )));
+    }
+    Ok(())
 }
 
 /// Runs the jobs on scoped threads; returns the files that failed.
@@ -168,6 +201,9 @@ fn decode_file(
     kind: SampleKind,
     slice_len: usize,
 ) -> Result<(), String> {
+    if let Some(done) = read_native(h, frames, slots, kind, slice_len) {
+        return done;
+    }
     let obj = dicom_object::OpenFileOptions::new()
         .open_file(&h.path)
         .map_err(|e| reason(&h.path, &e.to_string()))?;
@@ -198,6 +234,72 @@ fn decode_file(
         convert(&data[..slice_len * bytes_per], out, h, kind);
     }
     Ok(())
+}
+
+/// Native little-endian transfer syntaxes (implicit and explicit VR).
+const NATIVE_LE: [&str; 2] = ["1.2.840.10008.1.2", "1.2.840.10008.1.2.1"];
+
+/// The fast path for uncompressed little-endian 8/16-bit files, by far the most common: each
+/// frame is read from the file straight into its slot of the samples (positioned reads, no
+/// intermediate buffer), instead of dicom-rs' parse into typed values and its copies
+/// (BENCHMARKS.md, DICOM). Taken only when the 8 or 12 bytes right before the last
+/// `frames x rows x cols` bytes of the file are exactly the PixelData (7FE0,0010) element
+/// header with that length; anything else (trailing elements, odd layouts) returns None and
+/// goes through dicom-rs.
+fn read_native(
+    h: &FileHeader,
+    frames: &[(usize, u32)],
+    slots: &[Mutex<Option<&mut [u8]>>],
+    kind: SampleKind,
+    slice_len: usize,
+) -> Option<Result<(), String>> {
+    use std::os::unix::fs::FileExt;
+    if !cfg!(target_endian = "little")
+        || kind == SampleKind::F32
+        || !NATIVE_LE.contains(&h.transfer_syntax.as_str())
+        || h.bits_allocated as usize != 8 * kind.size_bytes()
+    {
+        return None;
+    }
+    let frame_bytes = slice_len.checked_mul(kind.size_bytes())?;
+    let expected = frame_bytes.checked_mul(h.frames.len())?;
+    let padded = expected + expected % 2;
+    let file = std::fs::File::open(&h.path).ok()?;
+    let len = usize::try_from(file.metadata().ok()?.len()).ok()?;
+    let start = len.checked_sub(padded).filter(|s| *s >= 12)?;
+    let mut head = [0u8; 12];
+    file.read_exact_at(&mut head, (start - 12) as u64).ok()?;
+    let length = u32::try_from(padded).ok()?.to_le_bytes();
+    let tag = [0xE0, 0x7F, 0x10, 0x00];
+    let explicit = head[0..4] == tag
+        && (head[4..8] == *b"OW\0\0" || head[4..8] == *b"OB\0\0")
+        && head[8..12] == length;
+    let implicit = head[4..8] == tag && head[8..12] == length;
+    if !(explicit || implicit) {
+        return None;
+    }
+    for &(slot, frame) in frames {
+        let Ok(mut guard) = slots[slot].lock() else {
+            return Some(Err("a slot lock failed".into()));
+        };
+        let Some(out) = guard.take() else {
+            return Some(Err("two frames were given one slot".into()));
+        };
+        let at = start + frame as usize * frame_bytes;
+        if let Err(e) = file.read_exact_at(out, at as u64) {
+            return Some(Err(reason(&h.path, &e.to_string())));
+        }
+        clear_unused_bits(out, h, kind);
+    }
+    Some(Ok(()))
+}
+
+/// [`convert`] in place, for little-endian samples already in their slot.
+fn clear_unused_bits(out: &mut [u8], h: &FileHeader, kind: SampleKind) {
+    if h.bits_stored < h.bits_allocated {
+        let copy = out.to_vec();
+        convert(&copy, out, h, kind);
+    }
 }
 
 /// One line naming the file.

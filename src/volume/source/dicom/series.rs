@@ -8,7 +8,7 @@
 //! - Roles: ImageType LOCALIZER is a localizer; Secondary Capture SOP classes and
 //!   DERIVED\SECONDARY images are derived. Both are listed but never picked by default.
 //! - Order is the position along the normal of ImageOrientationPatient (row x column), never
-//!   InstanceNumber or file names; spacing is the median difference of those positions, never
+//!   InstanceNumber or file names; spacing is the (lower) median difference of those positions, never
 //!   SliceThickness (used only for a single slice).
 //! - Checks, and what is done (each leaves a warning on the volume):
 //!   - duplicate positions (within 0.01 mm): the first by InstanceNumber (then file name) is
@@ -268,7 +268,9 @@ pub fn layout(slices: &[Slice], scan: &Scan) -> Result<Layout, String> {
     let gaps: Vec<f64> = dist.windows(2).map(|w| w[1] - w[0]).collect();
     let mut sorted = gaps.clone();
     sorted.sort_by(f64::total_cmp);
-    let gap = sorted[sorted.len() / 2];
+    // The lower median: with few slices and one missing (gaps g and 2g), the upper median
+    // would take 2g for the spacing.
+    let gap = sorted[(sorted.len() - 1) / 2];
     let tolerance = (0.01 * gap).max(SAME_POSITION_MM);
     let uniform = gaps.iter().all(|g| (g - gap).abs() <= tolerance);
     let first_pos = order[0].position.unwrap_or_default();
