@@ -70,6 +70,7 @@ fn world(a: &[[f64; 4]; 4], p: [f64; 3]) -> [f64; 3] {
 }
 
 /// The inverse of an affine's linear part and its translation.
+#[allow(clippy::needless_range_loop)] // index arithmetic of the cofactors reads best as loops
 fn inverse(a: &[[f64; 4]; 4]) -> [[f64; 4]; 4] {
     let m = |r: usize, c: usize| a[r][c];
     let det = m(0, 0) * (m(1, 1) * m(2, 2) - m(1, 2) * m(2, 1))
