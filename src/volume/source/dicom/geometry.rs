@@ -82,7 +82,8 @@ pub fn affine_ras(
     for (c, v) in columns.iter().enumerate() {
         for r in 0..3 {
             // LPS -> RAS: x and y change sign.
-            a[r][c] = if r < 2 { -v[r] } else { v[r] };
+            // (+ 0.0 turns a negated zero into 0, for tidy listings.)
+            a[r][c] = if r < 2 { -v[r] + 0.0 } else { v[r] };
         }
     }
     a[3][3] = 1.0;
