@@ -465,3 +465,38 @@ fn fuzz_seeds_are_series_that_read_back() {
         }
     }
 }
+
+/// The `dicom_series` fuzz target's first finding (tests/data/fuzz/): a 2.4 KB input whose
+/// element declared 1.4 GB, which dicom-rs reserved and zero-filled before reading. Split at
+/// `DICM` into files as the target does; the files must be skipped naming the length, without
+/// the allocation (lengths.rs checks every declared length against the file first).
+#[test]
+fn fuzz_finding_a_huge_declared_length_is_a_skipped_file_not_an_allocation() {
+    let data = include_bytes!("data/fuzz/dicom_series-oom-declared-length.bin");
+    let dir = folder("fuzz-oom");
+    let mut starts: Vec<usize> = (0..data.len().saturating_sub(3))
+        .filter(|&i| &data[i..i + 4] == b"DICM")
+        .collect();
+    if starts.first() != Some(&0) {
+        starts.insert(0, 0);
+    }
+    for (n, &s) in starts.iter().enumerate() {
+        let end = starts.get(n + 1).copied().unwrap_or(data.len());
+        let mut file = vec![0u8; 128];
+        file.extend_from_slice(&data[s..end]);
+        std::fs::write(dir.join(format!("f{n:02}.dcm")), file).unwrap();
+    }
+    let e = match dicom::survey(&dir) {
+        Ok(s) => s
+            .skipped()
+            .iter()
+            .map(|s| s.reason.clone())
+            .collect::<Vec<_>>()
+            .join("; "),
+        Err(e) => e.to_string(),
+    };
+    assert!(
+        e.contains("declares") && e.contains("bytes but only"),
+        "{e}"
+    );
+}

@@ -8,6 +8,7 @@
 //!   absolute are ignored.
 //! - Only files with the `DICM` magic at offset 128 are parsed (the standard's file format);
 //!   other files in a folder (READMEs, thumbnails) are counted, not reported one by one.
+//! - Declared lengths are checked against the file before dicom-rs parses it (`lengths`).
 //! - Headers are read up to the pixel data (`read_until(PixelData)`), on scoped threads (one
 //!   per core, at most 8), each file inside `catch_unwind`: dicom-rs has known panics on
 //!   malformed input (its issue 543), and one bad file must cost only that file. A file that
@@ -16,6 +17,7 @@
 //!   shared functional groups (per-frame first, then shared, then the top level).
 
 use super::contain::contained;
+use super::lengths;
 use dicom_dictionary_std::tags;
 use dicom_object::{InMemDicomObject, OpenFileOptions};
 use std::io::Read;
@@ -162,8 +164,13 @@ pub fn walk(dir: &Path) -> std::io::Result<Vec<PathBuf>> {
 /// a readable DICOMDIR.
 pub fn dicomdir_files(path: &Path) -> Option<Vec<PathBuf>> {
     let base = path.parent().unwrap_or(Path::new("."));
+    let bytes = std::fs::read(path).ok()?;
+    if bytes.len() < 132 || &bytes[128..132] != b"DICM" {
+        return None;
+    }
+    lengths::check(&bytes, bytes.len(), false).ok()?;
     let result = contained(|| {
-        let obj = OpenFileOptions::new().open_file(path).ok()?;
+        let obj = OpenFileOptions::new().from_reader(&bytes[128..]).ok()?;
         let records = obj.get(tags::DIRECTORY_RECORD_SEQUENCE)?.items()?;
         let mut files = Vec::new();
         for record in records {
@@ -246,8 +253,33 @@ fn read_one(path: &Path) -> Outcome {
     if file.read_exact(&mut head).is_err() || &head[128..132] != b"DICM" {
         return Outcome::NotDicom;
     }
-    // The parser starts at the magic, which was just consumed.
-    let reader = (&b"DICM"[..]).chain(std::io::BufReader::with_capacity(16 * 1024, file));
+    let bad = |reason: String| {
+        Outcome::Bad(Skipped {
+            path: path.to_path_buf(),
+            reason,
+        })
+    };
+    let file_len = file
+        .metadata()
+        .map(|m| usize::try_from(m.len()).unwrap_or(usize::MAX))
+        .unwrap_or(0);
+    // The lengths up to the pixel data are checked before dicom-rs sees them (lengths.rs);
+    // usually the first 16 KB hold them all.
+    let mut bytes = head.to_vec();
+    let mut want = 16 * 1024;
+    loop {
+        let more = want.min(file_len).saturating_sub(bytes.len());
+        if let Err(e) = (&mut file).take(more as u64).read_to_end(&mut bytes) {
+            return bad(format!("cannot be read: {e}"));
+        }
+        match lengths::check(&bytes, file_len.max(bytes.len()), true) {
+            Err(reason) => return bad(reason),
+            Ok(lengths::Walk::NeedMore) if bytes.len() < file_len => want = want.saturating_mul(4),
+            Ok(_) => break,
+        }
+    }
+    // The parser starts at the magic; the file goes on where `bytes` ends.
+    let reader = (&bytes[128..]).chain(std::io::BufReader::with_capacity(16 * 1024, file));
     match parse_header(reader, path) {
         Ok(Some(h)) => Outcome::Image(Box::new(h)),
         Ok(None) => Outcome::NoPixels,

@@ -23,6 +23,7 @@
 mod contain;
 mod geometry;
 mod headers;
+mod lengths;
 mod pixels;
 mod series;
 

@@ -204,8 +204,13 @@ fn decode_file(
     if let Some(done) = read_native(h, frames, slots, kind, slice_len) {
         return done;
     }
+    let bytes = std::fs::read(&h.path).map_err(|e| reason(&h.path, &e.to_string()))?;
+    if bytes.len() < 132 || &bytes[128..132] != b"DICM" {
+        return Err("it is no longer a DICOM file".into());
+    }
+    super::lengths::check(&bytes, bytes.len(), false)?;
     let obj = dicom_object::OpenFileOptions::new()
-        .open_file(&h.path)
+        .from_reader(&bytes[128..])
         .map_err(|e| reason(&h.path, &e.to_string()))?;
     if obj.meta().transfer_syntax().trim_end_matches('\0') != h.transfer_syntax || frames.is_empty()
     {
