@@ -470,10 +470,27 @@ fn fuzz_seeds_are_series_that_read_back() {
 /// element declared 1.4 GB, which dicom-rs reserved and zero-filled before reading. Split at
 /// `DICM` into files as the target does; the files must be skipped naming the length, without
 /// the allocation (lengths.rs checks every declared length against the file first).
+///
+/// The second: an element with an unknown VR, which dicom-rs reads as UN with a 32-bit length
+/// (the first length walk read a 16-bit one, as for short VRs, and missed it).
 #[test]
 fn fuzz_finding_a_huge_declared_length_is_a_skipped_file_not_an_allocation() {
-    let data = include_bytes!("data/fuzz/dicom_series-oom-declared-length.bin");
-    let dir = folder("fuzz-oom");
+    for (name, data) in [
+        (
+            "declared-length",
+            &include_bytes!("data/fuzz/dicom_series-oom-declared-length.bin")[..],
+        ),
+        (
+            "unknown-vr",
+            &include_bytes!("data/fuzz/dicom_series-oom-unknown-vr.bin")[..],
+        ),
+    ] {
+        fuzz_input_is_refused(name, data);
+    }
+}
+
+fn fuzz_input_is_refused(name: &str, data: &[u8]) {
+    let dir = folder(&format!("fuzz-{name}"));
     let mut starts: Vec<usize> = (0..data.len().saturating_sub(3))
         .filter(|&i| &data[i..i + 4] == b"DICM")
         .collect();

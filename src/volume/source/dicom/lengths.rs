@@ -138,20 +138,23 @@ impl Walker<'_> {
         })
     }
 
-    /// The explicit-VR little-endian meta group; its TransferSyntaxUID (None: need more).
+    /// The explicit-VR little-endian meta group, read as dicom-rs reads it: (0002,0000) first,
+    /// then elements until that many bytes were read (whatever their tags). Its
+    /// TransferSyntaxUID; None: need more.
     fn meta_group(&mut self) -> Result<Option<String>, String> {
         let mut ts = String::new();
-        loop {
-            let at = self.pos;
-            let group = match self.u16() {
-                Ok(g) => g,
+        let group_length = match self.header() {
+            Ok(h) if h.tag == (0x0002, 0x0000) && h.len == Some(4) => match self.u32() {
+                Ok(n) => n as usize,
                 Err(_) => return Ok(self.or_more(ts)),
-            };
-            if group != 0x0002 {
-                self.pos = at;
-                return Ok(Some(ts));
-            }
-            self.pos = at;
+            },
+            // dicom-rs refuses such a meta group before reading a value.
+            Ok(_) => return Ok(Some(ts)),
+            Err(None) => return Ok(self.or_more(ts)),
+            Err(Some(e)) => return Err(e),
+        };
+        let start = self.pos;
+        while self.pos - start < group_length {
             let header = match self.header() {
                 Ok(h) => h,
                 Err(None) => return Ok(self.or_more(ts)),
@@ -170,6 +173,7 @@ impl Walker<'_> {
                     .to_string();
             }
         }
+        Ok(Some(ts))
     }
 
     /// `ts` when the bytes given are the whole file (dicom-rs reports the truncation), else
@@ -191,27 +195,37 @@ impl Walker<'_> {
         let (vr, len) = if self.explicit {
             let vr = self.take(2)?;
             let vr = [vr[0], vr[1]];
-            let long = matches!(
+            // As dicom-rs reads them: these VRs have a 16-bit length; every other VR, unknown
+            // ones included (dicom-rs takes those as UN), has 2 reserved bytes and a 32-bit one.
+            let short = matches!(
                 &vr,
-                b"OB"
-                    | b"OD"
-                    | b"OF"
-                    | b"OL"
-                    | b"OV"
-                    | b"OW"
-                    | b"SQ"
-                    | b"UC"
-                    | b"UN"
-                    | b"UR"
-                    | b"UT"
-                    | b"SV"
-                    | b"UV"
+                b"AE"
+                    | b"AS"
+                    | b"AT"
+                    | b"CS"
+                    | b"DA"
+                    | b"DS"
+                    | b"DT"
+                    | b"FL"
+                    | b"FD"
+                    | b"IS"
+                    | b"LO"
+                    | b"LT"
+                    | b"PN"
+                    | b"SH"
+                    | b"SL"
+                    | b"SS"
+                    | b"ST"
+                    | b"TM"
+                    | b"UI"
+                    | b"UL"
+                    | b"US"
             );
-            let len = if long {
+            let len = if short {
+                self.u16()? as u32
+            } else {
                 self.take(2)?;
                 self.u32()?
-            } else {
-                self.u16()? as u32
             };
             (Some(vr), len)
         } else {
@@ -253,6 +267,10 @@ impl Walker<'_> {
                 Err(Some(e)) => return Err(e),
             };
             if header.tag == ITEM_END || header.tag == SEQUENCE_END {
+                // dicom-rs skips a delimiter outside any sequence and reads on.
+                if depth == 0 {
+                    continue;
+                }
                 return Ok(Walk::Fits);
             }
             if depth == 0 && self.stop_at_pixels && header.tag >= PIXEL_DATA {
@@ -356,6 +374,8 @@ mod tests {
         if uid.len() % 2 == 1 {
             uid.push(0);
         }
+        f.extend_from_slice(&[0x02, 0x00, 0x00, 0x00, b'U', b'L', 4, 0]);
+        f.extend_from_slice(&(8 + uid.len() as u32).to_le_bytes());
         f.extend_from_slice(&[0x02, 0x00, 0x10, 0x00, b'U', b'I']);
         f.extend_from_slice(&(uid.len() as u16).to_le_bytes());
         f.extend_from_slice(&uid);
