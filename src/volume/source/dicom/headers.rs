@@ -18,6 +18,7 @@
 
 use super::contain::contained;
 use super::lengths;
+use crate::files::read::open_regular;
 use dicom_dictionary_std::tags;
 use dicom_object::{InMemDicomObject, OpenFileOptions};
 use std::io::Read;
@@ -123,9 +124,7 @@ enum Outcome {
 /// True when the 132 first bytes carry the DICM magic at offset 128.
 pub fn has_magic(path: &Path) -> bool {
     let mut head = [0u8; 132];
-    std::fs::File::open(path)
-        .and_then(|mut f| f.read_exact(&mut head))
-        .is_ok()
+    open_regular(path).is_ok_and(|(mut f, _)| f.read_exact(&mut head).is_ok())
         && &head[128..132] == b"DICM"
 }
 
@@ -164,7 +163,7 @@ pub fn walk(dir: &Path) -> std::io::Result<Vec<PathBuf>> {
 /// a readable DICOMDIR.
 pub fn dicomdir_files(path: &Path) -> Option<Vec<PathBuf>> {
     let base = path.parent().unwrap_or(Path::new("."));
-    let bytes = std::fs::read(path).ok()?;
+    let bytes = crate::files::read::read_regular(path, u64::MAX).ok()?;
     if bytes.len() < 132 || &bytes[128..132] != b"DICM" {
         return None;
     }
@@ -240,7 +239,8 @@ pub fn read_all(files: &[PathBuf]) -> Scan {
 
 /// One file's header.
 fn read_one(path: &Path) -> Outcome {
-    let mut file = match std::fs::File::open(path) {
+    // Non-blocking open of regular files only: a FIFO must not hang the read.
+    let (mut file, meta) = match open_regular(path) {
         Ok(f) => f,
         Err(e) => {
             return Outcome::Bad(Skipped {
@@ -259,10 +259,7 @@ fn read_one(path: &Path) -> Outcome {
             reason,
         })
     };
-    let file_len = file
-        .metadata()
-        .map(|m| usize::try_from(m.len()).unwrap_or(usize::MAX))
-        .unwrap_or(0);
+    let file_len = usize::try_from(meta.len()).unwrap_or(usize::MAX);
     // The lengths up to the pixel data are checked before dicom-rs sees them (lengths.rs);
     // usually the first 16 KB hold them all.
     let mut bytes = head.to_vec();

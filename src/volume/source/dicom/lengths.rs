@@ -99,6 +99,20 @@ struct Header {
     tag: (u16, u16),
     sequence: bool,
     len: Option<usize>,
+    /// Bytes per value of a binary VR (1 for text and bytes).
+    unit: usize,
+}
+
+/// Bytes per value of binary VRs. dicom-rs reads `len / unit` values of such an element and
+/// consumes only those bytes, so a length that is not a multiple desynchronizes its parse from
+/// ours (third fuzz finding): such elements are refused.
+fn unit_of(vr: &[u8; 2]) -> usize {
+    match vr {
+        b"US" | b"SS" | b"OW" => 2,
+        b"UL" | b"SL" | b"FL" | b"AT" | b"OF" | b"OL" => 4,
+        b"FD" | b"OD" | b"SV" | b"UV" | b"OV" => 8,
+        _ => 1,
+    }
 }
 
 const ITEM: (u16, u16) = (0xFFFE, 0xE000);
@@ -190,6 +204,7 @@ impl Walker<'_> {
                 tag,
                 sequence: false,
                 len: (len != u32::MAX).then_some(len as usize),
+                unit: 1,
             });
         }
         let (vr, len) = if self.explicit {
@@ -231,14 +246,12 @@ impl Walker<'_> {
         } else {
             (None, self.u32()?)
         };
-        let sequence = match vr {
-            Some(vr) => &vr == b"SQ",
-            None => implicit_is_sequence(tag),
-        };
+        let vr = vr.unwrap_or_else(|| implicit_vr(tag));
         Ok(Header {
             tag,
-            sequence,
+            sequence: &vr == b"SQ",
             len: (len != u32::MAX).then_some(len as usize),
+            unit: unit_of(&vr),
         })
     }
 
@@ -280,6 +293,13 @@ impl Walker<'_> {
             let walk = match header.len {
                 Some(len) => {
                     self.fits(len, header.tag)?;
+                    if len % header.unit != 0 {
+                        return Err(format!(
+                            "element ({:04X},{:04X}) has {len} bytes, not a whole number of \
+                             {}-byte values",
+                            header.tag.0, header.tag.1, header.unit
+                        ));
+                    }
                     if header.sequence {
                         let stop = self.pos + len;
                         self.items(Some(stop), depth + 1, false)?
@@ -354,12 +374,14 @@ impl Walker<'_> {
     }
 }
 
-/// Whether the standard dictionary says `tag` is a sequence (implicit VR has no VR field).
-fn implicit_is_sequence(tag: (u16, u16)) -> bool {
+/// The VR the standard dictionary gives `tag` (implicit VR has no VR field), as dicom-rs
+/// takes it; `UN` when the dictionary does not know the tag.
+fn implicit_vr(tag: (u16, u16)) -> [u8; 2] {
     use dicom_core::dictionary::{DataDictionary, DataDictionaryEntry};
     dicom_dictionary_std::StandardDataDictionary
         .by_tag(dicom_core::Tag(tag.0, tag.1))
-        .is_some_and(|e| e.vr().relaxed() == dicom_core::VR::SQ)
+        .map(|e| e.vr().relaxed().to_bytes())
+        .unwrap_or(*b"UN")
 }
 
 #[cfg(test)]

@@ -266,8 +266,11 @@ impl Survey {
             Some(SeriesChoice::Index(i)) if *i < self.stacks.len() => Ok(*i),
             Some(SeriesChoice::Index(_)) => Err(no_such()),
             Some(SeriesChoice::Uid(uid)) => {
-                let of_uid = (0..self.stacks.len()).filter(|&i| self.stacks[i].uid == *uid);
-                best(&self.stacks, of_uid, false).ok_or_else(no_such)
+                let of_uid = || (0..self.stacks.len()).filter(|&i| self.stacks[i].uid == *uid);
+                // A UID whose stacks form no volume is still picked: opening it says why.
+                best(&self.stacks, of_uid(), false)
+                    .or_else(|| of_uid().next())
+                    .ok_or_else(no_such)
             }
         }
     }

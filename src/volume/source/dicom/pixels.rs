@@ -204,7 +204,8 @@ fn decode_file(
     if let Some(done) = read_native(h, frames, slots, kind, slice_len) {
         return done;
     }
-    let bytes = std::fs::read(&h.path).map_err(|e| reason(&h.path, &e.to_string()))?;
+    let bytes = crate::files::read::read_regular(&h.path, u64::MAX)
+        .map_err(|e| reason(&h.path, &e.to_string()))?;
     if bytes.len() < 132 || &bytes[128..132] != b"DICM" {
         return Err("it is no longer a DICOM file".into());
     }
@@ -269,8 +270,8 @@ fn read_native(
     let frame_bytes = slice_len.checked_mul(kind.size_bytes())?;
     let expected = frame_bytes.checked_mul(h.frames.len())?;
     let padded = expected + expected % 2;
-    let file = std::fs::File::open(&h.path).ok()?;
-    let len = usize::try_from(file.metadata().ok()?.len()).ok()?;
+    let (file, meta) = crate::files::read::open_regular(&h.path).ok()?;
+    let len = usize::try_from(meta.len()).ok()?;
     let start = len.checked_sub(padded).filter(|s| *s >= 12)?;
     let mut head = [0u8; 12];
     file.read_exact_at(&mut head, (start - 12) as u64).ok()?;
