@@ -544,3 +544,26 @@ fn a_fifo_never_blocks_the_dicom_reader() {
     assert!(by_name.unwrap_err().contains("no DICOM image series"));
     assert!(in_folder.unwrap_err().contains("no DICOM image series"));
 }
+
+/// The fourth fuzz finding: an RLE fragment whose header declares about 1.2 billion segments;
+/// dicom-rs allocated 4.9 GB of offsets (and panicked on other counts). The series' files are
+/// left out with the reason, without the allocation.
+#[test]
+fn fuzz_finding_an_rle_header_with_too_many_segments_is_refused() {
+    let data = include_bytes!("data/fuzz/dicom_series-oom-rle-segments.bin");
+    let dir = folder("fuzz-rle");
+    let mut starts: Vec<usize> = (0..data.len().saturating_sub(3))
+        .filter(|&i| &data[i..i + 4] == b"DICM")
+        .collect();
+    if starts.first() != Some(&0) {
+        starts.insert(0, 0);
+    }
+    for (n, &s) in starts.iter().enumerate() {
+        let end = starts.get(n + 1).copied().unwrap_or(data.len());
+        let mut file = vec![0u8; 128];
+        file.extend_from_slice(&data[s..end]);
+        std::fs::write(dir.join(format!("f{n:02}.dcm")), file).unwrap();
+    }
+    let e = read(&dir, None).unwrap_err();
+    assert!(e.contains("segments (1 to 15"), "{e}");
+}

@@ -217,6 +217,9 @@ fn decode_file(
     {
         return Err("its encoding changed since its header was read".into());
     }
+    if h.transfer_syntax == RLE_LOSSLESS {
+        check_rle_headers(&obj)?;
+    }
     for &(slot, frame) in frames {
         let decoded = obj
             .decode_pixel_data_frame(frame)
@@ -238,6 +241,37 @@ fn decode_file(
         let mut guard = slots[slot].lock().map_err(|_| "a slot lock failed")?;
         let out = guard.take().ok_or("two frames were given one slot")?;
         convert(&data[..slice_len * bytes_per], out, h, kind);
+    }
+    Ok(())
+}
+
+/// RLE Lossless.
+const RLE_LOSSLESS: &str = "1.2.840.10008.1.2.5";
+
+/// dicom-rs allocates as many segment offsets as an RLE fragment's first word says, and slices
+/// the fragment by it without a check (the `dicom_series` fuzz target: a 4.9 GB allocation, and
+/// contained index panics). The standard allows at most 15 segments in a 64-byte header:
+/// anything else is refused before decoding.
+fn check_rle_headers(obj: &dicom_object::DefaultDicomObject) -> Result<(), String> {
+    let fragments = obj
+        .get(dicom_dictionary_std::tags::PIXEL_DATA)
+        .and_then(|e| match e.value() {
+            dicom_core::value::Value::PixelSequence(seq) => Some(seq.fragments().to_vec()),
+            _ => None,
+        })
+        .ok_or("its RLE pixel data is not encapsulated")?;
+    for fragment in &fragments {
+        let segments = fragment
+            .get(0..4)
+            .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+            .unwrap_or(0);
+        if fragment.len() < 64 || !(1..=15).contains(&segments) {
+            return Err(format!(
+                "an RLE fragment of {} bytes declares {segments} segments (1 to 15 in a 64-byte \
+                 header)",
+                fragment.len()
+            ));
+        }
     }
     Ok(())
 }
