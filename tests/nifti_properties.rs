@@ -279,7 +279,9 @@ proptest! {
             AffineSource::Sform => prop_assert!(sform_code > 0),
             AffineSource::Qform => prop_assert!(qform_code > 0),
             AffineSource::Pixdim => {}
-            AffineSource::Synthetic => prop_assert!(false, "the loader never reports Synthetic"),
+            AffineSource::Synthetic | AffineSource::Dicom => {
+                prop_assert!(false, "the NIfTI loader never reports {:?}", g.orientation.source)
+            }
         }
         if sform_code <= 0 && qform_code <= 0 {
             prop_assert_eq!(g.orientation.source, AffineSource::Pixdim);

@@ -440,10 +440,18 @@ fn file_panel(ui: &mut Ui, controls: &mut Controls, requests: &mut Vec<Request>)
     ui.horizontal(|ui| {
         if ui
             .button("Open...")
-            .on_hover_text("Or drop a file on the window")
+            .on_hover_text("A NIfTI or DICOM file; or drop a file or folder on the window")
             .clicked()
         {
             controls.open_dialog();
+        }
+        if ui
+            .button("Open folder...")
+            .on_hover_text("A DICOM exam: its largest 3-D series (or drop the folder)")
+            .clicked()
+        {
+            controls.dialog_purpose = DialogPurpose::Open;
+            controls.dialog.pick_directory();
         }
         if ui.button("Phantom").clicked() {
             requests.push(Request::Open(None));

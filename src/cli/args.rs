@@ -86,6 +86,12 @@ pub struct Cli {
     #[arg(long, global = true, value_name = "OUT.json")]
     pub trace: Option<std::path::PathBuf>,
 
+    /// Which series of a DICOM input (a folder, a DICOMDIR or a .dcm file): a
+    /// SeriesInstanceUID, or the index `morphray info PATH` lists. Default: the largest 3-D
+    /// image series (localizers and derived images are never the default).
+    #[arg(long, global = true, value_name = "UID|INDEX", value_parser = parse_series)]
+    pub series: Option<crate::volume::source::dicom::SeriesChoice>,
+
     /// What to do.
     #[command(subcommand)]
     pub command: Command,
@@ -153,6 +159,8 @@ pub enum Command {
     Devices,
     /// Write the built-in digital phantom as a NIfTI-1 file (.nii or .nii.gz).
     Phantom(PhantomArgs),
+    /// Write the volume a command would open (a DICOM series, or a NIfTI frame) as NIfTI-1.
+    Convert(ConvertArgs),
     /// Show the pass plan of a scene: passes, pipeline variants, every allocation (name, bytes,
     /// format, memory type), the total, predicted per-pass costs and the degradations the memory
     /// budget forced; then set the volume up and print what the engine actually holds.
@@ -494,6 +502,27 @@ pub struct PhantomArgs {
     /// Dimensions X x Y x Z at 1 mm (the paper's cohort-A size by default).
     #[arg(long, default_value = "256x256x192", value_parser = parse_dims)]
     pub dims: [usize; 3],
+}
+
+/// Options of `convert`.
+#[derive(Debug, Args)]
+pub struct ConvertArgs {
+    /// DICOM folder, DICOMDIR or .dcm file (or a NIfTI file).
+    pub input: PathBuf,
+    /// Output file, .nii or .nii.gz; never the input, and an existing file is replaced only
+    /// with --force.
+    #[arg(short, long, value_name = "NII")]
+    pub output: PathBuf,
+    /// Replace an existing output file (atomically).
+    #[arg(long)]
+    pub force: bool,
+    /// Frame of a 4-D NIfTI input (0-based).
+    #[arg(long, default_value_t = 0)]
+    pub frame: usize,
+}
+
+fn parse_series(text: &str) -> Result<crate::volume::source::dicom::SeriesChoice, String> {
+    crate::volume::source::dicom::SeriesChoice::parse(text)
 }
 
 fn parse_dims(text: &str) -> Result<[usize; 3], String> {

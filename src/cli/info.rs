@@ -1,9 +1,16 @@
-//! `morphray info`: what a NIfTI file holds, without touching the GPU.
+//! `morphray info`: what a NIfTI file or a DICOM input holds, without touching the GPU.
+//!
+//! Decisions: for DICOM input the report lists every stack of every series (what `--series`
+//! can pick), which one commands pick by default and why, the files left out, and then the
+//! chosen volume as it would be opened (decoded, so its intensity range is known). When no
+//! series qualifies as the default, the listing is still printed (it is what the user needs to
+//! choose one) and the command fails after it.
 
 use super::args::InfoArgs;
 use super::output::{json, print_line};
 use super::source;
 use crate::error::Error;
+use crate::volume::source::InputError;
 use crate::volume::stats::intensity_stats;
 
 /// The JSON document of `info --json`.
@@ -34,6 +41,9 @@ struct InfoReport<'a> {
 
 /// Runs the command.
 pub fn run(args: &InfoArgs) -> Result<(), Error> {
+    if crate::volume::source::reader_for(&args.file).name() == "DICOM" {
+        return run_dicom(args);
+    }
     let source = source::load(Some(&args.file), args.frame, false)?;
     let Some(header) = &source.header else {
         return Err(Error::Usage("info needs a file".into()));
@@ -126,4 +136,143 @@ pub fn run(args: &InfoArgs) -> Result<(), Error> {
         }
     }
     Ok(())
+}
+
+/// The chosen DICOM volume in `info --json`.
+#[derive(serde::Serialize)]
+struct DicomVolume<'a> {
+    label: &'a str,
+    dims: [usize; 3],
+    spacing_mm: [f64; 3],
+    affine: [[f64; 4]; 4],
+    sample_kind: &'static str,
+    scl_slope: f64,
+    scl_inter: f64,
+    imin: Option<f64>,
+    imax: Option<f64>,
+    warnings: &'a [String],
+}
+
+/// The DICOM document of `info --json`.
+#[derive(serde::Serialize)]
+struct DicomReport<'a> {
+    file: String,
+    format: &'static str,
+    series: Vec<dicom::SeriesInfo>,
+    /// The index commands pick without --series (None when no series qualifies).
+    default: Option<usize>,
+    default_reason: String,
+    /// The series described under `volume` (--series, else the default).
+    chosen: Option<usize>,
+    volume: Option<DicomVolume<'a>>,
+    skipped: &'a [dicom::Skipped],
+    not_dicom_files: usize,
+    no_pixel_data_files: usize,
+    notes: &'a [String],
+}
+
+use crate::volume::source::dicom;
+
+/// `info` on a DICOM folder, DICOMDIR or file.
+fn run_dicom(args: &InfoArgs) -> Result<(), Error> {
+    let wrap = |e: dicom::DicomError| Error::from(InputError::Path(Box::new(e)));
+    let choice = source::read_options(0, false).series;
+    let survey = dicom::survey(&args.file).map_err(wrap)?;
+    let picked = survey.pick(choice.as_ref());
+    let loaded = match &picked {
+        Ok(_) => Some(dicom::load(&args.file, choice.as_ref()).map_err(wrap)?.0),
+        Err(_) => None,
+    };
+    let stats = loaded.as_ref().map(intensity_stats);
+    let (not_dicom, no_pixels) = survey.ignored();
+    let report = DicomReport {
+        file: args.file.display().to_string(),
+        format: "DICOM",
+        series: survey.series(),
+        default: survey.default.clone().ok(),
+        default_reason: survey.default_reason(),
+        chosen: picked.as_ref().ok().copied(),
+        volume: loaded.as_ref().map(|v| DicomVolume {
+            label: &v.name,
+            dims: v.dims,
+            spacing_mm: v.spacing_mm,
+            affine: v.orientation.affine,
+            sample_kind: v.samples.kind().name(),
+            scl_slope: v.to_physical.slope,
+            scl_inter: v.to_physical.intercept,
+            imin: stats.as_ref().and_then(|s| s.imin),
+            imax: stats.as_ref().and_then(|s| s.imax),
+            warnings: &v.warnings,
+        }),
+        skipped: survey.skipped(),
+        not_dicom_files: not_dicom,
+        no_pixel_data_files: no_pixels,
+        notes: survey.notes(),
+    };
+    if args.json {
+        print_line(&json(&report));
+    } else {
+        print_dicom(&report);
+    }
+    picked.map(|_| ()).map_err(wrap)
+}
+
+/// The text form of [`DicomReport`].
+fn print_dicom(r: &DicomReport) {
+    print_line(&format!("file          {} (DICOM)", r.file));
+    for s in &r.series {
+        let dims = s
+            .dims
+            .map(|d| format!("{}x{}x{}", d[0], d[1], d[2]))
+            .unwrap_or_else(|| "no volume".into());
+        let mark = if Some(s.index) == r.chosen { "*" } else { " " };
+        print_line(&format!(
+            "series {mark}{:>3}  #{:<4} {:<10} {:<12} {:>4} file(s)  {}  {}",
+            s.index,
+            s.number.map(|n| n.to_string()).unwrap_or_default(),
+            format!("{:?}", s.role).to_lowercase(),
+            dims,
+            s.count,
+            s.description,
+            s.uid
+        ));
+        if let Some(p) = &s.problem {
+            print_line(&format!("                unusable: {p}"));
+        }
+    }
+    print_line(&format!("default       {}", r.default_reason));
+    for n in r.notes {
+        print_line(&format!("note          {n}"));
+    }
+    for s in r.skipped {
+        print_line(&format!("skipped       {}: {}", s.path.display(), s.reason));
+    }
+    if let Some(v) = &r.volume {
+        print_line(&format!("volume        {}", v.label));
+        print_line(&format!(
+            "dims          {} x {} x {} ({})",
+            v.dims[0], v.dims[1], v.dims[2], v.sample_kind
+        ));
+        print_line(&format!(
+            "spacing       {:.4} x {:.4} x {:.4} mm",
+            v.spacing_mm[0], v.spacing_mm[1], v.spacing_mm[2]
+        ));
+        print_line("affine        voxel index to RAS mm");
+        for row in &v.affine {
+            print_line(&format!(
+                "              [{:>10.4} {:>10.4} {:>10.4} {:>10.4}]",
+                row[0], row[1], row[2], row[3]
+            ));
+        }
+        print_line(&format!(
+            "scaling       slope {} intercept {}",
+            v.scl_slope, v.scl_inter
+        ));
+        if let (Some(lo), Some(hi)) = (v.imin, v.imax) {
+            print_line(&format!("intensity     {lo} .. {hi} (physical)"));
+        }
+        for w in v.warnings {
+            print_line(&format!("warning       {w}"));
+        }
+    }
 }

@@ -8,6 +8,7 @@ mod accuracy;
 pub mod args;
 mod batch;
 mod bench;
+mod convert;
 mod devices;
 mod info;
 mod kernels;
@@ -31,6 +32,10 @@ pub fn main() -> ExitCode {
     // First: the time-to-first-pixel trials measure from here (and from before the exec).
     ttfp::mark_process_start();
     std::panic::set_hook(Box::new(|info| {
+        // A DICOM file that makes the parser panic is reported as a skipped file.
+        if crate::volume::source::dicom::panic_is_contained() {
+            return;
+        }
         let message = info
             .payload()
             .downcast_ref::<&str>()
@@ -156,6 +161,7 @@ pub fn run(cli: &Cli) -> Result<(), CommandError> {
         check_output(path, OutputKind::Json, &[], false).map_err(Error::from)?;
         crate::files::trace::enable(ttfp::process_start_instant());
     }
+    source::set_series(cli.series.clone());
     let result = match &cli.command {
         #[cfg(feature = "viewer")]
         Command::View(args) => view::run(args, global),
@@ -185,6 +191,7 @@ fn run_engine_command(command: &Command, global: &GlobalOptions) -> Result<(), E
         Command::Plan(args) => plan::run(args, global),
         Command::Batch(args) => batch::run(args, global),
         Command::Kernels(args) => kernels::run(args, global),
+        Command::Convert(args) => convert::run(args),
         Command::Phantom(args) => {
             // Before generating: an existing scan is never replaced without --force.
             use crate::files::write::{OutputKind, check_output};

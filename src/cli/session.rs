@@ -16,7 +16,7 @@ use crate::engine::{EngineConfig, OpenOptions, Session};
 use crate::error::Error;
 use crate::gpu::{DeviceConfig, DeviceSelector, Validation};
 use crate::scene::SceneRecipe;
-use crate::volume::source::{ReadOptions, VolumeSource};
+use crate::volume::source::VolumeSource;
 use std::path::Path;
 
 /// Phase times of opening a volume (the library's).
@@ -64,10 +64,7 @@ pub fn open(
     };
     let image = scene_args.and_then(|a| a.size).unwrap_or((1024, 1024));
     let options = OpenOptions {
-        read: ReadOptions {
-            frame,
-            hash: want_hash,
-        },
+        read: super::source::read_options(frame, want_hash),
         image: [image.0, image.1],
         recipe,
         first_frame,

@@ -56,6 +56,9 @@ pub enum AffineSource {
     Pixdim,
     /// Built by the engine (the phantom, or raw voxels handed in through the API).
     Synthetic,
+    /// A DICOM series: ImageOrientationPatient, PixelSpacing and the slices'
+    /// ImagePositionPatient (LPS turned to RAS).
+    Dicom,
 }
 
 /// Index-space to world-space (mm) geometry of a volume.

@@ -238,6 +238,7 @@ pub(super) fn open_options(recipe: SceneRecipe, size: [u32; 2]) -> OpenOptions {
         read: ReadOptions {
             frame: 0,
             hash: true,
+            series: None,
         },
         image: size,
         recipe,

@@ -3,11 +3,12 @@
 //! format-independent [`InputError`].
 //!
 //! Decisions:
-//! - A reader says whether a path looks like its format (`claims`, by name only: cheap, no I/O)
-//!   and reads it with per-phase timings. The registry ([`READERS`]) asks them in order; a path
-//!   no reader claims goes to the first (NIfTI), whose magic check then says precisely why the
-//!   file is not a volume. Adding DICOM is one file (`source/dicom.rs`) plus its `mod` line and
-//!   one entry in [`READERS`]; nothing in the engine or the CLI names a format.
+//! - A reader says whether a path looks like its format (`claims`: NIfTI by name only; DICOM,
+//!   asked after it, also claims folders and files with the DICM magic, so it may stat the path
+//!   and read 132 bytes) and reads it with per-phase timings. The registry ([`READERS`]) asks
+//!   them in order; a path no reader claims goes to the first (NIfTI), whose magic check then
+//!   says precisely why the file is not a volume. Nothing in the engine or the CLI names a
+//!   format; DICOM's series listing (`dicom::survey`) is public for `morphray info`.
 //! - [`InputError`] is the same for every format: either the reader's error names the path
 //!   itself (I/O, a missing companion, a wrong magic) or it is about the contents and is
 //!   prefixed with the file's name. The reader's own typed error stays reachable
@@ -17,6 +18,7 @@
 //! - The hash of the input (PNG provenance) is taken here, over the bytes as read (a file) or
 //!   the samples (the phantom), outside the timed phases.
 
+pub mod dicom;
 mod nifti;
 
 use super::Volume;
@@ -61,12 +63,14 @@ impl VolumeSource {
 }
 
 /// How to read a source.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct ReadOptions {
     /// Which frame of a 4-D (or higher) file, from 0.
     pub frame: usize,
     /// Compute the SHA-256 of the input (provenance).
     pub hash: bool,
+    /// Which series of a DICOM input (None: the largest 3-D series); ignored by other formats.
+    pub series: Option<dicom::SeriesChoice>,
 }
 
 /// Host times of reading, in milliseconds (0 for phases that did not apply).
@@ -141,7 +145,7 @@ pub trait VolumeReader: Sync {
 }
 
 /// Every reader, in the order they are asked; the first also takes what nobody claims.
-pub static READERS: &[&dyn VolumeReader] = &[&nifti::NiftiReader];
+pub static READERS: &[&dyn VolumeReader] = &[&nifti::NiftiReader, &dicom::DicomReader];
 
 /// The reader for `path`: the first that claims it, else the first of [`READERS`].
 pub fn reader_for(path: &Path) -> &'static dyn VolumeReader {
@@ -207,7 +211,12 @@ mod tests {
             );
         }
         assert!(!nifti::NiftiReader.claims(Path::new("scan.dcm")));
-        assert_eq!(reader_for(Path::new("scan.dcm")).name(), "NIfTI/ANALYZE");
+        assert_eq!(reader_for(Path::new("scan.dcm")).name(), "DICOM");
+        assert_eq!(reader_for(&std::env::temp_dir()).name(), "DICOM");
+        assert_eq!(
+            reader_for(Path::new("no-such-file.txt")).name(),
+            "NIfTI/ANALYZE"
+        );
     }
 
     #[test]
@@ -246,6 +255,7 @@ mod tests {
             &ReadOptions {
                 frame: 0,
                 hash: true,
+                series: None,
             },
         )
         .unwrap();

@@ -17,7 +17,9 @@ fuzz_target!(|data: &[u8]| {
         AffineSource::Sform => assert!(f.sform_code > 0),
         AffineSource::Qform => assert!(f.qform_code > 0),
         AffineSource::Pixdim => {}
-        AffineSource::Synthetic => panic!("resolve never builds a synthetic affine"),
+        AffineSource::Synthetic | AffineSource::Dicom => {
+            panic!("resolve never builds a synthetic or DICOM affine")
+        }
     }
     // Total and deterministic: the same fields give the same answer.
     assert_eq!(resolve(&f), g);
