@@ -82,16 +82,21 @@ def _open_array(array, affine, name):
     return Volume(_native.open_array(_as_volume_array(array), affine, name=name))
 
 
-def open(source, frame: int = 0) -> "Volume":
+def open(source, frame: int = 0, series=None) -> "Volume":
     """Opens a volume on the process's device and analyses its histogram.
 
     source: a path (str or os.PathLike) to a NIfTI-1/2 or ANALYZE file (.nii, .nii.gz,
-    .hdr/.img), a nibabel image (anything with `.dataobj` and `.affine`), or an
-    `(array, affine)` pair with the array indexed (i, j, k) and the 4x4 voxel-to-RAS+ mm affine.
+    .hdr/.img) or a DICOM series (a folder, a DICOMDIR or a .dcm file), a nibabel image
+    (anything with `.dataobj` and `.affine`), or an `(array, affine)` pair with the array indexed
+    (i, j, k) and the 4x4 voxel-to-RAS+ mm affine.
     frame: which volume of a 4D file or image.
+    series: for DICOM, a SeriesInstanceUID or the index `morphray info PATH` lists (default: the
+    largest 3-D image series).
     """
     if isinstance(source, (str, os.PathLike)):
-        return Volume(_native.open_file(os.fspath(source), frame=int(frame)))
+        return Volume(_native.open_file(
+            os.fspath(source), frame=int(frame),
+            series=None if series is None else str(series)))
     if hasattr(source, "dataobj") and hasattr(source, "affine"):
         data = np.asanyarray(source.dataobj)
         if data.ndim == 4:

@@ -22,6 +22,7 @@ use morphray::passes::derivatives::DerivativeOutputs;
 use morphray::scene::{DerivedPrecision, SceneRecipe};
 use morphray::study::batch_summary::ScanSummary;
 use morphray::volume::phantom::PhantomSpec;
+use morphray::volume::source::dicom::SeriesChoice;
 use morphray::volume::source::{self, ReadOptions, VolumeSource};
 use morphray::volume::{LinearMap, Samples, Volume as HostVolume};
 use numpy::ndarray::{Array3, ShapeBuilder};
@@ -56,7 +57,10 @@ pub struct Volume {
 
 fn open_options(recipe: &SceneRecipe, frame: usize) -> OpenOptions {
     OpenOptions {
-        read: ReadOptions { frame, hash: false },
+        read: ReadOptions {
+            frame,
+            ..ReadOptions::default()
+        },
         image: PLAN_IMAGE,
         recipe: recipe.clone(),
         first_frame: false,
@@ -87,20 +91,36 @@ fn open_host(state: &mut State, volume: HostVolume, label: String) -> PyResult<V
     })
 }
 
-fn open_source(py: Python<'_>, source: VolumeSource, frame: usize) -> PyResult<Volume> {
+fn open_source(py: Python<'_>, source: VolumeSource, read: ReadOptions) -> PyResult<Volume> {
     py.detach(|| {
         // Read and inflate before taking the engine: other threads' GPU work goes on meanwhile.
-        let read = source::read(&source, &ReadOptions { frame, hash: false })
+        let read = source::read(&source, &read)
             .map_err(|e| errors::InputError::new_err(e.to_string()))?;
         open_host(&mut state::lock(), read.volume, read.label)
     })
 }
 
-/// Opens a NIfTI/ANALYZE file (`frame`: which volume of a 4D file).
+/// Opens a NIfTI/ANALYZE file or a DICOM series (`frame`: which volume of a 4D file;
+/// `series`: a DICOM SeriesInstanceUID or the index `morphray info` lists, None for the largest
+/// 3-D series).
 #[pyfunction]
-#[pyo3(signature = (path, frame=0))]
-pub fn open_file(py: Python<'_>, path: PathBuf, frame: usize) -> PyResult<Volume> {
-    open_source(py, VolumeSource::File(path), frame)
+#[pyo3(signature = (path, frame=0, series=None))]
+pub fn open_file(
+    py: Python<'_>,
+    path: PathBuf,
+    frame: usize,
+    series: Option<String>,
+) -> PyResult<Volume> {
+    let series = series
+        .map(|s| SeriesChoice::parse(&s))
+        .transpose()
+        .map_err(pyo3::exceptions::PyValueError::new_err)?;
+    let read = ReadOptions {
+        frame,
+        series,
+        ..ReadOptions::default()
+    };
+    open_source(py, VolumeSource::File(path), read)
 }
 
 /// Opens the synthetic head phantom of `dims` 1 mm voxels (the paper's cohort-A size by
@@ -119,7 +139,7 @@ pub fn open_phantom(
         seed: seed.unwrap_or(PhantomSpec::DEFAULT_SEED),
         noise,
     };
-    open_source(py, VolumeSource::Phantom(spec), 0)
+    open_source(py, VolumeSource::Phantom(spec), ReadOptions::default())
 }
 
 /// The voxels of an (i, j, k)-indexed array in x-fastest order.
