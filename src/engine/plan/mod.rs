@@ -4,7 +4,7 @@
 //! Decisions:
 //! - The engine owns the plan, and the passes declare it: each engine module that runs a pass
 //!   says once what it allocates (the descriptions it creates from) and what the pass costs
-//!   ([`declare`]); [`assemble`] only puts the declarations in execution order. There is no
+//!   ([`declare`]); `assemble.rs` only puts the declarations in execution order. There is no
 //!   second list of allocations to keep in step.
 //! - Only what the scene calls for: MIP and MinIP run no derivative pass; DVR without curvature
 //!   stores no curvature channel; shading off stores no normals; on-the-fly gradients store no

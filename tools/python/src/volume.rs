@@ -94,8 +94,8 @@ fn open_host(state: &mut State, volume: HostVolume, label: String) -> PyResult<V
 fn open_source(py: Python<'_>, source: VolumeSource, read: ReadOptions) -> PyResult<Volume> {
     py.detach(|| {
         // Read and inflate before taking the engine: other threads' GPU work goes on meanwhile.
-        let read = source::read(&source, &read)
-            .map_err(|e| errors::InputError::new_err(e.to_string()))?;
+        let read =
+            source::read(&source, &read).map_err(|e| errors::InputError::new_err(e.to_string()))?;
         open_host(&mut state::lock(), read.volume, read.label)
     })
 }

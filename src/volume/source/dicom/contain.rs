@@ -14,7 +14,7 @@ thread_local! {
     static CONTAINED: Cell<u32> = const { Cell::new(0) };
 }
 
-/// True while this thread runs a [`contained`] call (for panic hooks).
+/// True while this thread runs a `contained` call (for panic hooks).
 pub fn panic_is_contained() -> bool {
     CONTAINED.with(|c| c.get() > 0)
 }

@@ -1,0 +1,328 @@
+//! One frame's GPU side: the raymarch recorded into the frame's one submission (when the scene
+//! or the view changed), the composition and presentation by the painter, the frame log's
+//! bookkeeping, screenshots with provenance, and recovery from a lost device.
+
+use super::*;
+
+impl Viewer {
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn render_and_paint(
+        &mut self,
+        window: Option<&winit::window::Window>,
+        size: [u32; 2],
+        view_rect: [u32; 4],
+        primitives: &[egui::ClippedPrimitive],
+        ppp: f32,
+        screenshot: bool,
+        frame_start: Instant,
+    ) -> Result<(), FrameError> {
+        let _span = crate::files::trace::span("viewer frame (record, compose, present)", "render");
+        let scene = self.rendered_scene();
+        let continuous = self.always_raymarch();
+        let Some(gpu) = &mut self.gpu else {
+            return Ok(());
+        };
+        if size[0] == 0 || size[1] == 0 {
+            // Minimized: nothing to draw into; keep the textures for later.
+            return Ok(());
+        }
+        if self.inject_device_lost {
+            self.inject_device_lost = false;
+            return Err(FrameError::Gpu(GpuError::DeviceLost(
+                "a frame (simulated by the script)".into(),
+            )));
+        }
+        // The raymarch, recorded into the frame's one submission (the composition is appended
+        // to it by the painter).
+        let mut frame_recording: Option<Recording> = None;
+        let mut fresh = false;
+        if let (Some(current), Some(scene)) = (&self.current, scene)
+            && view_rect[2] > 0
+            && view_rect[3] > 0
+        {
+            let unchanged = self.last.is_some_and(|l| {
+                l.scene == scene && l.rect == view_rect && l.volume == current.loaded.id
+            });
+            let blocked = self.render_blocked == Some((scene, view_rect));
+            if (!unchanged || continuous) && !blocked {
+                let index = self
+                    .last
+                    .map(|l| (l.target + 1) % FRAMES_IN_FLIGHT)
+                    .unwrap_or(0);
+                gpu.painter.release_target(index)?;
+                let fits = gpu.targets[index]
+                    .as_ref()
+                    .is_some_and(|t| t.width == view_rect[2] && t.height == view_rect[3]);
+                if !fits {
+                    gpu.targets[index] = None;
+                    let mut target =
+                        match gpu
+                            .engine
+                            .render_target(view_rect[2], view_rect[3], COMPOSITE_FORMAT)
+                        {
+                            Ok(t) => t,
+                            Err(e) => {
+                                self.render_blocked = Some((scene, view_rect));
+                                return Err(FrameError::Gpu(e));
+                            }
+                        };
+                    target.read_back = false;
+                    gpu.targets[index] = Some(target);
+                }
+                let Some(target) = gpu.targets[index].as_mut() else {
+                    return Ok(());
+                };
+                let twin = &current.loaded.twin;
+                let mut rec = Recording::new(&gpu.device, "frame").map_err(FrameError::Gpu)?;
+                match gpu.engine.record_render(
+                    &mut rec,
+                    target,
+                    &twin.prepared,
+                    twin.derived(),
+                    &scene,
+                ) {
+                    // Nothing to read after the wait: the viewer keeps no pixels or counts, and
+                    // the pass times come back with the composition's.
+                    Ok(_recorded) => frame_recording = Some(rec),
+                    Err(e) => {
+                        // Out of memory, or a scene a bricked volume's resident bricks cannot
+                        // show: retrying the same scene every frame would fail the same way.
+                        if matches!(
+                            e,
+                            GpuError::OutOfDeviceMemory { .. } | GpuError::InvalidRequest(_)
+                        ) {
+                            self.render_blocked = Some((scene, view_rect));
+                        }
+                        return Err(FrameError::Gpu(e));
+                    }
+                }
+                self.render_blocked = None;
+                fresh = true;
+                self.last = Some(Rendered {
+                    scene,
+                    rect: view_rect,
+                    target: index,
+                    volume: current.loaded.id,
+                });
+            }
+        }
+        let shown = self.last.filter(|l| {
+            self.current
+                .as_ref()
+                .is_some_and(|c| c.loaded.id == l.volume)
+        });
+        let target = shown.and_then(|l| {
+            gpu.targets[l.target]
+                .as_ref()
+                .filter(|t| t.width == l.rect[2] && t.height == l.rect[3])
+                .map(|t| (t.image().clone(), l.rect, l.target))
+        });
+
+        // Window image.
+        let slot = gpu.painter.next_slot();
+        gpu.painter.wait_slot(slot)?;
+        let mut acquired = None;
+        if window.is_some() {
+            let Some(swapchain) = gpu.swapchain.as_mut() else {
+                // No swapchain yet (the window had no area): try again.
+                if let Some(surface) = &gpu.surface {
+                    gpu.swapchain =
+                        Swapchain::new(&gpu.device, surface.clone(), size, self.config.vsync)?;
+                }
+                return Ok(());
+            };
+            if (swapchain.extent.width != size[0] || swapchain.extent.height != size[1])
+                && !swapchain.recreate(size)?
+            {
+                return Ok(());
+            }
+            match swapchain.acquire(slot)? {
+                Some(a) => acquired = Some(a),
+                None => {
+                    swapchain.recreate(size)?;
+                    return Ok(());
+                }
+            }
+        }
+        let background = self.controls.scene.background;
+        let serial = self.serial + 1;
+        let spec = FrameSpec {
+            serial,
+            size,
+            raymarch: target
+                .as_ref()
+                .map(|(image, rect, _)| (image, fresh, *rect)),
+            target_index: target.as_ref().map(|t| t.2),
+            clear: [background[0], background[1], background[2], 1.0],
+            primitives,
+            pixels_per_point: ppp,
+            textures: std::mem::take(&mut self.unapplied),
+            window: acquired,
+            screenshot,
+        };
+        gpu.painter.paint(spec, frame_recording)?;
+        self.serial = serial;
+        if let (Some(swapchain), Some(a)) = (gpu.swapchain.as_mut(), acquired)
+            && swapchain.present(&a)?
+        {
+            swapchain.recreate(size)?;
+        }
+
+        // Bookkeeping: log record, first pixel, action latencies.
+        if let (Some(current), Some(shown)) = (&mut self.current, shown) {
+            self.volume_frames += 1;
+            let compute = std::mem::take(&mut self.arrived);
+            self.log.submitted(
+                serial,
+                FrameRecord {
+                    number: self.volume_frames,
+                    compute,
+                    compose: Vec::new(),
+                    cpu_ms: frame_start.elapsed().as_secs_f64() * 1e3,
+                    complete: false,
+                },
+            );
+            let first = !current.shown;
+            let resolves = self.log.would_resolve(&shown.scene, Some(shown.volume));
+            if first || resolves {
+                // Stamp the moment the GPU finished this frame.
+                gpu.painter.wait_slot(slot)?;
+                let now = Instant::now();
+                if first {
+                    current.shown = true;
+                    let ms = now
+                        .duration_since(current.loaded.requested_at)
+                        .as_secs_f64()
+                        * 1e3;
+                    self.status.ttfp_ms = Some(ms);
+                    self.log.say(&format!(
+                        "time to first pixel of {}: {ms:.0} ms",
+                        current.loaded.label
+                    ));
+                }
+                self.log
+                    .resolve(self.volume_frames, &shown.scene, Some(shown.volume), now);
+            }
+        }
+        Ok(())
+    }
+
+    /// Logs frames whose composition finished, and adds their times to the status bar.
+    pub(super) fn flush_completed(&mut self) {
+        let Some(gpu) = &mut self.gpu else { return };
+        for done in gpu.painter.take_completed() {
+            // A frame that raymarched reports its own raymarch; one that only recomposed keeps
+            // the last raymarch's time on show.
+            let raymarched = done.passes.iter().any(|p| p.name == "raymarch");
+            let mut passes: Vec<(String, f64)> = self
+                .status
+                .passes
+                .iter()
+                .filter(|(n, _)| n == "raymarch" && !raymarched)
+                .cloned()
+                .collect();
+            passes.extend(done.passes.iter().map(|p| (p.name.clone(), p.gpu_ms)));
+            self.status.passes = passes;
+            self.log.completed(done.serial, done.passes);
+        }
+    }
+
+    pub(super) fn write_screenshots(&mut self) -> Result<(), AppError> {
+        if self.screenshot_requests.is_empty() {
+            return Ok(());
+        }
+        let Some(gpu) = &mut self.gpu else {
+            return Ok(());
+        };
+        let (w, h, pixels) = match gpu.painter.screenshot() {
+            Ok(p) => p,
+            Err(e) => {
+                self.status.error =
+                    Some(format!("Screenshot failed: {}", one_line(&e.to_string())));
+                self.screenshot_requests.clear();
+                return Ok(());
+            }
+        };
+        self.flush_completed();
+        for path in std::mem::take(&mut self.screenshot_requests) {
+            let provenance = self.provenance();
+            // The same rules as `render -o` (right extension, never over the open file); the
+            // write itself is atomic.
+            let input = self.current.as_ref().and_then(|c| c.loaded.path.clone());
+            let inputs: Vec<&std::path::Path> = input.as_deref().into_iter().collect();
+            let written = check_output(&path, OutputKind::Png, &inputs, false)
+                .map_err(PngError::from)
+                .and_then(|()| write_rgba8(&path, w, h, &pixels, &provenance));
+            match written {
+                Ok(()) => {
+                    self.log.say(&format!("wrote {} ({w}x{h})", path.display()));
+                    self.status.note = Some(format!("Saved {}", path.display()));
+                }
+                Err(e) => self.status.error = Some(one_line(&e.to_string())),
+            }
+        }
+        Ok(())
+    }
+
+    pub(super) fn provenance(&self) -> Provenance {
+        let (input, sha, warnings) = match &self.current {
+            Some(c) => (
+                c.loaded.label.clone(),
+                c.loaded.sha256.clone(),
+                c.loaded.warnings.clone(),
+            ),
+            None => (String::new(), String::new(), Vec::new()),
+        };
+        let parameters = serde_json::json!({
+            "engine": format!("morphray {}", env!("CARGO_PKG_VERSION")),
+            "input": input,
+            "viewer": true,
+            "window_size": self.size,
+            "scene": self.rendered_scene(),
+            "device": self.status.device,
+        });
+        Provenance {
+            input,
+            input_sha256: sha,
+            command: self.config.command.clone(),
+            parameters: parameters.to_string(),
+            warnings,
+        }
+    }
+
+    /// After a device loss: drop every GPU object, make a new device, reload the volume.
+    pub(super) fn device_lost(&mut self, during: &str, window: Option<&winit::window::Window>) {
+        let message = format!("The GPU device was lost during {during}");
+        self.log.say(&format!("{message}; restarting the GPU"));
+        // Stale frames and derived work belong to the old device.
+        self.gpu = None;
+        // The new painter has no textures: give it every texture egui sent so far.
+        self.unapplied.clear();
+        self.unapplied = self.mirror.full_upload();
+        self.log.abandon_in_flight();
+        self.last = None;
+        self.pending_derive = None;
+        self.status.deriving = None;
+        let reload = self.current.take().map(|c| c.loaded.path);
+        match Gpu::new(&self.config.engine, window, self.size, self.config.vsync) {
+            Ok(gpu) => {
+                self.loader.provide_device(gpu.device.clone());
+                self.gpu = Some(gpu);
+                if let Some(path) = reload {
+                    self.open(path, None);
+                }
+                self.status.error = Some(format!(
+                    "{message}; the GPU was restarted and the volume is being reloaded"
+                ));
+            }
+            Err(e) => {
+                self.status.error = Some(format!(
+                    "{message}, and it could not be restarted: {}",
+                    one_line(&e.to_string())
+                ));
+                self.log.say(self.status.error.as_deref().unwrap_or(""));
+                self.exit = true;
+            }
+        }
+    }
+}
