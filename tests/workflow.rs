@@ -18,14 +18,20 @@ fn pyenv() -> PathBuf {
     cache.join("morphray/pyenv")
 }
 
-#[test]
-fn snakemake_runs_the_shards_then_the_group_report_on_six_subjects() {
+/// The venv's snakemake; fails (never skips) when the venv is missing.
+fn snakemake() -> PathBuf {
     let snakemake = pyenv().join("bin/snakemake");
     assert!(
         snakemake.is_file(),
         "{} is missing: run tools/setup.sh (or tools/pyenv.sh) first",
         snakemake.display()
     );
+    snakemake
+}
+
+#[test]
+fn snakemake_runs_the_shards_then_the_group_report_on_six_subjects() {
+    let snakemake = snakemake();
     let root = std::env::temp_dir().join(format!("morphray-workflow-{}", std::process::id()));
     let bids = root.join("bids");
     let out = root.join("derivatives");
@@ -75,12 +81,7 @@ fn the_slurm_executor_plugin_plans_the_same_workflow_without_edits() {
     // No cluster here: a dry run through Snakemake's Slurm executor plugin checks that the
     // Snakefile's rules and resources are accepted by it as they are (the submission itself
     // needs sbatch; README.md of tools/workflow says how to run it).
-    let snakemake = pyenv().join("bin/snakemake");
-    assert!(
-        snakemake.is_file(),
-        "{} is missing: run tools/setup.sh (or tools/pyenv.sh) first",
-        snakemake.display()
-    );
+    let snakemake = snakemake();
     let root = std::env::temp_dir().join(format!("morphray-slurm-{}", std::process::id()));
     let bids = root.join("bids");
     common::bids::write_dataset(&bids, 2, 12, false);
