@@ -181,6 +181,41 @@ fn one_rescale_is_the_intensity_map_and_per_slice_rescale_becomes_float() {
 }
 
 #[test]
+fn monochrome1_is_inverted_within_its_range_so_bright_means_high_signal() {
+    let plain_dir = folder("mono2");
+    let spec = Spec::axial("1.2.826.0.1.3680043.2.1125.1.40");
+    writer::write_series(&plain_dir, &spec);
+    let inverted_dir = folder("mono1");
+    let spec1 = Spec {
+        photometric: "MONOCHROME1",
+        ..spec.clone()
+    };
+    writer::write_series(&inverted_dir, &spec1);
+    let plain = read(&plain_dir, None).unwrap();
+    let inverted = read(&inverted_dir, None).unwrap();
+    let a = plain.samples.to_f64_vec();
+    let b = inverted.samples.to_f64_vec();
+    let lo = a.iter().cloned().fold(f64::INFINITY, f64::min);
+    let hi = a.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+    assert!(hi > lo, "the test series must not be constant");
+    assert_eq!(inverted.samples.kind(), plain.samples.kind());
+    for (x, y) in a.iter().zip(&b) {
+        assert_eq!(
+            *y,
+            lo + hi - x,
+            "MONOCHROME1 sample not inverted in its range"
+        );
+    }
+    assert!(
+        inverted.warnings.iter().any(|w| w.contains("MONOCHROME1")),
+        "{:?}",
+        inverted.warnings
+    );
+    assert!(plain.warnings.is_empty(), "{:?}", plain.warnings);
+    assert_eq!(inverted.orientation.affine, plain.orientation.affine);
+}
+
+#[test]
 fn an_enhanced_multiframe_object_is_one_volume_with_per_frame_geometry_and_rescale() {
     let dir = folder("enhanced");
     let spec = Spec {

@@ -199,3 +199,95 @@ fn render_of_an_exam_folder_writes_a_png_naming_the_series() {
     let o = morphray(&["render", s(&dir), "-o", s(&png), "--frame", "1"]);
     assert_one_line_failure(&o, "--series");
 }
+
+#[test]
+fn several_files_are_one_input_and_a_nifti_among_them_is_refused() {
+    let dir = folder("several");
+    let spec = Spec::axial("1.2.826.0.1.3680043.2.1125.3.9");
+    let mut files = writer::write_series(&dir, &spec);
+    files.sort();
+    let names: Vec<&str> = files.iter().map(|p| s(p)).collect();
+    // `morphray info *.dcm`: one series of all the files given.
+    let mut args = vec!["info", "--json"];
+    args.extend(&names);
+    let o = morphray(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["series"].as_array().unwrap().len(), 1);
+    assert_eq!(v["series"][0]["count"], 12);
+    assert_eq!(v["volume"]["dims"], serde_json::json!([24, 20, 12]));
+    // Half the files are half the slices: exactly what was given is read, not the folder.
+    let mut args = vec!["info", "--json"];
+    args.extend(&names[..6]);
+    let v: serde_json::Value = serde_json::from_slice(&morphray(&args).stdout).unwrap();
+    assert_eq!(v["series"][0]["count"], 6);
+    // render reads them as one volume, and will not write over any of them.
+    let png = dir.join("several.png");
+    let mut args = vec!["render", "-o", s(&png), "--size", "40x32"];
+    args.extend(&names);
+    let o = morphray(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(png.exists());
+    let mut args = vec!["render", "-o", names[3], "--size", "40x32"];
+    args.extend(&names);
+    assert_one_line_failure(&morphray(&args), "input");
+    // A NIfTI among them: one line naming it.
+    let nii = dir.join("other.nii");
+    let volume = generate(&PhantomSpec::cube(8)).unwrap().volume;
+    morphray::volume::nifti::write_nifti1(&volume, &nii, false).unwrap();
+    let o = morphray(&["peaks", names[0], s(&nii)]);
+    assert_one_line_failure(&o, "other.nii");
+    assert!(stderr(&o).contains("not DICOM"), "{}", stderr(&o));
+}
+
+/// `morphray view` offscreen and scripted, validation required.
+fn view_offscreen(args: &[&str]) -> Output {
+    let o = Command::new(env!("CARGO_BIN_EXE_morphray"))
+        .arg("view")
+        .args(args)
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .env("MORPHRAY_VALIDATION", "required")
+        .output()
+        .expect("the morphray binary runs");
+    let log = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert!(
+        !stderr(&o).contains("no Vulkan") && !stderr(&o).contains("found no device"),
+        "this test needs a Vulkan device (Debian: apt-get install mesa-vulkan-drivers \
+         libvulkan1 vulkan-validationlayers): {}",
+        stderr(&o)
+    );
+    assert!(o.status.success(), "{log}\n{}", stderr(&o));
+    assert!(log.contains("validation layer: 0 error(s)"), "{log}");
+    o
+}
+
+#[test]
+fn the_viewer_opens_the_series_asked_for_and_switches_from_its_series_menu() {
+    let (dir, _, second) = exam("viewer");
+    let script = dir.join("series.txt");
+    std::fs::write(&script, "wait 2\nseries 1\nwait 2\nseries 9\nwait 1\n").unwrap();
+    let o = view_offscreen(&[
+        s(&dir),
+        "--series",
+        &second.uid,
+        "--size",
+        "200x160",
+        "--frames",
+        "2",
+        "--script",
+        s(&script),
+        "--offscreen",
+    ]);
+    let log = String::from_utf8_lossy(&o.stdout).into_owned();
+    let second_at = log
+        .find("series 4 \"second\" (24x20x5)")
+        .unwrap_or_else(|| panic!("--series must open the second series first:\n{log}"));
+    let main_at = log
+        .find("series 3 \"T1 test\" (24x20x12)")
+        .unwrap_or_else(|| panic!("`series 1` must open the main series:\n{log}"));
+    assert!(second_at < main_at, "{log}");
+    // An index the exam does not have is an error in the status line; the volume stays.
+    assert!(log.contains("has no series 9"), "{log}");
+    assert_eq!(log.matches("loaded ").count(), 2, "{log}");
+}

@@ -281,7 +281,7 @@ fn the_image_of_a_pair_finds_its_header() {
     std::fs::write(dir.join("C.HDR"), &hdr).unwrap();
     std::fs::write(dir.join("C.IMG"), &img).unwrap();
     for name in ["a.img", "b.img.gz", "C.IMG"] {
-        let source = morphray::cli::source::load(Some(&dir.join(name)), 0, true)
+        let source = morphray::cli::source::load(&[dir.join(name)], 0, true)
             .unwrap_or_else(|e| panic!("{name}: {e}"));
         assert_eq!(source.volume.dims, [4, 4, 6], "{name}");
         assert_eq!(source.volume.samples.get(95), 95.0, "{name}");

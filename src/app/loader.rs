@@ -24,8 +24,7 @@ use crate::engine::{Derived, Engine, EngineConfig, OpenOptions, PreparedVolume, 
 use crate::gpu::{Device, GpuError, PassTiming};
 use crate::passes::derivatives::DerivativeOutputs;
 use crate::scene::Scene;
-use crate::volume::source::{self, VolumeSource};
-use std::path::PathBuf;
+use crate::volume::source::{self, SeriesListing, VolumeSource};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, Sender, channel};
 use std::sync::{Arc, Mutex};
@@ -38,8 +37,10 @@ pub struct LoadedVolume {
     pub id: u64,
     /// File name or `phantom`.
     pub label: String,
-    /// The file, None for the phantom.
-    pub path: Option<PathBuf>,
+    /// What was opened (a file, several DICOM files, or the phantom).
+    pub source: VolumeSource,
+    /// The series of a DICOM input and the one shown (None for other formats).
+    pub series: Option<SeriesListing>,
     /// SHA-256 of the input (provenance of screenshots).
     pub sha256: String,
     /// Voxel spacing along the three index axes, millimetres.
@@ -67,7 +68,7 @@ pub struct LoadedVolume {
 enum Job {
     Load {
         id: u64,
-        path: Option<PathBuf>,
+        source: VolumeSource,
         requested_at: Instant,
         options: Box<OpenOptions>,
     },
@@ -177,19 +178,13 @@ impl Loader {
         }
     }
 
-    /// Queues opening `path` (None: the phantom) with `options` (the recipe's effects are
-    /// planned for and derived).
-    pub fn load(
-        &self,
-        id: u64,
-        path: Option<PathBuf>,
-        requested_at: Instant,
-        options: OpenOptions,
-    ) {
+    /// Queues opening `source` with `options` (the recipe's effects are planned for and
+    /// derived; `options.read.series` picks a DICOM series).
+    pub fn load(&self, id: u64, source: VolumeSource, requested_at: Instant, options: OpenOptions) {
         if let Some(jobs) = &self.jobs {
             let _ = jobs.send(Job::Load {
                 id,
-                path,
+                source,
                 requested_at,
                 options: Box::new(options),
             });
@@ -253,10 +248,10 @@ impl Worker {
             match job {
                 Job::Load {
                     id,
-                    path,
+                    source,
                     requested_at,
                     options,
-                } => match self.load(id, path, requested_at, &options) {
+                } => match self.load(id, source, requested_at, &options) {
                     Ok(Some(loaded)) => self.send(Reply::Loaded(Box::new(loaded))),
                     Ok(None) => return,
                     Err(message) => self.send(Reply::LoadFailed { id, message }),
@@ -303,19 +298,18 @@ impl Worker {
     fn load(
         &mut self,
         id: u64,
-        path: Option<PathBuf>,
+        input: VolumeSource,
         requested_at: Instant,
         options: &OpenOptions,
     ) -> Result<Option<LoadedVolume>, String> {
         self.send(Reply::Progress {
             id,
-            stage: if path.is_some() {
+            stage: if input.path().is_some() {
                 "reading and decoding the file"
             } else {
                 "generating the phantom"
             },
         });
-        let input = VolumeSource::file_or_phantom(path.as_deref());
         let read = source::read(&input, &options.read).map_err(|e| one_line(&e.to_string()))?;
         if self.cancelled() {
             return Ok(None);
@@ -364,7 +358,8 @@ impl Worker {
             id,
             warnings: read.volume.warnings.clone(),
             label: read.label,
-            path,
+            source: input,
+            series: read.series,
             sha256: read.sha256.unwrap_or_default(),
             spacing_mm,
             twin: opened.twin,

@@ -12,6 +12,7 @@
 
 use super::camera_control::{Button, StandardView};
 use crate::scene::{RenderMode, TissueClass};
+use crate::volume::source::VolumeSource;
 use std::path::{Path, PathBuf};
 
 /// Presets of the tissue windows.
@@ -71,8 +72,11 @@ pub enum Action {
     Shading(bool),
     /// Background colour.
     Background([f32; 3]),
-    /// Open a file (None: the built-in phantom).
-    Open(Option<PathBuf>),
+    /// Open a source (`open` alone or `open phantom`: the built-in phantom; several paths
+    /// are one DICOM input).
+    Open(VolumeSource),
+    /// Open the DICOM input on screen again with this series (an index from `morphray info`).
+    Series(usize),
     /// Save the whole window as PNG.
     Screenshot(PathBuf),
     /// Let this many frames pass.
@@ -290,10 +294,20 @@ fn parse_line(line: &str) -> Result<Action, String> {
         },
         "shading" => Action::Shading(switch(next())?),
         "background" => Action::Background(colour(next())?),
-        "open" => match next() {
-            None | Some("phantom") => Action::Open(None),
-            Some(path) => Action::Open(Some(PathBuf::from(path))),
-        },
+        "open" => {
+            let paths: Vec<PathBuf> = std::iter::from_fn(&mut next)
+                .filter(|w| *w != "phantom")
+                .map(PathBuf::from)
+                .collect();
+            Action::Open(VolumeSource::from_paths(&paths))
+        }
+        "series" => {
+            let n = number(next(), "a series index (from `morphray info`)")?;
+            if n < 0.0 || n.fract() != 0.0 {
+                return Err(format!("series {n} must be a whole number from 0"));
+            }
+            Action::Series(n as usize)
+        }
         "screenshot" => Action::Screenshot(PathBuf::from(next().ok_or("expected a PNG path")?)),
         "wait" => {
             let n = number(next(), "a number of frames")?;
@@ -435,7 +449,10 @@ mod tests {
         assert_eq!(runner.next_step(false).unwrap().line, 3);
         assert!(runner.finished());
         let mut runner = Runner::new(parse("open phantom\nclose\n", "s").unwrap());
-        assert_eq!(runner.next_step(false).unwrap().action, Action::Open(None));
+        assert_eq!(
+            runner.next_step(false).unwrap().action,
+            Action::Open(VolumeSource::from_paths(&[]))
+        );
         assert_eq!(
             runner.next_step(true).unwrap().action,
             Action::Close,

@@ -15,12 +15,14 @@
 use super::camera_control::{
     Button, CameraController, DragKind, StandardView, drag_kind, edge_labels, view_for_key,
 };
+use super::file_panel::FilePanel;
 use super::histogram;
 use super::script::Preset;
 use super::status::Status;
 use crate::analysis::{Contrast, TissueReport};
 use crate::scene::visibility::{EmptyScene, predict_empty};
 use crate::scene::{Classification, RenderMode, Scene, TissueClass};
+use crate::volume::source::VolumeSource;
 use egui::{Color32, Pos2, Rect, RichText, Ui, vec2};
 use std::path::PathBuf;
 
@@ -30,8 +32,11 @@ pub const PANEL_WIDTH: f32 = 320.0;
 /// What the interface asks the viewer to do beyond changing [`Controls`].
 #[derive(Clone, Debug, PartialEq)]
 pub enum Request {
-    /// Open a file (None: the phantom).
-    Open(Option<PathBuf>),
+    /// Open a volume source (a file, several DICOM files, or the phantom).
+    Open(VolumeSource),
+    /// Open the source on screen again with this series of its DICOM input (an index as
+    /// `--series` takes it).
+    Series(usize),
     /// Save the window as PNG.
     Screenshot(PathBuf),
 }
@@ -61,16 +66,10 @@ pub struct Controls {
     pub histogram: Option<[u32; 256]>,
     /// Largest side of the volume's bounding box, mm (for panning).
     pub extent_mm: f64,
-    dialog: egui_file_dialog::FileDialog,
-    dialog_purpose: DialogPurpose,
+    /// Open/save dialogs and the DICOM series picker.
+    pub files: FilePanel,
     /// A drag on the view in progress (for the script runner: a drag is one action).
     pub dragging: bool,
-}
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum DialogPurpose {
-    Open,
-    Save,
 }
 
 impl Controls {
@@ -83,10 +82,7 @@ impl Controls {
             report: None,
             histogram: None,
             extent_mm: 200.0,
-            dialog: egui_file_dialog::FileDialog::new()
-                .title("Open a NIfTI volume")
-                .add_file_filter_extensions("NIfTI", vec!["nii", "gz", "hdr"]),
-            dialog_purpose: DialogPurpose::Open,
+            files: FilePanel::default(),
             dragging: false,
         }
     }
@@ -182,8 +178,7 @@ impl Controls {
 
     /// Opens the file dialog for opening a volume.
     pub fn open_dialog(&mut self) {
-        self.dialog_purpose = DialogPurpose::Open;
-        self.dialog.pick_file();
+        self.files.open_dialog();
     }
 }
 
@@ -243,7 +238,7 @@ pub fn draw(ui: &mut Ui, controls: &mut Controls, shown: &Shown) -> Outcome {
                 ui.separator();
                 camera_panel(ui, controls);
                 ui.separator();
-                file_panel(ui, controls, &mut requests);
+                controls.files.draw(ui, &mut requests);
             });
         });
 
@@ -256,19 +251,8 @@ pub fn draw(ui: &mut Ui, controls: &mut Controls, shown: &Shown) -> Outcome {
         })
         .inner;
 
-    // The file dialog floats over everything.
-    controls.dialog.update(&ctx);
-    if let Some(path) = controls.dialog.take_picked() {
-        match controls.dialog_purpose {
-            DialogPurpose::Open => requests.push(Request::Open(Some(path))),
-            DialogPurpose::Save => requests.push(Request::Screenshot(path)),
-        }
-    }
-    // Files dropped onto the window.
-    let dropped = ctx.input(|i| i.raw.dropped_files.first().map(|f| f.path().to_path_buf()));
-    if let Some(path) = dropped {
-        requests.push(Request::Open(Some(path)));
-    }
+    // The file dialog floats over everything; then files dropped onto the window.
+    controls.files.after_panels(&ctx, &mut requests);
     Outcome {
         view,
         histogram: histogram_rect,
@@ -434,37 +418,6 @@ fn camera_panel(ui: &mut Ui, controls: &mut Controls) {
             .small()
             .weak(),
     );
-}
-
-fn file_panel(ui: &mut Ui, controls: &mut Controls, requests: &mut Vec<Request>) {
-    ui.horizontal(|ui| {
-        if ui
-            .button("Open...")
-            .on_hover_text("A NIfTI or DICOM file; or drop a file or folder on the window")
-            .clicked()
-        {
-            controls.open_dialog();
-        }
-        if ui
-            .button("Open folder...")
-            .on_hover_text("A DICOM exam: its largest 3-D series (or drop the folder)")
-            .clicked()
-        {
-            controls.dialog_purpose = DialogPurpose::Open;
-            controls.dialog.pick_directory();
-        }
-        if ui.button("Phantom").clicked() {
-            requests.push(Request::Open(None));
-        }
-        if ui
-            .button("Save PNG...")
-            .on_hover_text("The window, with provenance")
-            .clicked()
-        {
-            controls.dialog_purpose = DialogPurpose::Save;
-            controls.dialog.save_file();
-        }
-    });
 }
 
 /// Colours of the per-pass bar segments, in order.
@@ -799,48 +752,6 @@ mod tests {
             ],
         );
         assert_eq!(c.scene.camera, Camera::default());
-    }
-
-    #[derive(Debug)]
-    struct Dropped(PathBuf);
-
-    impl egui::DroppedFile for Dropped {
-        fn path(&self) -> &std::path::Path {
-            &self.0
-        }
-        fn bytes(&self) -> Result<Vec<u8>, String> {
-            Ok(Vec::new())
-        }
-    }
-
-    #[test]
-    fn a_dropped_file_is_opened_and_the_dialog_opens() {
-        let ctx = egui::Context::default();
-        let mut c = controls();
-        let status = Status::default();
-        let shown = Shown {
-            status: &status,
-            has_volume: true,
-            constant_volume: false,
-        };
-        let input = egui::RawInput {
-            screen_rect: Some(Rect::from_min_size(Pos2::ZERO, vec2(900.0, 600.0))),
-            dropped_files: vec![std::sync::Arc::new(Dropped(PathBuf::from(
-                "/data/t1.nii.gz",
-            )))],
-            ..Default::default()
-        };
-        let mut requests = Vec::new();
-        ctx.run_ui(input, |ui| {
-            requests.extend(draw(ui, &mut c, &shown).requests)
-        })
-        .drop_without_applying_deltas();
-        assert_eq!(
-            requests,
-            vec![Request::Open(Some(PathBuf::from("/data/t1.nii.gz")))]
-        );
-        c.open_dialog();
-        assert_eq!(*c.dialog.state(), egui_file_dialog::DialogState::Open);
     }
 
     #[test]

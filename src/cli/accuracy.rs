@@ -338,7 +338,7 @@ pub fn run(args: &AccuracyArgs, global: &super::GlobalOptions) -> Result<(), Err
     let mut scene_args = args.scene.clone();
     scene_args.size = Some((width, height));
     // Before the study: outputs that cannot be written fail now, not after it.
-    let inputs: Vec<&std::path::Path> = args.file.as_deref().into_iter().collect();
+    let inputs: Vec<&std::path::Path> = args.file.iter().map(|p| p.as_path()).collect();
     if let Some(path) = &args.json {
         check_output(path, OutputKind::Json, &inputs, false)?;
     }
@@ -346,7 +346,7 @@ pub fn run(args: &AccuracyArgs, global: &super::GlobalOptions) -> Result<(), Err
         check_output(path, OutputKind::Svg, &inputs, false)?;
     }
     let mut opened = session::open(
-        args.file.as_deref(),
+        args.file.as_slice(),
         args.frame,
         false,
         global.engine_config(),

@@ -180,8 +180,11 @@ pub enum Command {
 /// Options of `kernels`.
 #[derive(Debug, Args)]
 pub struct KernelsArgs {
-    /// NIfTI-1/2 file whose plan to compile; without one, the built-in digital phantom.
-    pub file: Option<PathBuf>,
+    /// Input: a NIfTI-1/2 file (.nii, .nii.gz, .hdr/.img), or DICOM (an exam's folder, a
+    /// DICOMDIR, a .dcm file, or several files of one series); without one, the built-in
+    /// digital phantom (256x256x192, 1 mm). DICOM series are listed by `morphray info`.
+    #[arg(value_name = "FILE")]
+    pub file: Vec<PathBuf>,
     /// Every variant the engine can build, not only the plan's.
     #[arg(long)]
     pub all: bool,
@@ -206,8 +209,11 @@ pub struct KernelsArgs {
 /// Options of `plan`.
 #[derive(Debug, Args)]
 pub struct PlanArgs {
-    /// NIfTI-1/2 file; without one, the built-in digital phantom.
-    pub file: Option<PathBuf>,
+    /// Input: a NIfTI-1/2 file (.nii, .nii.gz, .hdr/.img), or DICOM (an exam's folder, a
+    /// DICOMDIR, a .dcm file, or several files of one series); without one, the built-in
+    /// digital phantom (256x256x192, 1 mm). DICOM series are listed by `morphray info`.
+    #[arg(value_name = "FILE")]
+    pub file: Vec<PathBuf>,
     /// Print JSON instead of text (keys: passes, variants, allocations, total_bytes,
     /// peak_bytes, degradations, held, ...).
     #[arg(long)]
@@ -223,8 +229,11 @@ pub struct PlanArgs {
 /// Options of `info`.
 #[derive(Debug, Args)]
 pub struct InfoArgs {
-    /// NIfTI-1/2 file (.nii or .nii.gz; gzip is detected from the content, not the name).
-    pub file: PathBuf,
+    /// Input: a NIfTI-1/2 file (.nii or .nii.gz; gzip is detected from the content, not the
+    /// name), or DICOM (an exam's folder, a DICOMDIR, a .dcm file, or several files of one
+    /// series: each series is listed).
+    #[arg(value_name = "FILE", required = true)]
+    pub file: Vec<PathBuf>,
     /// Print JSON instead of text.
     #[arg(long)]
     pub json: bool,
@@ -236,8 +245,11 @@ pub struct InfoArgs {
 /// Options of `peaks`.
 #[derive(Debug, Args)]
 pub struct PeaksArgs {
-    /// NIfTI-1/2 file; without one, the built-in digital phantom (256x256x192, 1 mm).
-    pub file: Option<PathBuf>,
+    /// Input: a NIfTI-1/2 file (.nii, .nii.gz, .hdr/.img), or DICOM (an exam's folder, a
+    /// DICOMDIR, a .dcm file, or several files of one series); without one, the built-in
+    /// digital phantom (256x256x192, 1 mm). DICOM series are listed by `morphray info`.
+    #[arg(value_name = "FILE")]
+    pub file: Vec<PathBuf>,
     /// Print JSON instead of text.
     #[arg(long)]
     pub json: bool,
@@ -442,8 +454,11 @@ fn parse_tissue_colour(text: &str) -> Result<(TissueClass, [f32; 3]), String> {
 /// Options of `render`.
 #[derive(Debug, Args)]
 pub struct RenderArgs {
-    /// NIfTI-1/2 file; without one, the built-in digital phantom.
-    pub file: Option<PathBuf>,
+    /// Input: a NIfTI-1/2 file (.nii, .nii.gz, .hdr/.img), or DICOM (an exam's folder, a
+    /// DICOMDIR, a .dcm file, or several files of one series); without one, the built-in
+    /// digital phantom (256x256x192, 1 mm). DICOM series are listed by `morphray info`.
+    #[arg(value_name = "FILE")]
+    pub file: Vec<PathBuf>,
     /// Output PNG (with --turntable N: frames are written as NAME-000.png, NAME-001.png, ...).
     #[arg(short, long, value_name = "PNG")]
     pub output: PathBuf,
@@ -462,9 +477,12 @@ pub struct RenderArgs {
 /// Options of `view`.
 #[derive(Debug, Args)]
 pub struct ViewArgs {
-    /// NIfTI-1/2 file; without one, the built-in digital phantom. More can be opened from the
-    /// window (Open..., or drop a file on it).
-    pub file: Option<PathBuf>,
+    /// Input: a NIfTI-1/2 file, or DICOM (an exam's folder, a DICOMDIR, a .dcm file, or several
+    /// files of one series; --series picks a series, the window's series menu switches); without
+    /// one, the built-in digital phantom. More can be opened from the window (Open..., or drop
+    /// files or a folder on it).
+    #[arg(value_name = "FILE")]
+    pub file: Vec<PathBuf>,
     /// Render at least this many frames showing the volume, and on until the script (if any)
     /// has finished, then exit; logs each frame's GPU passes and each action's latency.
     #[arg(long, value_name = "N")]
@@ -507,8 +525,9 @@ pub struct PhantomArgs {
 /// Options of `convert`.
 #[derive(Debug, Args)]
 pub struct ConvertArgs {
-    /// DICOM folder, DICOMDIR or .dcm file (or a NIfTI file).
-    pub input: PathBuf,
+    /// DICOM folder, DICOMDIR, .dcm file or several files of one series (or a NIfTI file).
+    #[arg(value_name = "INPUT", required = true)]
+    pub input: Vec<PathBuf>,
     /// Output file, .nii or .nii.gz; never the input, and an existing file is replaced only
     /// with --force.
     #[arg(short, long, value_name = "NII")]
@@ -543,8 +562,11 @@ fn parse_dims(text: &str) -> Result<[usize; 3], String> {
 /// Options of `accuracy`.
 #[derive(Debug, Args)]
 pub struct AccuracyArgs {
-    /// NIfTI-1/2 file; without one, the built-in digital phantom.
-    pub file: Option<PathBuf>,
+    /// Input: a NIfTI-1/2 file (.nii, .nii.gz, .hdr/.img), or DICOM (an exam's folder, a
+    /// DICOMDIR, a .dcm file, or several files of one series); without one, the built-in
+    /// digital phantom (256x256x192, 1 mm). DICOM series are listed by `morphray info`.
+    #[arg(value_name = "FILE")]
+    pub file: Vec<PathBuf>,
     /// Frames per view for the GPU time median.
     #[arg(long, default_value_t = 5)]
     pub frames: u32,

@@ -243,7 +243,7 @@ pub fn run(args: &BenchArgs, global: &super::GlobalOptions) -> Result<(), Error>
     scene_args.size = Some((width, height));
     // Before the minutes of measuring: a report that cannot be written fails now.
     if let Some(path) = &args.json {
-        let inputs: Vec<&std::path::Path> = args.file.as_deref().into_iter().collect();
+        let inputs: Vec<&std::path::Path> = args.file.iter().map(|p| p.as_path()).collect();
         check_output(path, OutputKind::Json, &inputs, false)?;
     }
     let (input, input_label, _temporary) = bench_input(args)?;
@@ -255,7 +255,7 @@ pub fn run(args: &BenchArgs, global: &super::GlobalOptions) -> Result<(), Error>
         None
     };
     let mut opened = session::open(
-        Some(&input),
+        std::slice::from_ref(&input),
         args.frame,
         false,
         global.engine_config(),

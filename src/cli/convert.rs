@@ -15,8 +15,9 @@ use crate::files::write::{OutputKind, check_output};
 
 /// Runs the command.
 pub fn run(args: &ConvertArgs) -> Result<(), Error> {
-    check_output(&args.output, OutputKind::Nifti, &[&args.input], args.force)?;
-    let read = source::load(Some(&args.input), args.frame, false)?;
+    let inputs: Vec<&std::path::Path> = args.input.iter().map(|p| p.as_path()).collect();
+    check_output(&args.output, OutputKind::Nifti, &inputs, args.force)?;
+    let read = source::load(&args.input, args.frame, false)?;
     let v = &read.volume;
     let gzip = args
         .output

@@ -41,10 +41,14 @@ struct InfoReport<'a> {
 
 /// Runs the command.
 pub fn run(args: &InfoArgs) -> Result<(), Error> {
-    if crate::volume::source::reader_for(&args.file).name() == "DICOM" {
+    let first = args
+        .file
+        .first()
+        .ok_or_else(|| Error::Usage("info needs a file".into()))?;
+    if args.file.len() > 1 || crate::volume::source::reader_for(first).name() == "DICOM" {
         return run_dicom(args);
     }
-    let source = source::load(Some(&args.file), args.frame, false)?;
+    let source = source::load(&args.file, args.frame, false)?;
     let Some(header) = &source.header else {
         return Err(Error::Usage("info needs a file".into()));
     };
@@ -177,16 +181,20 @@ use crate::volume::source::dicom;
 fn run_dicom(args: &InfoArgs) -> Result<(), Error> {
     let wrap = |e: dicom::DicomError| Error::from(InputError::Path(Box::new(e)));
     let choice = source::read_options(0, false).series;
-    let survey = dicom::survey(&args.file).map_err(wrap)?;
+    crate::volume::source::check_several(&args.file)?;
+    let survey = dicom::survey_files(&args.file).map_err(wrap)?;
     let picked = survey.pick(choice.as_ref());
-    let loaded = match &picked {
-        Ok(_) => Some(dicom::load(&args.file, choice.as_ref()).map_err(wrap)?.0),
-        Err(_) => None,
+    let (loaded, survey) = match &picked {
+        Ok(_) => {
+            let (volume, survey) = dicom::load_survey(survey, choice.as_ref()).map_err(wrap)?;
+            (Some(volume), survey)
+        }
+        Err(_) => (None, survey),
     };
     let stats = loaded.as_ref().map(intensity_stats);
     let (not_dicom, no_pixels) = survey.ignored();
     let report = DicomReport {
-        file: args.file.display().to_string(),
+        file: survey.path.display().to_string(),
         format: "DICOM",
         series: survey.series(),
         default: survey.default.clone().ok(),

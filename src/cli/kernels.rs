@@ -23,7 +23,7 @@ use serde_json::{Map, Value};
 
 /// Runs the command.
 pub fn run(args: &KernelsArgs, global: &super::GlobalOptions) -> Result<(), Error> {
-    let source = source::load(args.file.as_deref(), args.frame, false)?;
+    let source = source::load(&args.file, args.frame, false)?;
     print_warnings(&source.volume.warnings);
     let recipe = recipe_from_args(&args.scene)?;
     let mut config = global.engine_config();

@@ -73,7 +73,7 @@ fn normalization_line(r: &crate::analysis::TissueReport) -> String {
 pub fn run(args: &PeaksArgs, global: &super::GlobalOptions) -> Result<(), Error> {
     let validation = global.validation;
     let opened = session::open(
-        args.file.as_deref(),
+        args.file.as_slice(),
         args.frame,
         false,
         global.engine_config(),

@@ -46,7 +46,7 @@ struct PlanReport<'a> {
 /// Runs the command.
 pub fn run(args: &PlanArgs, global: &super::GlobalOptions) -> Result<(), Error> {
     let opened = session::open(
-        args.file.as_deref(),
+        args.file.as_slice(),
         args.frame,
         false,
         global.engine_config(),

@@ -167,7 +167,7 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
         Some(_) => (0..frames).map(|i| frame_path(&args.output, i)).collect(),
         None => vec![args.output.clone()],
     };
-    let inputs: Vec<&Path> = args.file.as_deref().into_iter().collect();
+    let inputs: Vec<&Path> = args.file.iter().map(|p| p.as_path()).collect();
     // A turntable's -o names no file of its own, but `-o orbit.jpg` would still be a mistake.
     if args.turntable.is_some() && !OutputKind::Png.accepts(&args.output) {
         check_output(&args.output, OutputKind::Png, &inputs, false)?;
@@ -176,7 +176,7 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
         check_output(path, OutputKind::Png, &inputs, false)?;
     }
     let mut opened = session::open(
-        args.file.as_deref(),
+        args.file.as_slice(),
         args.frame,
         true,
         global.engine_config(),

@@ -17,7 +17,7 @@ use crate::error::Error;
 use crate::gpu::{DeviceConfig, DeviceSelector, Validation};
 use crate::scene::SceneRecipe;
 use crate::volume::source::VolumeSource;
-use std::path::Path;
+use std::path::PathBuf;
 
 /// Phase times of opening a volume (the library's).
 pub use crate::engine::SessionTimings as OpenTimings;
@@ -46,12 +46,12 @@ pub fn engine_config(
     }
 }
 
-/// Opens `file` (or the phantom) through the library with the scene `scene_args` describe (the
+/// Opens `files` (none: the phantom; several: one DICOM input) through the library with the scene `scene_args` describe (the
 /// default scene when None), at the image size they give; prints the plan's degradations and a
 /// rejected pipeline cache as notes. `first_frame`: a frame will be rendered, so its pipelines
 /// are started ahead of time.
 pub fn open(
-    file: Option<&Path>,
+    files: &[PathBuf],
     frame: usize,
     want_hash: bool,
     config: EngineConfig,
@@ -69,7 +69,7 @@ pub fn open(
         recipe,
         first_frame,
     };
-    let opened = Session::open(&VolumeSource::file_or_phantom(file), config, &options)?;
+    let opened = Session::open(&VolumeSource::from_paths(files), config, &options)?;
     note_rejected_cache(&opened.engine);
     note_degradations(&opened.plan);
     Ok(opened)

@@ -9,7 +9,7 @@
 use crate::error::Error;
 use crate::volume::source::dicom::SeriesChoice;
 use crate::volume::source::{self, ReadOptions, VolumeSource};
-use std::path::Path;
+use std::path::PathBuf;
 use std::sync::OnceLock;
 
 pub use crate::volume::source::{LoadTimings, SourceVolume as Source};
@@ -30,10 +30,11 @@ pub fn read_options(frame: usize, want_hash: bool) -> ReadOptions {
     }
 }
 
-/// Reads `file`, or generates the cohort-A phantom when `file` is None.
-pub fn load(file: Option<&Path>, frame: usize, want_hash: bool) -> Result<Source, Error> {
+/// Reads the command line's inputs (see [`VolumeSource::from_paths`]): none is the cohort-A
+/// phantom, several are one DICOM input.
+pub fn load(files: &[PathBuf], frame: usize, want_hash: bool) -> Result<Source, Error> {
     Ok(source::read(
-        &VolumeSource::file_or_phantom(file),
+        &VolumeSource::from_paths(files),
         &read_options(frame, want_hash),
     )?)
 }

@@ -156,7 +156,7 @@ pub fn run_child(args: &BenchArgs, global: &super::GlobalOptions) -> Result<(), 
     let open_start = Instant::now();
     let startup_ms = (open_start - main_start).as_secs_f64() * 1e3;
     let mut opened = session::open(
-        args.file.as_deref(),
+        args.file.as_slice(),
         args.frame,
         false,
         global.engine_config(),

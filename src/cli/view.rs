@@ -24,7 +24,7 @@ pub fn run(args: &ViewArgs, global: &super::GlobalOptions) -> Result<(), super::
     }
     if let Some(path) = &args.screenshot {
         // Before the window and the GPU: a screenshot that cannot be written fails now.
-        let inputs: Vec<&std::path::Path> = args.file.as_deref().into_iter().collect();
+        let inputs: Vec<&std::path::Path> = args.file.iter().map(|p| p.as_path()).collect();
         crate::files::write::check_output(
             path,
             crate::files::write::OutputKind::Png,
@@ -38,7 +38,8 @@ pub fn run(args: &ViewArgs, global: &super::GlobalOptions) -> Result<(), super::
     let (width, height) = args.scene.size.unwrap_or((1280, 800));
     let scripted = args.frames.is_some() || !steps.is_empty();
     let config = ViewerConfig {
-        file: args.file.clone(),
+        source: crate::volume::source::VolumeSource::from_paths(&args.file),
+        series: super::source::read_options(0, false).series,
         recipe: super::render::recipe_from_args(&args.scene)?,
         size: [width, height],
         vsync: !args.no_vsync,

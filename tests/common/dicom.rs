@@ -62,6 +62,8 @@ pub struct Spec {
     pub offset: i32,
     /// Voxel values (i fastest, cols x rows x slices) instead of the formula.
     pub data: Option<std::sync::Arc<Vec<i32>>>,
+    /// PhotometricInterpretation.
+    pub photometric: &'static str,
 }
 
 fn no_rescale(_: usize) -> (f64, f64) {
@@ -93,6 +95,7 @@ impl Spec {
             multiframe: false,
             offset: 0,
             data: None,
+            photometric: "MONOCHROME2",
         }
     }
 
@@ -260,7 +263,12 @@ fn common(spec: &Spec, obj: &mut InMemDicomObject, sop_instance: &str, class: &s
     us(obj, tags::ROWS, spec.rows);
     us(obj, tags::COLUMNS, spec.cols);
     us(obj, tags::SAMPLES_PER_PIXEL, 1);
-    text(obj, tags::PHOTOMETRIC_INTERPRETATION, VR::CS, "MONOCHROME2");
+    text(
+        obj,
+        tags::PHOTOMETRIC_INTERPRETATION,
+        VR::CS,
+        spec.photometric,
+    );
     us(obj, tags::BITS_ALLOCATED, 16);
     us(obj, tags::BITS_STORED, 16);
     us(obj, tags::HIGH_BIT, 15);

@@ -44,7 +44,7 @@ mod steps;
 mod text;
 
 pub use text::px_rect;
-use text::{describe, label_of, peak_text};
+use text::{describe, peak_text};
 
 use super::AppError;
 use super::frame_log::{FrameLog, FrameRecord, Pending, Until};
@@ -60,14 +60,18 @@ use crate::gpu::{Device, FRAMES_IN_FLIGHT, GpuError, PassTiming, Presentation, R
 use crate::passes::derivatives::DerivativeOutputs;
 use crate::passes::present::{COMPOSITE_FORMAT, FrameSpec, Painter};
 use crate::scene::{Effects, Scene, SceneRecipe, WindowSet};
+use crate::volume::source::VolumeSource;
+use crate::volume::source::dicom::SeriesChoice;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Instant;
 
 /// How the viewer was started.
 pub struct ViewerConfig {
-    /// File to open first (None: the phantom).
-    pub file: Option<PathBuf>,
+    /// What to open first (a file, several DICOM files, or the phantom).
+    pub source: VolumeSource,
+    /// The DICOM series to open first (`--series`; None: the largest 3-D series).
+    pub series: Option<SeriesChoice>,
     /// How to build each volume's scene (as for `render`); checked by [`Viewer::new`].
     pub recipe: SceneRecipe,
     /// Window or offscreen image size, pixels.
@@ -179,7 +183,7 @@ pub struct Viewer {
     controls: Controls,
     status: Status,
     current: Option<Current>,
-    pending_load: Option<(u64, String, Option<PathBuf>)>,
+    pending_load: Option<(u64, String)>,
     pending_derive: Option<DerivativeOutputs>,
     /// Loader GPU work delivered since the last frame, shown first by the next one.
     arrived: Vec<(String, Vec<PassTiming>)>,
@@ -254,7 +258,7 @@ impl Viewer {
             return Err(AppError::Failed("cannot start the loader thread".into()));
         }
         let mut status = Status::default();
-        let label = label_of(config.file.as_ref());
+        let label = config.source.label();
         status.loading = Some(Loading {
             label: label.clone(),
             stage: "starting".into(),
@@ -264,9 +268,9 @@ impl Viewer {
         recipe.effects = scene.effects;
         loader.load(
             1,
-            config.file.clone(),
+            config.source.clone(),
             config.started,
-            opening::open_options(recipe, config.size),
+            opening::open_options(recipe, config.size, config.series.clone()),
         );
         let log = FrameLog::new(config.log);
         let runner = Runner::new(config.script.clone());
@@ -279,7 +283,7 @@ impl Viewer {
             controls,
             status,
             current: None,
-            pending_load: Some((1, label, config.file.clone())),
+            pending_load: Some((1, label)),
             pending_derive: None,
             arrived: Vec::new(),
             next_id: 2,
@@ -515,7 +519,8 @@ impl Viewer {
         }
         for request in outcome.requests.clone() {
             match request {
-                Request::Open(path) => self.open(path, None),
+                Request::Open(source) => self.open(source, None, None),
+                Request::Series(index) => self.open_series(index, None),
                 Request::Screenshot(path) => self.screenshot_requests.push(path),
             }
         }

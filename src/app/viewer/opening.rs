@@ -5,13 +5,14 @@
 
 use super::super::loader::LoadedVolume;
 use super::super::status::Loading;
-use super::{Current, Viewer, describe, label_of, one_line, peak_text};
+use super::{Current, Viewer, describe, one_line, peak_text};
 use crate::app::frame_log::{Pending, Until};
 use crate::engine::plan::{Layout, Plan};
 use crate::engine::{OpenOptions, TwinStep, twin_step};
 use crate::scene::{Scene, SceneRecipe};
 use crate::volume::source::ReadOptions;
-use std::path::PathBuf;
+use crate::volume::source::VolumeSource;
+use crate::volume::source::dicom::SeriesChoice;
 use std::time::Instant;
 
 impl Viewer {
@@ -33,6 +34,7 @@ impl Viewer {
         }
         self.render_blocked = None;
         self.status.file = loaded.label.clone();
+        self.controls.files.series = loaded.series.clone();
         self.status.dims = prepared.dims;
         self.status.spacing_mm = loaded.spacing_mm;
         self.status.ttfp_ms = None;
@@ -154,22 +156,50 @@ impl Viewer {
         }
     }
 
-    pub(super) fn open(&mut self, path: Option<PathBuf>, label_for_log: Option<String>) {
+    /// Queues opening `source` (`series`: which of a DICOM input's series; None the default)
+    /// with the scene's effects planned for.
+    pub(super) fn open(
+        &mut self,
+        source: VolumeSource,
+        series: Option<SeriesChoice>,
+        label_for_log: Option<String>,
+    ) {
         let mut recipe = self.config.recipe.clone();
         recipe.effects = self.controls.scene.effects;
-        self.open_recipe(path, recipe, label_for_log);
+        self.open_recipe(source, series, recipe, label_for_log);
     }
 
-    /// Queues opening `path` with `recipe` (its effects planned for); returns the request's id.
+    /// Opens the DICOM input on screen again with its series `index` (the series picker);
+    /// an index the input does not have is an error in the status line.
+    pub(super) fn open_series(&mut self, index: usize, label_for_log: Option<String>) {
+        let Some(current) = &self.current else {
+            self.status.error = Some("No volume is open: there is no series to choose".into());
+            return;
+        };
+        let count = current.loaded.series.as_ref().map_or(0, |l| l.all.len());
+        if index >= count {
+            self.status.error = Some(format!(
+                "{} has no series {index} ({count} series)",
+                current.loaded.label
+            ));
+            return;
+        }
+        let source = current.loaded.source.clone();
+        self.open(source, Some(SeriesChoice::Index(index)), label_for_log);
+    }
+
+    /// Queues opening `source` with `recipe` (its effects planned for); returns the request's
+    /// id.
     pub(super) fn open_recipe(
         &mut self,
-        path: Option<PathBuf>,
+        source: VolumeSource,
+        series: Option<SeriesChoice>,
         recipe: SceneRecipe,
         label_for_log: Option<String>,
     ) -> u64 {
         let id = self.next_id;
         self.next_id += 1;
-        let label = label_of(path.as_ref());
+        let label = source.label();
         let now = Instant::now();
         self.status.loading = Some(Loading {
             label: label.clone(),
@@ -177,8 +207,8 @@ impl Viewer {
             since: now,
         });
         self.loader
-            .load(id, path.clone(), now, open_options(recipe, self.size));
-        self.pending_load = Some((id, label, path));
+            .load(id, source, now, open_options(recipe, self.size, series));
+        self.pending_load = Some((id, label));
         if let Some(text) = label_for_log {
             self.log.pending.push(Pending {
                 label: text,
@@ -214,12 +244,13 @@ impl Viewer {
             self.status.error = Some(one_line(message));
             return;
         }
-        let path = current.loaded.path.clone();
+        let source = current.loaded.source.clone();
+        let series = shown_series(&current.loaded);
         self.reopened_for = Some(recipe.clone());
         self.log.say(&format!(
             "{message}: opening the volume again for this scene"
         ));
-        let id = self.open_recipe(path, recipe, None);
+        let id = self.open_recipe(source, series, recipe, None);
         self.keep_scene = Some(id);
     }
 
@@ -231,14 +262,26 @@ impl Viewer {
     }
 }
 
+/// The series on screen as a choice that opens it again (None: not DICOM).
+pub(super) fn shown_series(loaded: &LoadedVolume) -> Option<SeriesChoice> {
+    loaded
+        .series
+        .as_ref()
+        .map(|l| SeriesChoice::Index(l.chosen))
+}
+
 /// How the viewer opens a volume: planned for the window's size, hashed for screenshots'
-/// provenance, pipelines ahead of time.
-pub(super) fn open_options(recipe: SceneRecipe, size: [u32; 2]) -> OpenOptions {
+/// provenance, pipelines ahead of time, the DICOM series `series`.
+pub(super) fn open_options(
+    recipe: SceneRecipe,
+    size: [u32; 2],
+    series: Option<SeriesChoice>,
+) -> OpenOptions {
     OpenOptions {
         read: ReadOptions {
             frame: 0,
             hash: true,
-            series: None,
+            series,
         },
         image: size,
         recipe,

@@ -248,8 +248,9 @@ impl Viewer {
             let provenance = self.provenance();
             // The same rules as `render -o` (right extension, never over the open file); the
             // write itself is atomic.
-            let input = self.current.as_ref().and_then(|c| c.loaded.path.clone());
-            let inputs: Vec<&std::path::Path> = input.as_deref().into_iter().collect();
+            let input = self.current.as_ref().map(|c| c.loaded.source.clone());
+            let inputs: Vec<&std::path::Path> =
+                input.as_ref().map(|s| s.paths()).unwrap_or_default();
             let written = check_output(&path, OutputKind::Png, &inputs, false)
                 .map_err(PngError::from)
                 .and_then(|()| write_rgba8(&path, w, h, &pixels, &provenance));
@@ -303,13 +304,18 @@ impl Viewer {
         self.last = None;
         self.pending_derive = None;
         self.status.deriving = None;
-        let reload = self.current.take().map(|c| c.loaded.path);
+        let reload = self.current.take().map(|c| {
+            (
+                c.loaded.source.clone(),
+                super::opening::shown_series(&c.loaded),
+            )
+        });
         match Gpu::new(&self.config.engine, window, self.size, self.config.vsync) {
             Ok(gpu) => {
                 self.loader.provide_device(gpu.device.clone());
                 self.gpu = Some(gpu);
-                if let Some(path) = reload {
-                    self.open(path, None);
+                if let Some((source, series)) = reload {
+                    self.open(source, series, None);
                 }
                 self.status.error = Some(format!(
                     "{message}; the GPU was restarted and the volume is being reloaded"

@@ -138,8 +138,12 @@ impl Viewer {
             Action::CurvatureStrength(s) => c.scene.curvature_strength = *s,
             Action::Shading(on) => c.scene.effects.shading = *on,
             Action::Background(rgb) => c.scene.background = *rgb,
-            Action::Open(path) => {
-                self.open(path.clone(), Some(step.text.clone()));
+            Action::Open(source) => {
+                self.open(source.clone(), None, Some(step.text.clone()));
+                watch = false;
+            }
+            Action::Series(index) => {
+                self.open_series(*index, Some(step.text.clone()));
                 watch = false;
             }
             Action::Screenshot(path) => {

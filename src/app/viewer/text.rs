@@ -2,7 +2,6 @@
 //! label, and the 3D view's rectangle in pixels.
 
 use crate::passes::derivatives::DerivativeOutputs;
-use std::path::PathBuf;
 
 /// What a set of derived volumes is, for the status line.
 pub(super) fn describe(outputs: DerivativeOutputs) -> String {
@@ -25,16 +24,6 @@ pub(super) fn describe(outputs: DerivativeOutputs) -> String {
 pub(super) fn peak_text(peak: Option<crate::analysis::Peak>) -> String {
     peak.map(|p| format!("{:.3}", p.norm))
         .unwrap_or_else(|| "-".into())
-}
-
-pub(super) fn label_of(path: Option<&PathBuf>) -> String {
-    match path {
-        Some(p) => p
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_else(|| p.display().to_string()),
-        None => "phantom".into(),
-    }
 }
 
 /// A rectangle in points as whole pixels (x, y, w, h) inside a frame of `size` pixels.

@@ -32,6 +32,9 @@ use std::time::Instant;
 pub enum VolumeSource {
     /// A file on disk, read by the reader the registry picks.
     File(PathBuf),
+    /// Several paths read as one input: the files (or folders) of one DICOM exam, as a shell
+    /// glob gives them. Every path must be DICOM; a NIfTI volume is one file.
+    Files(Vec<PathBuf>),
     /// A generated phantom.
     Phantom(PhantomSpec),
 }
@@ -45,19 +48,44 @@ impl VolumeSource {
         }
     }
 
+    /// The command line's inputs: none is the cohort-A phantom, one a file, several one
+    /// DICOM input.
+    pub fn from_paths(paths: &[PathBuf]) -> VolumeSource {
+        match paths {
+            [] => VolumeSource::Phantom(PhantomSpec::cohort_a()),
+            [one] => VolumeSource::File(one.clone()),
+            many => VolumeSource::Files(many.to_vec()),
+        }
+    }
+
     /// The file's name (without directories), or `phantom`.
     pub fn label(&self) -> String {
         match self {
             VolumeSource::File(path) => file_name(path),
+            VolumeSource::Files(paths) => format!(
+                "{} and {} more",
+                paths.first().map(|p| file_name(p)).unwrap_or_default(),
+                paths.len().saturating_sub(1)
+            ),
             VolumeSource::Phantom(_) => "phantom".into(),
         }
     }
 
-    /// The file, None for a phantom.
+    /// The file (the first of several), None for a phantom.
     pub fn path(&self) -> Option<&Path> {
         match self {
             VolumeSource::File(path) => Some(path),
+            VolumeSource::Files(paths) => paths.first().map(PathBuf::as_path),
             VolumeSource::Phantom(_) => None,
+        }
+    }
+
+    /// Every path the source reads (none for a phantom): what an output must not overwrite.
+    pub fn paths(&self) -> Vec<&Path> {
+        match self {
+            VolumeSource::File(path) => vec![path.as_path()],
+            VolumeSource::Files(paths) => paths.iter().map(PathBuf::as_path).collect(),
+            VolumeSource::Phantom(_) => Vec::new(),
         }
     }
 }
@@ -99,6 +127,17 @@ pub struct SourceVolume {
     pub sha256: Option<String>,
     /// Phase times.
     pub timings: LoadTimings,
+    /// The series of a DICOM input (None for other formats): what a viewer offers to switch to.
+    pub series: Option<SeriesListing>,
+}
+
+/// Every stack of a DICOM input and the one that was read.
+#[derive(Clone, Debug)]
+pub struct SeriesListing {
+    /// Index of the stack read, in `all`.
+    pub chosen: usize,
+    /// The stacks, in `morphray info`'s order (index = `--series` index).
+    pub all: Vec<dicom::SeriesInfo>,
 }
 
 /// Why a source could not be read, whatever its format.
@@ -160,6 +199,7 @@ pub fn reader_for(path: &Path) -> &'static dyn VolumeReader {
 pub fn read(source: &VolumeSource, options: &ReadOptions) -> Result<SourceVolume, InputError> {
     match source {
         VolumeSource::File(path) => reader_for(path).read(path, options),
+        VolumeSource::Files(paths) => read_several(paths, options),
         VolumeSource::Phantom(spec) => {
             let start = Instant::now();
             let _span = crate::files::trace::span("generate phantom", "io");
@@ -177,9 +217,41 @@ pub fn read(source: &VolumeSource, options: &ReadOptions) -> Result<SourceVolume
                 header: None,
                 sha256,
                 timings,
+                series: None,
             })
         }
     }
+}
+
+/// Several paths as one input: DICOM only (see [`VolumeSource::Files`]).
+fn read_several(paths: &[PathBuf], options: &ReadOptions) -> Result<SourceVolume, InputError> {
+    check_several(paths)?;
+    dicom::read_files(paths, options)
+}
+
+/// Several paths are one input only when every one is DICOM (one path always passes).
+pub fn check_several(paths: &[PathBuf]) -> Result<(), InputError> {
+    match paths.iter().find(|p| reader_for(p).name() != "DICOM") {
+        Some(other) if paths.len() > 1 => Err(InputError::Path(Box::new(SeveralNotDicom {
+            path: other.clone(),
+            count: paths.len(),
+        }))),
+        _ => Ok(()),
+    }
+}
+
+/// A path among several inputs that is not DICOM.
+#[derive(Debug, thiserror::Error)]
+#[error(
+    "{}: {count} inputs were given, which is one input only for the files of a DICOM series, \
+     and this one is not DICOM; give a NIfTI volume alone",
+    path.display()
+)]
+pub struct SeveralNotDicom {
+    /// The path that is not DICOM.
+    pub path: PathBuf,
+    /// How many paths were given.
+    pub count: usize,
 }
 
 /// SHA-256 of bytes, as lowercase hex.

@@ -55,6 +55,7 @@ impl VolumeReader for NiftiReader {
                 convert_ms: times.convert_ms,
                 phantom_ms: 0.0,
             },
+            series: None,
         })
     }
 }

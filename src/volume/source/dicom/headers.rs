@@ -81,6 +81,8 @@ pub struct FileHeader {
     pub signed: bool,
     /// SamplesPerPixel.
     pub samples_per_pixel: u16,
+    /// PhotometricInterpretation (MONOCHROME2, MONOCHROME1, ...), upper case.
+    pub photometric: String,
     /// TransferSyntaxUID of the file meta group.
     pub transfer_syntax: String,
     /// SpacingBetweenSlices, else SliceThickness (used only for a single slice).
@@ -352,6 +354,9 @@ fn describe(
             .clamp(1, bits_allocated.max(1) as i64) as u16,
         signed: int(obj, tags::PIXEL_REPRESENTATION) == Some(1),
         samples_per_pixel: int(obj, tags::SAMPLES_PER_PIXEL).unwrap_or(1).clamp(0, 16) as u16,
+        photometric: text(obj, tags::PHOTOMETRIC_INTERPRETATION)
+            .trim()
+            .to_ascii_uppercase(),
         transfer_syntax,
         slice_thickness,
         frames,

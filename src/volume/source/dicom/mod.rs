@@ -24,6 +24,7 @@ mod contain;
 mod geometry;
 mod headers;
 mod lengths;
+mod photometric;
 mod pixels;
 mod series;
 
@@ -317,7 +318,58 @@ fn best(
 
 /// Reads the headers under `path` and groups them into stacks.
 pub fn survey(path: &Path) -> Result<Survey, DicomError> {
-    let scan = scan(path)?;
+    survey_scan(path.to_path_buf(), scan(path)?)
+}
+
+/// [`survey`] of several paths given as one input (files of a series, as a shell glob gives
+/// them; a folder among them is read recursively). Named by their common folder.
+pub fn survey_files(paths: &[PathBuf]) -> Result<Survey, DicomError> {
+    if let [one] = paths {
+        return survey(one);
+    }
+    let mut files = Vec::new();
+    for path in paths {
+        let io = |source| DicomError::Io {
+            path: path.clone(),
+            source,
+        };
+        if std::fs::metadata(path).map_err(io)?.is_dir() {
+            files.extend(headers::walk(path).map_err(io)?);
+        } else {
+            files.push(path.clone());
+        }
+    }
+    files.sort();
+    files.dedup();
+    files.truncate(headers::MAX_FILES);
+    let mut scan = headers::read_all(&files);
+    scan.notes.push(format!(
+        "{} paths were given as one input ({} file(s))",
+        paths.len(),
+        files.len()
+    ));
+    survey_scan(common_folder(paths), scan)
+}
+
+/// The folder every path is in, else the first path (what a several-file input is called).
+fn common_folder(paths: &[PathBuf]) -> PathBuf {
+    let parent = |p: &PathBuf| p.parent().map(Path::to_path_buf).unwrap_or_default();
+    match paths.first() {
+        Some(first) if paths.iter().all(|p| parent(p) == parent(first)) => {
+            let folder = parent(first);
+            if folder.as_os_str().is_empty() {
+                PathBuf::from(".")
+            } else {
+                folder
+            }
+        }
+        Some(first) => first.clone(),
+        None => PathBuf::from("."),
+    }
+}
+
+/// Groups a scan's headers into stacks and picks the default.
+fn survey_scan(path: PathBuf, scan: Scan) -> Result<Survey, DicomError> {
     if scan.images.is_empty() {
         let mut detail = format!(
             "{} file(s) not DICOM, {} DICOM file(s) without pixel data, {} unreadable",
@@ -332,10 +384,7 @@ pub fn survey(path: &Path) -> Result<Survey, DicomError> {
                 first.reason
             ));
         }
-        return Err(DicomError::NoImages {
-            path: path.to_path_buf(),
-            detail,
-        });
+        return Err(DicomError::NoImages { path, detail });
     }
     let stacks = series::stacks(&scan);
     let default = best(&stacks, 0..stacks.len(), true).ok_or_else(|| {
@@ -349,7 +398,7 @@ pub fn survey(path: &Path) -> Result<Survey, DicomError> {
         roles.join("; ")
     });
     Ok(Survey {
-        path: path.to_path_buf(),
+        path,
         scan,
         stacks,
         default,
@@ -404,7 +453,14 @@ fn scan(path: &Path) -> Result<Scan, DicomError> {
 
 /// The volume of the chosen stack, with the survey it came from.
 pub fn load(path: &Path, choice: Option<&SeriesChoice>) -> Result<(Volume, Survey), DicomError> {
-    let survey = survey(path)?;
+    load_survey(survey(path)?, choice)
+}
+
+/// The volume of the chosen stack of `survey`.
+pub fn load_survey(
+    survey: Survey,
+    choice: Option<&SeriesChoice>,
+) -> Result<(Volume, Survey), DicomError> {
     let index = survey.pick(choice)?;
     let stack = &survey.stacks[index];
     let label = survey.label(index);
@@ -484,34 +540,44 @@ impl VolumeReader for DicomReader {
     }
 
     fn read(&self, path: &Path, options: &ReadOptions) -> Result<SourceVolume, InputError> {
-        if options.frame != 0 {
-            return Err(InputError::Path(Box::new(DicomError::Frame(options.frame))));
-        }
-        let start = Instant::now();
-        let (volume, survey) =
-            load(path, options.series.as_ref()).map_err(|e| InputError::Path(Box::new(e)))?;
-        let read_ms = start.elapsed().as_secs_f64() * 1e3;
-        let sha256 = options.hash.then(|| {
-            use sha2::Digest;
-            let index = survey.pick(options.series.as_ref()).unwrap_or(0);
-            let mut hasher = sha2::Sha256::new();
-            hasher.update(survey.stacks[index].uid.as_bytes());
-            hasher.update(volume.samples.as_bytes());
-            hasher
-                .finalize()
-                .iter()
-                .map(|b| format!("{b:02x}"))
-                .collect()
-        });
-        Ok(SourceVolume {
-            label: volume.name.clone(),
-            volume,
-            header: None,
-            sha256,
-            timings: LoadTimings {
-                read_ms,
-                ..LoadTimings::default()
-            },
-        })
+        read_files(&[path.to_path_buf()], options)
     }
+}
+
+/// Reads several paths as one DICOM input (see [`survey_files`]).
+pub fn read_files(paths: &[PathBuf], options: &ReadOptions) -> Result<SourceVolume, InputError> {
+    if options.frame != 0 {
+        return Err(InputError::Path(Box::new(DicomError::Frame(options.frame))));
+    }
+    let start = Instant::now();
+    let (volume, survey) = survey_files(paths)
+        .and_then(|survey| load_survey(survey, options.series.as_ref()))
+        .map_err(|e| InputError::Path(Box::new(e)))?;
+    let read_ms = start.elapsed().as_secs_f64() * 1e3;
+    let index = survey.pick(options.series.as_ref()).unwrap_or(0);
+    let sha256 = options.hash.then(|| {
+        use sha2::Digest;
+        let mut hasher = sha2::Sha256::new();
+        hasher.update(survey.stacks[index].uid.as_bytes());
+        hasher.update(volume.samples.as_bytes());
+        hasher
+            .finalize()
+            .iter()
+            .map(|b| format!("{b:02x}"))
+            .collect()
+    });
+    Ok(SourceVolume {
+        label: volume.name.clone(),
+        volume,
+        header: None,
+        sha256,
+        timings: LoadTimings {
+            read_ms,
+            ..LoadTimings::default()
+        },
+        series: Some(super::SeriesListing {
+            chosen: index,
+            all: survey.series(),
+        }),
+    })
 }

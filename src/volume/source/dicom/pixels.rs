@@ -19,6 +19,7 @@
 
 use super::contain::contained;
 use super::headers::{FileHeader, Scan};
+use super::photometric;
 use super::series::Layout;
 use crate::volume::{LinearMap, SampleKind, Samples};
 use dicom_pixeldata::PixelDecoder;
@@ -115,7 +116,11 @@ pub fn decode(layout: &Layout, scan: &Scan) -> Result<Decoded, PixelError> {
     }
     let samples =
         Samples::from_le_bytes(kind, bytes).map_err(|e| PixelError::Unsupported(e.to_string()))?;
-    finish(samples, layout, slice_len)
+    let mut decoded = finish(samples, layout, slice_len)?;
+    let (samples, note) = photometric::to_monochrome2(decoded.samples, layout, scan);
+    decoded.samples = samples;
+    decoded.warnings.extend(note);
+    Ok(decoded)
 }
 
 /// Most bytes of samples one byte of a file can decode to: deflate's limit (RLE reaches 64,
