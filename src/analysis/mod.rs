@@ -316,6 +316,40 @@ mod tests {
         231, 181, 134, 91, 60, 39, 33, 28, 17, 7, 6, 6, 1, 2, 0, 1,
     ];
 
+    /// A skull-stripped scan: a huge zero background, a thin partial-volume ramp, then CSF,
+    /// GM and WM modes.
+    fn skull_stripped_histogram() -> [u32; BINS] {
+        let mut h = [0u32; BINS];
+        h[0] = 6_000_000;
+        for (b, count) in h.iter_mut().enumerate().skip(1) {
+            let g = |mu: f64, sd: f64, n: f64| n * (-0.5 * ((b as f64 - mu) / sd).powi(2)).exp();
+            *count = (g(65.0, 12.0, 9_000.0)
+                + g(170.0, 14.0, 30_000.0)
+                + g(220.0, 9.0, 40_000.0)
+                + 300.0 * (-(b as f64) / 6.0).exp()) as u32;
+        }
+        h
+    }
+
+    #[test]
+    fn the_darkest_window_gives_background_voxels_weight_zero() {
+        let h = skull_stripped_histogram();
+        let total = h.iter().map(|&c| c as usize).sum();
+        let r = analyze(&h, 0.0, 255.0, total, 0);
+        let csf = r.adaptive_windows.csf.expect("CSF is found");
+        assert!(r.peaks.csf.is_some(), "{:?}", r.peaks);
+        // Zero and everything up to the background threshold get no CSF weight (so zero-valued
+        // bricks are empty for skipping), and the CSF mode keeps full weight.
+        for x in [0.0, 0.5 * r.background_threshold, r.background_threshold] {
+            assert_eq!(csf.weight(x), 0.0, "weight at {x} with {csf:?}");
+        }
+        assert!(
+            csf.lo - csf.edge >= r.background_threshold - 1e-12,
+            "{csf:?}"
+        );
+        assert_eq!(csf.weight(r.peaks.csf.unwrap().norm), 1.0);
+    }
+
     #[test]
     fn merged_tissues_of_a_biased_scan_are_found_as_shoulders() {
         let (imin, imax) = (0.003851923393085599, 279.337646484375);

@@ -8,7 +8,10 @@
 //!   between their modes (the midpoint of the modes when no bin lies between them). Adjacent
 //!   windows share the boundary and one `edge`, so their weights sum to exactly 1 across it.
 //! - The darkest present tissue starts at the valley after the nearest darker significant mode
-//!   (a dark shell, the background mode), and never below the background threshold.
+//!   (a dark shell, the background mode), and its smooth edge never reaches below the
+//!   background threshold (the boundary is at least threshold + edge, when the darkest mode
+//!   stays clear of the edge): background voxels get weight exactly 0, so a zero background
+//!   (skull-stripped or masked scans) is empty space that skipping removes, not a faint fog.
 //! - Windows follow the intensity order of the modes, whichever tissue each is: CSF, GM, WM in
 //!   T1, WM, GM, CSF in T2 (see `contrast`).
 //! - The brightest present tissue (WM in T1, CSF in T2) ends `wm_upper_sigmas` (3) standard
@@ -145,12 +148,22 @@ pub fn adaptive(
     let n = BINS as f64;
     let threshold = threshold_bin as f64 / n;
 
-    // Lower end: valley after the nearest darker significant mode, at least the threshold.
+    // Lower end: valley after the nearest darker significant mode, at least the threshold; and
+    // the window's support (lower - edge) starts at the threshold, not below it, so background
+    // voxels get weight exactly 0 (no background fog, and background bricks stay empty for
+    // skipping), unless that would leave the darkest mode without full weight.
     let below = lowest.checked_sub(1).map(|i| &modes[i]);
     let lower = below
         .and_then(|m| valley_between(s, m.last, modes[lowest].first))
         .map_or(threshold, |v| v / n)
         .max(threshold);
+    let nominal_edge = params.edge_bins / n;
+    let support_floor = threshold + nominal_edge;
+    let lower = if support_floor + nominal_edge <= modes[lowest].norm() {
+        lower.max(support_floor)
+    } else {
+        lower
+    };
 
     // Boundaries between consecutive present tissues.
     let boundaries: Vec<f64> = present

@@ -108,6 +108,19 @@ struct RaymarchReport {
     classified_per_frame: Spread,
     samples_per_second: f64,
     pass: PassReport,
+    /// Empty-space skipping of the scene (None when it does not apply: MIP, MinIP, or off).
+    skipping: Option<SkippingReport>,
+}
+
+/// What empty-space skipping could do for this volume and scene.
+#[derive(Clone, Debug, serde::Serialize)]
+struct SkippingReport {
+    /// Whether the frames skipped (only when few enough bricks can be visible).
+    used: bool,
+    /// Fraction of the 8^3 bricks a visible tissue window can reach.
+    occupied_fraction: f64,
+    /// Bricks in the volume.
+    bricks: usize,
 }
 
 #[derive(serde::Serialize)]
@@ -421,6 +434,7 @@ pub fn run(args: &BenchArgs, global: &super::GlobalOptions) -> Result<(), Error>
             .render_twin(&mut target, &mut opened.twin, &frame_scene(i))?;
     }
     let mut timed = Vec::new();
+    let mut skipped = false;
     for i in 0..args.frames {
         let start = Instant::now();
         let frame = opened
@@ -428,7 +442,19 @@ pub fn run(args: &BenchArgs, global: &super::GlobalOptions) -> Result<(), Error>
             .render_twin(&mut target, &mut opened.twin, &frame_scene(i))?;
         let cpu = start.elapsed().as_secs_f64() * 1e3;
         timed.push((cpu, times_of(&frame.gpu_timings, "raymarch")));
+        skipped |= frame.skipped_empty_space;
     }
+    let skipping =
+        if scene.effects.mode == RenderMode::Dvr && scene.effects.quality.empty_space_skipping {
+            let ranges = opened.engine.brick_ranges(&opened.twin.prepared)?;
+            Some(SkippingReport {
+                used: skipped,
+                occupied_fraction: ranges.occupied_fraction(&scene.classification),
+                bricks: ranges.ranges.len(),
+            })
+        } else {
+            None
+        };
     let overhead = FrameOverhead::of(&timed);
     let gpu: Vec<f64> = timed.iter().filter_map(|f| f.1).collect();
     // The same frames read back, separately: the copy and the host read are not part of the
@@ -486,6 +512,7 @@ pub fn run(args: &BenchArgs, global: &super::GlobalOptions) -> Result<(), Error>
         classified_per_frame: classified_spread,
         samples_per_second: samples.median / (gpu_ms.median * 1e-3).max(1e-12),
         pass: raymarch_pass,
+        skipping,
     };
     if validation {
         session::check_validation(&opened.engine)?;
@@ -598,6 +625,22 @@ fn print_text(r: &BenchReport<'_>) {
         rm.classified_per_frame.median / 1e6,
         rm.samples_per_second / 1e9
     ));
+    if let Some(k) = &rm.skipping {
+        print_line(&format!(
+            "empty-space skipping: {}; {:.1} % of the {} 8^3 bricks can hold a visible sample{}",
+            if k.used { "used" } else { "not used" },
+            100.0 * k.occupied_fraction,
+            k.bricks,
+            if k.used {
+                String::new()
+            } else {
+                format!(
+                    " (skipping is used at or below {:.0} %)",
+                    100.0 * crate::engine::MAX_OCCUPANCY_FOR_SKIPPING
+                )
+            }
+        ));
+    }
     let rb = &rm.with_readback;
     print_line(&format!(
         "frame overhead (CPU wall - GPU, per frame): {:.3} ms median ({:.3}..{:.3}) without readback; with readback {:.3} ms ({:.3}..{:.3}), CPU wall {:.3} ms",
