@@ -10,6 +10,7 @@ pub mod bandwidth;
 pub mod compositing_probe;
 pub mod cost;
 pub mod derivatives;
+pub mod eigen_probe;
 pub mod fine_histogram;
 pub mod histogram;
 pub mod minmax;

@@ -18,6 +18,7 @@
 //! - Volumes are x fastest: voxel `(i, j, k)` is at `i + nx * (j + ny * k)`.
 
 pub mod derivatives;
+pub mod eigen;
 pub mod fine_histogram;
 pub mod histogram;
 pub mod minmax;
