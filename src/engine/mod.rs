@@ -28,6 +28,7 @@ mod robust;
 pub mod session;
 mod twin;
 pub mod upload;
+mod vessels;
 
 pub use bricked::HostPrepared;
 pub use derive::Derived;
@@ -39,6 +40,7 @@ pub use render::{
 };
 pub use session::{OpenOptions, Session, SessionError, SessionTimings};
 pub use twin::{Twin, TwinStep, TwinUpdate, twin_step};
+pub use vessels::Vesselness;
 
 use crate::gpu::pipeline_cache::PersistError;
 use crate::gpu::{

@@ -19,6 +19,7 @@ pub mod occupancy;
 #[cfg(feature = "viewer")]
 pub mod present;
 pub mod raymarch;
+pub mod vesselness;
 
 use crate::gpu::shaders::ShaderInfo;
 use crate::volume::SampleKind;

@@ -24,6 +24,7 @@ pub mod histogram;
 pub mod minmax;
 pub mod normalize;
 pub mod raymarch;
+pub mod vesselness;
 
 pub use derivatives::{
     DEFAULT_TAU, DerivativeError, DerivativeOptions, Derivatives, IndexToWorld, Sym3,
