@@ -9,7 +9,9 @@
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 4) in;
 
 layout(set = 0, binding = 0) uniform sampler3D source;
-layout(set = 0, binding = 1, r32f) uniform writeonly image3D blurred;
+// No format qualifier: the scratch volumes are R32F; the denoising Gaussian writes its last axis
+// into an I_norm-format (R16/R8 UNORM) volume.
+layout(set = 0, binding = 1) uniform writeonly image3D blurred;
 
 layout(push_constant) uniform Params {
     ivec4 dims;     // xyz = dimensions

@@ -14,6 +14,7 @@
 //!   passes put the right barrier in front of it.
 
 mod bricked;
+mod denoise;
 mod derive;
 pub mod kernels;
 mod occupancy;

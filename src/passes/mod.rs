@@ -9,6 +9,7 @@
 pub mod bandwidth;
 pub mod compositing_probe;
 pub mod cost;
+pub mod denoise;
 pub mod derivatives;
 pub mod eigen_probe;
 pub mod fine_histogram;
