@@ -17,6 +17,7 @@ mod bricked;
 mod denoise;
 mod derive;
 pub mod kernels;
+mod maps;
 mod occupancy;
 mod open;
 mod pipelines;
@@ -33,6 +34,7 @@ mod vessels;
 
 pub use bricked::HostPrepared;
 pub use derive::Derived;
+pub use maps::{DerivedMaps, MapRequest};
 pub use open::{OpenError, OpenTimings, OpenedVolume};
 pub use pipelines::PipelineTimes;
 pub use prepare::{BrickAtlas, PrepareTimings, PreparedVolume, VolumeLayout};
