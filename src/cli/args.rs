@@ -567,6 +567,10 @@ pub struct AccuracyArgs {
     /// Frame of a 4-D file (0-based).
     #[arg(long, default_value_t = 0)]
     pub frame: usize,
+    /// Instead: the vesselness and denoising knobs (number of scales, filter kind) on the shape
+    /// phantoms, error next to GPU time (src/study/vessels.rs; --frames = repeats).
+    #[arg(long)]
+    pub vessels: bool,
     /// Base scene (its defaults are the render defaults; --size defaults to 256x256).
     #[command(flatten)]
     pub scene: SceneArgs,
