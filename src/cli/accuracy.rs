@@ -324,6 +324,17 @@ fn median_and_spread(values: &mut [f64]) -> (f64, f64) {
     (median, (at(0.9) - at(0.1)) / (2.0 * median.max(1e-12)))
 }
 
+/// `accuracy --vessels`: the vesselness and denoising knobs (`study::vessels`).
+fn vessel_study(args: &AccuracyArgs, global: &super::GlobalOptions) -> Result<(), Error> {
+    let mut engine = crate::engine::Engine::new(global.engine_config())?;
+    let study = crate::study::vessels::run(&mut engine, args.frames as usize)?;
+    if global.validation {
+        session::check_validation(&engine)?;
+    }
+    print_line(&crate::study::vessels::table(&study));
+    Ok(())
+}
+
 /// Runs the command.
 pub fn run(args: &AccuracyArgs, global: &super::GlobalOptions) -> Result<(), Error> {
     let validation = global.validation;
@@ -332,6 +343,9 @@ pub fn run(args: &AccuracyArgs, global: &super::GlobalOptions) -> Result<(), Err
             "--frames must be >= 1 and --views 1..={}",
             VIEWS.len()
         )));
+    }
+    if args.vessels {
+        return vessel_study(args, global);
     }
     let (width, height) = args.scene.size.unwrap_or((256, 256));
     let time_size = args.time_size.unwrap_or((width, height));

@@ -161,6 +161,9 @@ pub enum Command {
     Phantom(PhantomArgs),
     /// Write the volume a command would open (a DICOM series, or a NIfTI frame) as NIfTI-1.
     Convert(ConvertArgs),
+    /// Write the derived maps the scene computes (I_norm, gradient magnitude, curvature,
+    /// vesselness, denoised I_norm) as NIfTI-1 files `<name>_<map>.nii.gz` in a folder.
+    Derive(super::derive::DeriveArgs),
     /// Show the pass plan of a scene: passes, pipeline variants, every allocation (name, bytes,
     /// format, memory type), the total, predicted per-pass costs and the degradations the memory
     /// budget forced; then set the volume up and print what the engine actually holds.
@@ -586,6 +589,10 @@ pub struct AccuracyArgs {
     /// Frame of a 4-D file (0-based).
     #[arg(long, default_value_t = 0)]
     pub frame: usize,
+    /// Instead: the vesselness and denoising knobs (number of scales, filter kind) on the shape
+    /// phantoms, error next to GPU time (src/study/vessels.rs; --frames = repeats).
+    #[arg(long)]
+    pub vessels: bool,
     /// Base scene (its defaults are the render defaults; --size defaults to 256x256).
     #[command(flatten)]
     pub scene: SceneArgs,

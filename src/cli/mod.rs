@@ -9,6 +9,7 @@ pub mod args;
 mod batch;
 mod bench;
 mod convert;
+mod derive;
 mod devices;
 mod info;
 mod kernels;
@@ -192,6 +193,7 @@ fn run_engine_command(command: &Command, global: &GlobalOptions) -> Result<(), E
         Command::Batch(args) => batch::run(args, global),
         Command::Kernels(args) => kernels::run(args, global),
         Command::Convert(args) => convert::run(args),
+        Command::Derive(args) => derive::run(args, global),
         Command::Phantom(args) => {
             // Before generating: an existing scan is never replaced without --force.
             use crate::files::write::{OutputKind, check_output};

@@ -14,8 +14,10 @@
 //!   passes put the right barrier in front of it.
 
 mod bricked;
+mod denoise;
 mod derive;
 pub mod kernels;
+mod maps;
 mod occupancy;
 mod open;
 mod pipelines;
@@ -28,9 +30,11 @@ mod robust;
 pub mod session;
 mod twin;
 pub mod upload;
+mod vessels;
 
 pub use bricked::HostPrepared;
 pub use derive::Derived;
+pub use maps::{DerivedMaps, MapRequest};
 pub use open::{OpenError, OpenTimings, OpenedVolume};
 pub use pipelines::PipelineTimes;
 pub use prepare::{BrickAtlas, PrepareTimings, PreparedVolume, VolumeLayout};
@@ -39,6 +43,7 @@ pub use render::{
 };
 pub use session::{OpenOptions, Session, SessionError, SessionTimings};
 pub use twin::{Twin, TwinStep, TwinUpdate, twin_step};
+pub use vessels::Vesselness;
 
 use crate::gpu::pipeline_cache::PersistError;
 use crate::gpu::{

@@ -28,6 +28,9 @@ pub enum Access {
     ComputeSampled,
     /// Written by a compute shader as a storage image (image in GENERAL).
     ComputeWriteImage,
+    /// Read and written by a compute shader as a storage image (image in GENERAL): a running
+    /// result updated in place across dispatches (the vesselness maximum over scales).
+    ComputeReadWriteImage,
     /// Drawn into (and blended over) as a colour attachment by graphics work (the viewer's
     /// interface), image in COLOR_ATTACHMENT_OPTIMAL.
     ColorAttachment,
@@ -78,6 +81,11 @@ pub fn access_info(access: Access) -> AccessInfo {
             L::SHADER_READ_ONLY_OPTIMAL,
         ),
         Access::ComputeWriteImage => (S::COMPUTE_SHADER, A::SHADER_STORAGE_WRITE, L::GENERAL),
+        Access::ComputeReadWriteImage => (
+            S::COMPUTE_SHADER,
+            A::SHADER_STORAGE_READ | A::SHADER_STORAGE_WRITE,
+            L::GENERAL,
+        ),
         Access::ColorAttachment => (
             S::COLOR_ATTACHMENT_OUTPUT,
             A::COLOR_ATTACHMENT_READ | A::COLOR_ATTACHMENT_WRITE,
@@ -104,6 +112,7 @@ fn is_write(access: Access) -> bool {
             | Access::TransferWrite
             | Access::ComputeWriteBuffer
             | Access::ComputeWriteImage
+            | Access::ComputeReadWriteImage
             | Access::ColorAttachment
     )
 }

@@ -9,7 +9,9 @@
 pub mod bandwidth;
 pub mod compositing_probe;
 pub mod cost;
+pub mod denoise;
 pub mod derivatives;
+pub mod eigen_probe;
 pub mod fine_histogram;
 pub mod histogram;
 pub mod minmax;
@@ -18,6 +20,7 @@ pub mod occupancy;
 #[cfg(feature = "viewer")]
 pub mod present;
 pub mod raymarch;
+pub mod vesselness;
 
 use crate::gpu::shaders::ShaderInfo;
 use crate::volume::SampleKind;

@@ -17,12 +17,15 @@
 //!   typed errors.
 //! - Volumes are x fastest: voxel `(i, j, k)` is at `i + nx * (j + ny * k)`.
 
+pub mod denoise;
 pub mod derivatives;
+pub mod eigen;
 pub mod fine_histogram;
 pub mod histogram;
 pub mod minmax;
 pub mod normalize;
 pub mod raymarch;
+pub mod vesselness;
 
 pub use derivatives::{
     DEFAULT_TAU, DerivativeError, DerivativeOptions, Derivatives, IndexToWorld, Sym3,

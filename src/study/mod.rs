@@ -19,3 +19,4 @@ pub mod perturb_run;
 pub mod perturb_score;
 pub mod plot;
 pub mod stability;
+pub mod vessels;

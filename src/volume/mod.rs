@@ -19,6 +19,7 @@ pub mod phantom;
 pub mod samples;
 pub mod source;
 pub mod stats;
+pub mod vessel_phantom;
 
 pub use samples::{SampleKind, Samples};
 

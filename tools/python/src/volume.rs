@@ -16,10 +16,9 @@ use crate::recipe::{SceneSettings, recipe};
 use crate::state::{self, State};
 use morphray::analysis::TissueReport;
 use morphray::engine::plan::{Layout, Plan};
-use morphray::engine::{OpenOptions, Twin, VolumeLayout};
-use morphray::gpu::Access;
-use morphray::passes::derivatives::DerivativeOutputs;
-use morphray::scene::{DerivedPrecision, SceneRecipe};
+use morphray::engine::{DerivedMaps, MapRequest, OpenOptions, Twin, VolumeLayout};
+use morphray::passes::vesselness::VesselnessParams;
+use morphray::scene::SceneRecipe;
 use morphray::study::batch_summary::ScanSummary;
 use morphray::volume::phantom::PhantomSpec;
 use morphray::volume::source::dicom::SeriesChoice;
@@ -325,82 +324,58 @@ impl Volume {
         Ok(array.into_pyarray(py))
     }
 
-    /// The derived maps of the paper's eq. 3-4 as float32 (i, j, k) arrays: `"gradient"`
-    /// (|grad I_norm| per mm) and `"curvature"` (k = g^T H g per mm^2, I_norm units). Whole
+    /// The derived maps as float32 (i, j, k) arrays: `"gradient"` (|grad I_norm| per mm),
+    /// `"curvature"` (k = g^T H g per mm^2, I_norm units; the paper's eq. 3-4) and
+    /// `"vesselness"` (multi-scale Frangi, default scales 0.6-3 mm, in [0, 1]). The engine's one
+    /// export function computes them (`Engine::derived_maps`, as `morphray derive` does). Whole
     /// volumes only (a bricked volume has no whole-volume map to export).
     #[pyo3(signature = (maps=vec!["gradient".to_string(), "curvature".to_string()]))]
     fn derive<'py>(&self, py: Python<'py>, maps: Vec<String>) -> PyResult<Bound<'py, PyDict>> {
-        let mut gradient = false;
-        let mut curvature = false;
+        let mut request = MapRequest::default();
         for m in &maps {
             match m.as_str() {
-                "gradient" => gradient = true,
-                "curvature" => curvature = true,
+                "gradient" => request.gradient = true,
+                "curvature" => request.curvature = true,
+                "vesselness" => request.vesselness = Some(VesselnessParams::default()),
                 other => {
                     return Err(errors::usage(format!(
-                        "unknown map `{other}`; use \"gradient\" or \"curvature\""
+                        "unknown map `{other}`; use \"gradient\", \"curvature\" or \"vesselness\""
                     )));
                 }
             }
         }
-        let (values, channels, scale) =
-            py.detach(|| -> PyResult<(Vec<f32>, usize, [f32; 2])> {
-                let mut state = state::lock();
-                let inner = self.inner.lock().unwrap_or_else(|p| p.into_inner());
-                if matches!(inner.twin.prepared.layout, VolumeLayout::Bricked(_)) {
-                    return Err(errors::MemoryBudgetError::new_err(
-                        "this volume is bricked (over the memory budget): its maps cannot be \
+        let computed = py.detach(|| -> PyResult<DerivedMaps> {
+            let mut state = state::lock();
+            let inner = self.inner.lock().unwrap_or_else(|p| p.into_inner());
+            if matches!(inner.twin.prepared.layout, VolumeLayout::Bricked(_)) {
+                return Err(errors::MemoryBudgetError::new_err(
+                    "this volume is bricked (over the memory budget): its maps cannot be \
                      exported whole; raise morphray.configure(memory_budget=...)",
-                    ));
-                }
-                if inner.generation != state.generation {
-                    return Err(errors::Error::new_err(
-                        "this volume was opened before morphray.configure() changed the device; \
+                ));
+            }
+            if inner.generation != state.generation {
+                return Err(errors::Error::new_err(
+                    "this volume was opened before morphray.configure() changed the device; \
                      open it again",
-                    ));
-                }
-                let (engine, _) = state.engine()?;
-                let outputs = DerivativeOutputs {
-                    magnitude: true,
-                    curvature,
-                    normal: false,
-                    precision: DerivedPrecision::F32,
-                };
-                let derived = engine
-                    .derive(&inner.twin.prepared, outputs)
-                    .map_err(errors::gpu)?;
-                let image = derived.volumes.gradient.as_ref().ok_or_else(|| {
-                    errors::Error::new_err("the derivative pass returned no gradient volume")
-                })?;
-                let data = morphray::engine::readback::read_image(
-                    engine.device(),
-                    image,
-                    Access::ComputeSampled,
-                )
-                .map_err(errors::gpu)?;
-                Ok((data.values, data.channels, derived.volumes.store_scale))
-            })?;
+                ));
+            }
+            let (engine, _) = state.engine()?;
+            engine
+                .derived_maps(&inner.twin.prepared, &request)
+                .map_err(errors::gpu)
+        })?;
         let [x, y, z] = self.dims.map(|d| d as usize);
         let out = PyDict::new(py);
-        let export = |name: &str, channel: usize| -> PyResult<()> {
-            let s = scale[channel.min(1)];
-            let map: Vec<f32> = values
-                .iter()
-                .skip(channel)
-                .step_by(channels.max(1))
-                .map(|v| v / s)
-                .collect();
+        let export = |name: &str, map: Option<Vec<f32>>| -> PyResult<()> {
+            let Some(map) = map else { return Ok(()) };
             // x fastest in memory: a Fortran-ordered (i, j, k) array.
             let array = Array3::from_shape_vec((x, y, z).f(), map)
                 .map_err(|e| errors::Error::new_err(e.to_string()))?;
             out.set_item(name, array.into_pyarray(py))
         };
-        if gradient {
-            export("gradient", 0)?;
-        }
-        if curvature {
-            export("curvature", 1)?;
-        }
+        export("gradient", computed.gradient)?;
+        export("curvature", computed.curvature)?;
+        export("vesselness", computed.vesselness)?;
         Ok(out)
     }
 

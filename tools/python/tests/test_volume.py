@@ -180,3 +180,17 @@ def test_a_frame_of_a_4d_image_or_file(tmp_path):
     assert second["imax"] == float(data.max() // 2)
     with pytest.raises(morphray.InputError, match="frame"):
         morphray.open(image, frame=2)
+
+
+def test_derive_vesselness_finds_a_bright_tube():
+    # A bright tube along k through a dark volume: the vesselness map (the engine's export
+    # function, as `morphray derive` writes it) peaks on its axis and is 0 far from it.
+    data = np.zeros((21, 19, 15), dtype=np.float32)
+    i, j = np.meshgrid(np.arange(21), np.arange(19), indexing="ij")
+    data[(i - 10) ** 2 + (j - 9) ** 2 <= 2] = 100.0
+    vol = morphray.open((data, np.eye(4)))
+    v = vol.derive("vesselness")["vesselness"]
+    assert v.shape == (21, 19, 15) and v.dtype == np.float32
+    assert 0.0 <= v.min() and v.max() <= 1.0
+    assert v[10, 9, 7] > 0.5
+    assert v[1, 1, 7] < 0.01

@@ -1,0 +1,188 @@
+//! `morphray derive FILE -o DIR`: the derived maps the scene computes, as NIfTI-1 files beside
+//! each other in DIR, named `<name>_normalized.nii.gz`, `<name>_gradient.nii.gz`,
+//! `<name>_curvature.nii.gz`, `<name>_vesselness.nii.gz` and (with `--denoise`)
+//! `<name>_denoised.nii.gz`, for use in other tools.
+//!
+//! Decisions:
+//! - The maps come from the engine's one function (`Engine::derived_maps`), in world units
+//!   (I_norm, per mm, per mm^2, vesselness in [0, 1]), as float32 with the input's affine (the
+//!   volume's RAS orientation, as `convert` writes it).
+//! - Every output is checked before anything is read (`check_output`: never the input, the
+//!   folder exists and takes files), and an existing file is replaced only with `--force`: without
+//!   it the command refuses to start, and each write refuses a file that appeared meanwhile.
+//! - `<name>` is the input's file name without `.nii`/`.nii.gz`/`.hdr`/`.img` (DICOM: the folder's
+//!   name); `phantom` without a file.
+
+use super::output::print_line;
+use super::session;
+use crate::engine::MapRequest;
+use crate::error::Error;
+use crate::files::write::{OutputKind, check_output};
+use crate::passes::denoise::Denoise;
+use crate::passes::vesselness::VesselnessParams;
+use crate::volume::{LinearMap, Samples, Volume};
+use clap::Args;
+use std::path::{Path, PathBuf};
+
+/// Options of `derive`.
+#[derive(Debug, Args)]
+pub struct DeriveArgs {
+    /// NIfTI-1/2, ANALYZE or DICOM input; without one, the built-in digital phantom.
+    pub file: Option<PathBuf>,
+    /// Folder the maps are written into (must exist).
+    #[arg(short, long, value_name = "DIR")]
+    pub output: PathBuf,
+    /// Maps to write, comma-separated: normalized, gradient, curvature, vesselness.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "normalized,gradient,curvature,vesselness"
+    )]
+    pub maps: Vec<String>,
+    /// Denoising before the derivatives: none, gaussian:SIGMA_MM, median or
+    /// bilateral:SIGMA_MM,RANGE; anything but none also writes `<name>_denoised.nii.gz`.
+    #[arg(long, default_value = "none", value_parser = parse_denoise)]
+    pub denoise: Denoise,
+    /// Vesselness scales in mm, comma-separated (default 0.6,1.026,1.754,3).
+    #[arg(long, value_delimiter = ',')]
+    pub vessel_scales: Vec<f32>,
+    /// Replace existing map files (atomically); the input is never replaced.
+    #[arg(long)]
+    pub force: bool,
+    /// Frame of a 4-D file (0-based).
+    #[arg(long, default_value_t = 0)]
+    pub frame: usize,
+}
+
+fn parse_denoise(text: &str) -> Result<Denoise, String> {
+    text.parse()
+}
+
+/// `<name>` of the outputs (module decisions).
+pub fn base_name(file: Option<&Path>) -> String {
+    let Some(file) = file else {
+        return "phantom".into();
+    };
+    let name = file
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "volume".into());
+    let lower = name.to_ascii_lowercase();
+    for ext in [".nii.gz", ".nii", ".hdr", ".img"] {
+        if lower.ends_with(ext) && name.len() > ext.len() {
+            return name[..name.len() - ext.len()].to_string();
+        }
+    }
+    name
+}
+
+/// Runs the command.
+pub fn run(args: &DeriveArgs, global: &super::GlobalOptions) -> Result<(), Error> {
+    let mut request = MapRequest {
+        denoise: args.denoise,
+        ..Default::default()
+    };
+    let mut wanted: Vec<&'static str> = Vec::new();
+    for m in &args.maps {
+        let name = match m.trim() {
+            "normalized" => "normalized",
+            "gradient" => {
+                request.gradient = true;
+                "gradient"
+            }
+            "curvature" => {
+                request.curvature = true;
+                "curvature"
+            }
+            "vesselness" => {
+                let mut params = VesselnessParams::default();
+                if !args.vessel_scales.is_empty() {
+                    params.scales_mm = args.vessel_scales.clone();
+                }
+                params.validate()?;
+                request.vesselness = Some(params);
+                "vesselness"
+            }
+            other => {
+                return Err(Error::Usage(format!(
+                    "unknown map `{other}`: use normalized, gradient, curvature or vesselness"
+                )));
+            }
+        };
+        if !wanted.contains(&name) {
+            wanted.push(name);
+        }
+    }
+    if args.denoise != Denoise::None {
+        wanted.push("denoised");
+    }
+    let stem = base_name(args.file.as_deref());
+    let paths: Vec<(&str, PathBuf)> = wanted
+        .iter()
+        .map(|m| (*m, args.output.join(format!("{stem}_{m}.nii.gz"))))
+        .collect();
+    // Before any work: every target is new, none is the input, the folder takes files.
+    let inputs: Vec<&Path> = args.file.iter().map(PathBuf::as_path).collect();
+    for (_, path) in &paths {
+        check_output(path, OutputKind::Nifti, &inputs, args.force)?;
+    }
+    let mut opened = session::open(
+        args.file.as_deref(),
+        args.frame,
+        false,
+        global.engine_config(),
+        None,
+        false,
+    )?;
+    let prepared = opened.twin.prepared.clone();
+    let maps = opened.engine.derived_maps(&prepared, &request)?;
+    let source = &opened.source.volume;
+    for (name, path) in &paths {
+        let values = match *name {
+            "normalized" => Some(&maps.normalized),
+            "gradient" => maps.gradient.as_ref(),
+            "curvature" => maps.curvature.as_ref(),
+            "vesselness" => maps.vesselness.as_ref(),
+            _ => maps.denoised.as_ref(),
+        };
+        let Some(values) = values else { continue };
+        let map = Volume {
+            name: format!("{stem}_{name}"),
+            dims: source.dims,
+            spacing_mm: source.spacing_mm,
+            orientation: source.orientation.clone(),
+            samples: Samples::from_f32(values),
+            to_physical: LinearMap::IDENTITY,
+            warnings: vec![],
+        };
+        if args.force {
+            crate::volume::nifti::write_nifti1(&map, path, true)?;
+        } else {
+            // No clobbering even of a file that appeared while the maps were computed.
+            crate::volume::nifti::write_new_nifti1(&map, path, true)?;
+        }
+        print_line(&format!("wrote {}", path.display()));
+    }
+    if global.validation {
+        session::check_validation(&opened.engine)?;
+    }
+    session::persist_pipeline_cache(&opened.engine);
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn base_names_drop_the_volume_extensions() {
+        assert_eq!(
+            base_name(Some(Path::new("/d/sub-01_T1w.nii.gz"))),
+            "sub-01_T1w"
+        );
+        assert_eq!(base_name(Some(Path::new("a.NII"))), "a");
+        assert_eq!(base_name(Some(Path::new("scan.hdr"))), "scan");
+        assert_eq!(base_name(Some(Path::new("dicom_folder"))), "dicom_folder");
+        assert_eq!(base_name(None), "phantom");
+    }
+}

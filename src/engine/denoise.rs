@@ -1,0 +1,67 @@
+//! Denoising a prepared volume before its derivatives (`passes::denoise`).
+//!
+//! Decision: the result is a new [`PreparedVolume`] whose I_norm is the filtered volume and
+//! whose analysis (range, histogram) is the original's, so every later step (derive,
+//! vesselness, render) takes it unchanged. Whole volumes only: the filters read up to 5 voxels
+//! across brick faces, more than the atlas halo holds, so a bricked volume is a typed error.
+
+use super::Engine;
+use super::prepare::{PreparedVolume, VolumeLayout};
+use crate::gpu::{GpuError, GpuResult, Recording};
+use crate::passes::denoise::{Denoise, DenoisePass};
+
+impl Engine {
+    /// `prepared` with I_norm denoised by `denoise` (None for `Denoise::None`).
+    pub fn denoise(
+        &mut self,
+        prepared: &PreparedVolume,
+        denoise: &Denoise,
+    ) -> GpuResult<Option<PreparedVolume>> {
+        if *denoise == Denoise::None {
+            return Ok(None);
+        }
+        let _span = crate::files::trace::span("denoise", "prepare");
+        if matches!(prepared.layout, VolumeLayout::Bricked(_)) {
+            return Err(GpuError::InvalidRequest(
+                "denoising needs the whole volume on the GPU; this one is bricked (run without --bricked or with a larger --memory-budget)".into(),
+            ));
+        }
+        let device = self.device.clone();
+        let pass = DenoisePass::new(&device, self.pipeline_cache.raw())?;
+        let mut rec = Recording::new(&device, "denoise")?;
+        rec.begin_pass("denoise");
+        let image = pass.record(
+            &device,
+            &mut rec,
+            &prepared.normalized,
+            &self.nearest,
+            prepared.linear_part,
+            denoise,
+        )?;
+        rec.end_pass();
+        let timings = rec.submit()?.wait()?;
+        let Some(normalized) = image else {
+            return Ok(None);
+        };
+        let mut gpu_timings = prepared.gpu_timings.clone();
+        gpu_timings.extend(timings);
+        Ok(Some(PreparedVolume {
+            dims: prepared.dims,
+            kind: prepared.kind,
+            upload_path: prepared.upload_path,
+            normalized,
+            layout: prepared.layout.clone(),
+            stored_range: prepared.stored_range,
+            normalization: prepared.normalization,
+            range: prepared.range,
+            histogram: prepared.histogram,
+            voxel_count: prepared.voxel_count,
+            finite_voxels: prepared.finite_voxels,
+            linear_part: prepared.linear_part,
+            affine: prepared.affine,
+            gpu_timings,
+            timings: prepared.timings.clone(),
+            brick_ranges: std::sync::OnceLock::new(),
+        }))
+    }
+}

@@ -1,0 +1,105 @@
+//! The derived maps of a prepared volume as f32 arrays in world units, for export
+//! (`morphray derive`, the Python package): I_norm, |grad I_norm| (per mm), the directional
+//! curvature k (per mm^2), the multi-scale vesselness and the denoised I_norm.
+//!
+//! Decisions: derivatives are computed in f32 storage for export (not the render's 8-bit or f16
+//! default) and divided by their store scale, so the maps are in the units of paper eqs. 2-3.
+//! With denoising on, every other map is computed from the denoised I_norm (as a scene with that
+//! denoising renders), and `normalized` stays the original I_norm. Whole volumes only.
+
+use super::Engine;
+use super::prepare::{PreparedVolume, VolumeLayout};
+use super::readback::read_image;
+use crate::gpu::{Access, GpuError, GpuResult};
+use crate::passes::denoise::Denoise;
+use crate::passes::derivatives::DerivativeOutputs;
+use crate::passes::vesselness::VesselnessParams;
+use crate::scene::DerivedPrecision;
+
+/// Which maps to compute.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MapRequest {
+    /// |grad I_norm|.
+    pub gradient: bool,
+    /// k = g^T H g.
+    pub curvature: bool,
+    /// Multi-scale vesselness with these parameters.
+    pub vesselness: Option<VesselnessParams>,
+    /// Denoising applied before the other maps (its result is a map too unless `None`).
+    pub denoise: Denoise,
+}
+
+/// The maps, x fastest, one f32 per voxel; None where not requested.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct DerivedMaps {
+    /// I_norm (always).
+    pub normalized: Vec<f32>,
+    /// |grad I_norm| per mm.
+    pub gradient: Option<Vec<f32>>,
+    /// k per mm^2.
+    pub curvature: Option<Vec<f32>>,
+    /// Vesselness in [0, 1].
+    pub vesselness: Option<Vec<f32>>,
+    /// Denoised I_norm.
+    pub denoised: Option<Vec<f32>>,
+}
+
+impl Engine {
+    /// Computes the requested maps of `prepared` (module decisions).
+    pub fn derived_maps(
+        &mut self,
+        prepared: &PreparedVolume,
+        request: &MapRequest,
+    ) -> GpuResult<DerivedMaps> {
+        if matches!(prepared.layout, VolumeLayout::Bricked(_)) {
+            return Err(GpuError::InvalidRequest(
+                "derived maps need the whole volume on the GPU; this one is bricked (raise --memory-budget)".into(),
+            ));
+        }
+        let read = |engine: &Engine, image| -> GpuResult<Vec<f32>> {
+            Ok(read_image(engine.device(), image, Access::ComputeSampled)?.values)
+        };
+        let mut maps = DerivedMaps {
+            normalized: read(self, &prepared.normalized)?,
+            ..Default::default()
+        };
+        let denoised = self.denoise(prepared, &request.denoise)?;
+        if let Some(d) = &denoised {
+            maps.denoised = Some(read(self, &d.normalized)?);
+        }
+        let source = denoised.as_ref().unwrap_or(prepared);
+        if request.gradient || request.curvature {
+            let outputs = DerivativeOutputs {
+                magnitude: true,
+                curvature: request.curvature,
+                normal: false,
+                precision: DerivedPrecision::F32,
+            };
+            let derived = self.derive(source, outputs)?;
+            let image = derived.volumes.gradient.as_ref().ok_or_else(|| {
+                GpuError::Internal("the derivative pass returned no gradient volume".into())
+            })?;
+            let data = read_image(self.device(), image, Access::ComputeSampled)?;
+            let scale = derived.volumes.store_scale;
+            let channel = |c: usize| -> Vec<f32> {
+                data.values
+                    .iter()
+                    .skip(c)
+                    .step_by(data.channels.max(1))
+                    .map(|v| v / scale[c])
+                    .collect()
+            };
+            if request.gradient {
+                maps.gradient = Some(channel(0));
+            }
+            if request.curvature {
+                maps.curvature = Some(channel(1));
+            }
+        }
+        if let Some(params) = &request.vesselness {
+            let v = self.vesselness(source, params)?;
+            maps.vesselness = Some(read(self, &v.image)?);
+        }
+        Ok(maps)
+    }
+}
