@@ -26,6 +26,7 @@ pub mod readback;
 mod render;
 mod robust;
 pub mod session;
+pub mod slice;
 mod twin;
 pub mod upload;
 

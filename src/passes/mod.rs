@@ -18,6 +18,7 @@ pub mod occupancy;
 #[cfg(feature = "viewer")]
 pub mod present;
 pub mod raymarch;
+pub mod slice;
 
 use crate::gpu::shaders::ShaderInfo;
 use crate::volume::SampleKind;

@@ -23,6 +23,7 @@ pub mod histogram;
 pub mod minmax;
 pub mod normalize;
 pub mod raymarch;
+pub mod slice;
 
 pub use derivatives::{
     DEFAULT_TAU, DerivativeError, DerivativeOptions, Derivatives, IndexToWorld, Sym3,

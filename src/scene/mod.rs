@@ -10,6 +10,7 @@ pub mod classification;
 pub mod geometry;
 pub mod occupancy;
 pub mod recipe;
+pub mod slice;
 pub mod uniforms;
 pub mod variant;
 pub mod visibility;
