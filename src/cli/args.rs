@@ -175,6 +175,9 @@ pub enum Command {
     /// through VK_KHR_pipeline_executable_properties; Intel's ANV does, also on the stub Tiger
     /// Lake of tools/gen12).
     Kernels(KernelsArgs),
+    /// Write one axial, coronal or sagittal slice (world-oriented, the affine honoured) as a
+    /// greyscale PNG; prints the convention used (radiological by default).
+    Slice(super::slice::SliceArgs),
 }
 
 /// Options of `kernels`.

@@ -10,6 +10,7 @@ mod batch;
 mod bench;
 mod convert;
 mod devices;
+mod glyphs;
 mod info;
 mod kernels;
 pub mod output;
@@ -17,6 +18,7 @@ mod peaks;
 mod plan;
 pub mod render;
 pub mod session;
+mod slice;
 pub mod source;
 mod ttfp;
 #[cfg(feature = "viewer")]
@@ -192,6 +194,7 @@ fn run_engine_command(command: &Command, global: &GlobalOptions) -> Result<(), E
         Command::Batch(args) => batch::run(args, global),
         Command::Kernels(args) => kernels::run(args, global),
         Command::Convert(args) => convert::run(args),
+        Command::Slice(args) => slice::run(args, global),
         Command::Phantom(args) => {
             // Before generating: an existing scan is never replaced without --force.
             use crate::files::write::{OutputKind, check_output};

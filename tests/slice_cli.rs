@@ -1,0 +1,252 @@
+//! `morphray slice` as a user runs it: a bright blob in the LEFT, ANTERIOR, SUPERIOR part of a
+//! tiny synthetic head (written by the test, stored RAS and again stored flipped LPS-style with
+//! the same world content) must appear on the correct side of the picture in every plane and
+//! both conventions; `--index` and `--mm` give the same pixels; the convention is printed; the
+//! input is never overwritten; letters land on their edges. Runs the built binary with the
+//! validation layer required.
+
+use morphray::volume::nifti::write_nifti1;
+use morphray::volume::{LinearMap, Samples, Volume};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn morphray(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_morphray"))
+        .args(args)
+        .env("MORPHRAY_VALIDATION", "required")
+        .output()
+        .expect("the morphray binary runs")
+}
+
+fn temp(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("morphray-slice-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+const DIMS: [usize; 3] = [21, 17, 15];
+const SPACING: [f64; 3] = [1.0, 1.2, 1.5];
+/// The blob's world centre: left (x < 0), anterior (y > 0), superior (z > 0).
+const BLOB: [f64; 3] = [-5.0, 4.8, 4.5];
+
+/// The head stored with i along +x, j along +y (RAS) or with both flipped (LPS-like, as DICOM
+/// converters often leave it); the world content is the same.
+fn head(flipped: bool, path: &Path) {
+    let sign = if flipped { -1.0 } else { 1.0 };
+    let half = |a: usize| (DIMS[a] as f64 - 1.0) / 2.0 * SPACING[a];
+    let affine = [
+        [sign * SPACING[0], 0.0, 0.0, -sign * half(0)],
+        [0.0, sign * SPACING[1], 0.0, -sign * half(1)],
+        [0.0, 0.0, SPACING[2], -half(2)],
+        [0.0, 0.0, 0.0, 1.0],
+    ];
+    let mut voxels = Vec::new();
+    for k in 0..DIMS[2] {
+        for j in 0..DIMS[1] {
+            for i in 0..DIMS[0] {
+                let idx = [i as f64, j as f64, k as f64];
+                let world: Vec<f64> = (0..3)
+                    .map(|r| (0..3).map(|c| affine[r][c] * idx[c]).sum::<f64>() + affine[r][3])
+                    .collect();
+                let d2: f64 = (0..3).map(|a| (world[a] - BLOB[a]).powi(2)).sum();
+                voxels.push(if d2 < 3.2 * 3.2 {
+                    1000
+                } else {
+                    100 + (i + j + k) as u16 % 3
+                });
+            }
+        }
+    }
+    let v = Volume::from_voxels(
+        "head",
+        DIMS,
+        Samples::from_u16(&voxels),
+        affine,
+        LinearMap::IDENTITY,
+    )
+    .unwrap();
+    write_nifti1(&v, path, false).unwrap();
+}
+
+/// Pixels (RGBA8), width and height of a PNG.
+fn pixels(path: &Path) -> (Vec<u8>, u32, u32) {
+    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(path).unwrap()));
+    let mut reader = decoder.read_info().unwrap();
+    let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    buf.truncate(info.buffer_size());
+    (buf, info.width, info.height)
+}
+
+/// Centroid of the bright (blob) pixels, as fractions of the width and height.
+fn blob_centroid(path: &Path) -> (f64, f64) {
+    let (px, w, h) = pixels(path);
+    let (mut sx, mut sy, mut n) = (0.0, 0.0, 0.0);
+    for (i, p) in px.chunks_exact(4).enumerate() {
+        assert!(p[0] == p[1] && p[1] == p[2], "greyscale by default");
+        if p[0] > 128 {
+            sx += (i as u32 % w) as f64 + 0.5;
+            sy += (i as u32 / w) as f64 + 0.5;
+            n += 1.0;
+        }
+    }
+    assert!(
+        n >= 4.0,
+        "{}: the blob is missing ({n} bright pixels)",
+        path.display()
+    );
+    (sx / n / w as f64, sy / n / h as f64)
+}
+
+fn slice(input: &Path, out: &Path, extra: &[&str]) -> String {
+    let mut args = vec![
+        "--normalize",
+        "minmax",
+        "slice",
+        input.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    let o = morphray(&args);
+    let stdout = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert!(
+        o.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    stdout
+}
+
+#[test]
+fn a_left_anterior_superior_blob_is_on_the_right_side_in_every_plane_and_convention() {
+    for flipped in [false, true] {
+        let input = temp(if flipped {
+            "head-lps.nii"
+        } else {
+            "head-ras.nii"
+        });
+        head(flipped, &input);
+        for (plane, mm) in [
+            ("axial", BLOB[2]),
+            ("coronal", BLOB[1]),
+            ("sagittal", BLOB[0]),
+        ] {
+            for convention in ["radiological", "neurological"] {
+                let out = temp(&format!("{plane}-{convention}-{flipped}.png"));
+                let mm = mm.to_string();
+                let said = slice(
+                    &input,
+                    &out,
+                    &["--plane", plane, "--mm", &mm, "--convention", convention],
+                );
+                assert!(
+                    said.contains(&format!("convention: {convention}")),
+                    "{said}"
+                );
+                let (cx, cy) = blob_centroid(&out);
+                let case = format!("{plane} {convention} flipped={flipped}: ({cx:.2}, {cy:.2})");
+                // Anterior (axial) and superior (coronal, sagittal) are at the top.
+                assert!(cy < 0.4, "{case}: expected in the top part");
+                match (plane, convention) {
+                    // Sagittal: anterior on the left whatever the convention.
+                    ("sagittal", _) => assert!(cx < 0.4, "{case}: anterior is on the left"),
+                    // The patient's LEFT is on the image's right in radiological convention.
+                    (_, "radiological") => assert!(cx > 0.6, "{case}: left blob on the right"),
+                    _ => assert!(cx < 0.4, "{case}: left blob on the left"),
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn index_and_mm_name_the_same_plane_and_the_default_is_radiological() {
+    let input = temp("head-index.nii");
+    head(true, &input);
+    // Flipped storage: x = 10 - i, y = 9.6 - 1.2 j, z = -10.5 + 1.5 k.
+    for (plane, index, mm) in [
+        ("axial", "10", "4.5"),
+        ("coronal", "4", "4.8"),
+        ("sagittal", "15", "-5"),
+    ] {
+        let by_index = temp(&format!("{plane}-index.png"));
+        let by_mm = temp(&format!("{plane}-mm.png"));
+        let said = slice(&input, &by_index, &["--plane", plane, "--index", index]);
+        assert!(said.contains("convention: radiological"), "default: {said}");
+        slice(&input, &by_mm, &["--plane", plane, "--mm", mm]);
+        assert_eq!(pixels(&by_index), pixels(&by_mm), "{plane}");
+    }
+    let o = morphray(&[
+        "slice",
+        input.to_str().unwrap(),
+        "-o",
+        temp("x.png").to_str().unwrap(),
+        "--plane",
+        "axial",
+        "--index",
+        "15",
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.starts_with("morphray: ") && err.contains("outside the volume"),
+        "{err}"
+    );
+}
+
+#[test]
+fn the_input_is_never_overwritten_and_letters_land_on_their_edges() {
+    let input = temp("head-keep.nii");
+    head(false, &input);
+    let before = std::fs::read(&input).unwrap();
+    let o = morphray(&[
+        "slice",
+        input.to_str().unwrap(),
+        "-o",
+        input.to_str().unwrap(),
+        "--plane",
+        "axial",
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("input"),
+        "{:?}",
+        o
+    );
+    assert_eq!(
+        std::fs::read(&input).unwrap(),
+        before,
+        "the input is untouched"
+    );
+    // Letters: at 0.25 mm pixels the axial picture is 84x81, room for 5x7 glyphs.
+    let out = temp("letters.png");
+    slice(
+        &input,
+        &out,
+        &["--plane", "axial", "--letters", "--pixel-mm", "0.25"],
+    );
+    let (px, w, h) = pixels(&out);
+    let yellow = |x0: u32, x1: u32, y0: u32, y1: u32| {
+        (y0..y1)
+            .flat_map(|y| (x0..x1).map(move |x| (x, y)))
+            .any(|(x, y)| {
+                let p = &px[4 * (y * w + x) as usize..][..4];
+                p[0] == 255 && p[1] == 255 && p[2] == 0
+            })
+    };
+    // R on the left, L on the right, A at the top, P at the bottom; nothing in the corners.
+    assert!(yellow(0, w / 6, h / 3, 2 * h / 3), "left letter");
+    assert!(yellow(5 * w / 6, w, h / 3, 2 * h / 3), "right letter");
+    assert!(yellow(w / 3, 2 * w / 3, 0, h / 6), "top letter");
+    assert!(yellow(w / 3, 2 * w / 3, 5 * h / 6, h), "bottom letter");
+    assert!(!yellow(0, w / 6, 0, h / 6), "corner");
+    // The left letter is an R: its top row is four pixels of R's 11110.
+    let left: Vec<(u32, u32)> = (0..h)
+        .flat_map(|y| (0..w / 6).map(move |x| (x, y)))
+        .filter(|&(x, y)| px[4 * (y * w + x) as usize..][..3] == [255, 255, 0])
+        .collect();
+    let top = left.iter().map(|p| p.1).min().unwrap();
+    assert_eq!(left.iter().filter(|p| p.1 == top).count(), 4, "R's top row");
+    assert_eq!(left.len(), 18, "R has 18 set pixels at scale 1");
+}
