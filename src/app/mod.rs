@@ -35,6 +35,7 @@ pub mod frame_log;
 pub mod histogram;
 pub mod loader;
 pub mod script;
+pub mod slices_panel;
 pub mod status;
 pub mod ui;
 pub mod viewer;

@@ -11,6 +11,7 @@
 //!   "screenshot" shows the curvature.
 
 use super::camera_control::{Button, StandardView};
+use crate::scene::slice::Convention;
 use crate::scene::{RenderMode, TissueClass};
 use std::path::{Path, PathBuf};
 
@@ -86,6 +87,14 @@ pub enum Action {
     Close,
     /// Test hook: the next GPU frame fails as if the device had been lost.
     SimulateDeviceLost,
+    /// Slice layout: 3d, slices, axial, coronal or sagittal.
+    Layout(crate::app::slices_panel::Layout),
+    /// Slice convention.
+    Convention(crate::scene::slice::Convention),
+    /// Move the slices' crosshair to a world point (mm, RAS).
+    Crosshair([f64; 3]),
+    /// The slices' grey window in I_norm (black, white).
+    SliceWindow(f64, f64),
 }
 
 /// An action with where it came from.
@@ -246,6 +255,36 @@ fn parse_line(line: &str) -> Result<Action, String> {
                 return Err("the zoom factor must be positive".into());
             }
             Action::Zoom(f)
+        }
+        "layout" => {
+            let word = next().unwrap_or("");
+            Action::Layout(
+                crate::app::slices_panel::Layout::parse(word).ok_or_else(|| {
+                    format!("unknown layout `{word}`; use 3d, slices, axial, coronal or sagittal")
+                })?,
+            )
+        }
+        "convention" => match next() {
+            Some("radiological") => Action::Convention(Convention::Radiological),
+            Some("neurological") => Action::Convention(Convention::Neurological),
+            other => {
+                return Err(format!(
+                    "expected radiological or neurological, got {other:?}"
+                ));
+            }
+        },
+        "crosshair" => Action::Crosshair([
+            number(next(), "x in mm")?,
+            number(next(), "y in mm")?,
+            number(next(), "z in mm")?,
+        ]),
+        "slice-window" => {
+            let lo = number(next(), "the slices' black level (I_norm)")?;
+            let hi = number(next(), "the slices' white level (I_norm)")?;
+            if lo >= hi {
+                return Err(format!("slice window {lo}..{hi} must have lo < hi"));
+            }
+            Action::SliceWindow(lo, hi)
         }
         "view" => {
             let word = next().ok_or("expected a view name")?;

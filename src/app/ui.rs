@@ -65,6 +65,8 @@ pub struct Controls {
     dialog_purpose: DialogPurpose,
     /// A drag on the view in progress (for the script runner: a drag is one action).
     pub dragging: bool,
+    /// Slice layout, crosshair, window and convention (`slices_panel.rs`).
+    pub slices: super::slices_panel::SliceControls,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -88,6 +90,7 @@ impl Controls {
                 .add_file_filter_extensions("NIfTI", vec!["nii", "gz", "hdr"]),
             dialog_purpose: DialogPurpose::Open,
             dragging: false,
+            slices: Default::default(),
         }
     }
 
@@ -247,11 +250,13 @@ pub fn draw(ui: &mut Ui, controls: &mut Controls, shown: &Shown) -> Outcome {
             });
         });
 
+    super::slices_panel::show(ui, &mut controls.slices);
     let view = egui::CentralPanel::no_frame()
         .show(ui, |ui| {
             let rect = ui.max_rect();
             view_input(ui, rect, controls);
             view_overlays(ui, rect, controls, shown);
+            super::slices_panel::decorate_view(ui, rect, controls, shown.has_volume);
             rect
         })
         .inner;

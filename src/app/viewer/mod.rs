@@ -40,6 +40,7 @@
 
 mod opening;
 mod paint;
+mod slices;
 mod steps;
 mod text;
 
@@ -97,6 +98,8 @@ struct Gpu {
     /// composition of the previous may still read the other.
     targets: [Option<RenderTarget>; FRAMES_IN_FLIGHT],
     engine: Engine,
+    /// The slice panels' pipeline, created when a slice is first shown.
+    slicer: Option<crate::engine::slice::Slicer>,
     swapchain: Option<Swapchain>,
     surface: Option<Arc<Surface>>,
     device: Device,
@@ -142,6 +145,7 @@ impl Gpu {
             painter,
             targets: std::array::from_fn(|_| None),
             engine,
+            slicer: None,
             swapchain,
             surface,
             device,
@@ -457,6 +461,7 @@ impl Viewer {
             input.time = Some(self.config.started.elapsed().as_secs_f64());
         }
 
+        self.update_slices();
         // The interface.
         let before_ui = self.rendered_scene();
         let constant_volume = self
@@ -654,7 +659,7 @@ impl Viewer {
             letters.right,
             letters.top,
             letters.bottom
-        )
+        ) + &self.slices_layout(ppp)
     }
 }
 

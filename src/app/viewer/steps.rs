@@ -164,6 +164,23 @@ impl Viewer {
                 self.inject_device_lost = true;
                 watch = false;
             }
+            // Slice steps change no 3D scene: nothing to time against the raymarch.
+            Action::Layout(l) => {
+                c.slices.layout = *l;
+                watch = false;
+            }
+            Action::Convention(v) => {
+                c.slices.convention = *v;
+                watch = false;
+            }
+            Action::Crosshair(p) => {
+                c.slices.crosshair = Some(glam::DVec3::from_array(*p));
+                watch = false;
+            }
+            Action::SliceWindow(lo, hi) => {
+                c.slices.window = (*lo, *hi);
+                watch = false;
+            }
         }
         if watch && let Some(before) = before {
             self.log.pending.push(Pending {
