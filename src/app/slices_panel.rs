@@ -353,7 +353,8 @@ pub fn layout_buttons(ui: &mut Ui, view: Rect, slices: &mut SliceControls) {
     egui::Area::new(egui::Id::new("morphray layouts"))
         .fixed_pos(Pos2::new(view.left() + 4.0, view.top() + 4.0))
         .show(&ctx, |ui| {
-            ui.horizontal(|ui| {
+            // A column at the top left: clear of the centred top and bottom letters.
+            ui.vertical(|ui| {
                 for layout in [
                     Layout::ThreeD,
                     Layout::ThreeDAndSlices,
