@@ -431,6 +431,41 @@ mod tests {
     }
 
     #[test]
+    fn the_v_key_cycles_the_layout_and_the_column_leaves_the_view_narrower() {
+        let ctx = egui::Context::default();
+        let mut s = SliceControls::default();
+        let v = egui::Event::Key {
+            key: egui::Key::V,
+            physical_key: None,
+            pressed: true,
+            repeat: false,
+            modifiers: Default::default(),
+        };
+        let mut run = |events: Vec<egui::Event>, s: &mut SliceControls| {
+            let input = egui::RawInput {
+                screen_rect: Some(Rect::from_min_size(Pos2::ZERO, vec2(900.0, 600.0))),
+                events,
+                ..Default::default()
+            };
+            let mut left = None;
+            ctx.run_ui(input, |ui| {
+                show(ui, s);
+                left = Some(ui.available_rect_before_wrap().width());
+            })
+            .drop_without_applying_deltas();
+            left.unwrap()
+        };
+        let full = run(vec![], &mut s);
+        assert_eq!(s.layout, Layout::ThreeD);
+        run(vec![v.clone()], &mut s);
+        assert_eq!(s.layout, Layout::ThreeDAndSlices);
+        let narrower = run(vec![], &mut s);
+        assert!(narrower < full * 0.7, "{narrower} of {full}");
+        run(vec![v], &mut s);
+        assert_eq!(s.layout, Layout::One(Plane::Axial));
+    }
+
+    #[test]
     fn the_projection_puts_the_volume_centre_at_the_view_centre() {
         let camera = Camera::default();
         let bounds = (DVec3::splat(-10.0), DVec3::splat(10.0));
