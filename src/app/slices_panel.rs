@@ -441,7 +441,7 @@ mod tests {
             repeat: false,
             modifiers: Default::default(),
         };
-        let mut run = |events: Vec<egui::Event>, s: &mut SliceControls| {
+        let run = |events: Vec<egui::Event>, s: &mut SliceControls| {
             let input = egui::RawInput {
                 screen_rect: Some(Rect::from_min_size(Pos2::ZERO, vec2(900.0, 600.0))),
                 events,
@@ -487,11 +487,12 @@ mod tests {
 
     #[test]
     fn scrolling_and_window_level_stay_in_range() {
-        let mut a = [[0.0; 4]; 4];
-        for i in 0..3 {
-            a[i][i] = 1.0;
-        }
-        a[3][3] = 1.0;
+        let a = [
+            [1.0, 0.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0, 0.0],
+            [0.0, 0.0, 1.0, 0.0],
+            [0.0, 0.0, 0.0, 1.0],
+        ];
         let mut s = SliceControls::default();
         s.set_volume(1, VolumeGeometry::new([10, 10, 10], a).unwrap());
         assert_eq!(s.crosshair, Some(DVec3::splat(4.5)));

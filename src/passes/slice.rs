@@ -82,6 +82,7 @@ impl SlicePass {
     /// Records the slice `grid` of `normalized` (in `Access::ComputeSampled`, a whole volume)
     /// into `target` (an [`output_desc`] image of the grid's size, last accessed as `before`);
     /// `target` is left in `Access::ComputeWriteImage`.
+    #[allow(clippy::too_many_arguments)]
     pub fn record(
         &self,
         rec: &mut Recording,
