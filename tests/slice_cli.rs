@@ -250,3 +250,125 @@ fn the_input_is_never_overwritten_and_letters_land_on_their_edges() {
     assert_eq!(left.iter().filter(|p| p.1 == top).count(), 4, "R's top row");
     assert_eq!(left.len(), 18, "R has 18 set pixels at scale 1");
 }
+
+/// A label map on a coarser (2 mm), x-flipped grid: label 7 around the blob, 0 elsewhere.
+fn blob_labels(path: &Path) {
+    let dims = [11usize, 11, 12];
+    let affine = [
+        [-2.0, 0.0, 0.0, 10.0],
+        [0.0, 2.0, 0.0, -10.0],
+        [0.0, 0.0, 2.0, -11.0],
+        [0.0, 0.0, 0.0, 1.0],
+    ];
+    let mut labels = Vec::new();
+    for k in 0..dims[2] {
+        for j in 0..dims[1] {
+            for i in 0..dims[0] {
+                let w = [
+                    10.0 - 2.0 * i as f64,
+                    -10.0 + 2.0 * j as f64,
+                    -11.0 + 2.0 * k as f64,
+                ];
+                let d2: f64 = (0..3).map(|a| (w[a] - BLOB[a]).powi(2)).sum();
+                labels.push(if d2 < 3.5 * 3.5 { 7u8 } else { 0 });
+            }
+        }
+    }
+    let v = Volume::from_voxels(
+        "labels",
+        dims,
+        Samples::from_u8(labels),
+        affine,
+        LinearMap::IDENTITY,
+    )
+    .unwrap();
+    write_nifti1(&v, path, false).unwrap();
+}
+
+#[test]
+fn an_overlay_on_another_grid_colours_the_blob_with_its_table_colour() {
+    let input = temp("head-overlay.nii");
+    head(true, &input);
+    let labels = temp("labels.nii");
+    blob_labels(&labels);
+    let lut = temp("lut.txt");
+    std::fs::write(
+        &lut,
+        "# index name R G B A\n0 Unknown 0 0 0 0\n7 Blob 255 0 0 0\n",
+    )
+    .unwrap();
+    let out = temp("overlay.png");
+    let mm = BLOB[2].to_string();
+    let args = [
+        "--plane",
+        "axial",
+        "--mm",
+        &mm,
+        "--overlay",
+        labels.to_str().unwrap(),
+        "--overlay-lut",
+        lut.to_str().unwrap(),
+        "--overlay-opacity",
+        "1",
+    ];
+    let said = slice(&input, &out, &args);
+    assert!(said.contains("overlay: "), "{said}");
+    let (px, w, h) = pixels(&out);
+    let red: Vec<(u32, u32)> = px
+        .chunks_exact(4)
+        .enumerate()
+        .filter(|(_, p)| p[..3] == [255, 0, 0])
+        .map(|(i, _)| (i as u32 % w, i as u32 / w))
+        .collect();
+    assert!(red.len() >= 4, "the label is drawn ({} px)", red.len());
+    // Every other pixel stays grey, and the red sits where the blob is: the image's right
+    // (the patient's left, radiological) and its top (anterior).
+    assert!(
+        px.chunks_exact(4)
+            .all(|p| p[..3] == [255, 0, 0] || (p[0] == p[1] && p[1] == p[2]))
+    );
+    let cx = red.iter().map(|p| p.0 as f64 + 0.5).sum::<f64>() / red.len() as f64 / w as f64;
+    let cy = red.iter().map(|p| p.1 as f64 + 0.5).sum::<f64>() / red.len() as f64 / h as f64;
+    assert!(cx > 0.6 && cy < 0.4, "label at ({cx:.2}, {cy:.2})");
+    // The same picture without the overlay has the blob's bright grey in the same place.
+    let plain = temp("overlay-plain.png");
+    slice(&input, &plain, &["--plane", "axial", "--mm", &mm]);
+    let (bx, by) = blob_centroid(&plain);
+    assert!(
+        (bx - cx).abs() < 0.1 && (by - cy).abs() < 0.1,
+        "blob ({bx:.2}, {by:.2})"
+    );
+    // A map of non-integers is no label map: one line naming the file.
+    let bad = temp("not-labels.nii");
+    let v = Volume::from_voxels(
+        "not-labels.nii",
+        [2, 1, 1],
+        Samples::from_f32(&[1.0, 2.5]),
+        [
+            [1.0, 0.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0, 0.0],
+            [0.0, 0.0, 1.0, 0.0],
+            [0.0, 0.0, 0.0, 1.0],
+        ],
+        LinearMap::IDENTITY,
+    )
+    .unwrap();
+    write_nifti1(&v, &bad, false).unwrap();
+    let o = morphray(&[
+        "slice",
+        input.to_str().unwrap(),
+        "-o",
+        temp("bad.png").to_str().unwrap(),
+        "--plane",
+        "axial",
+        "--overlay",
+        bad.to_str().unwrap(),
+    ]);
+    assert_ne!(o.status.code(), Some(0));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.starts_with("morphray: ") && err.contains("not a label"),
+        "{err}"
+    );
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+}

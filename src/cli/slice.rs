@@ -14,6 +14,8 @@
 //!   library path as every command, so `--series`, DICOM folders and `--memory-budget` work.
 //! - Grey is I_norm through `--window LO:HI` (default 0:1, the normalization's full range);
 //!   outside the volume is opaque black.
+//! - `--overlay LABELS` is resampled onto the volume's grid on the CPU (`scene::overlay`: nearest
+//!   neighbour through the affines, in f64, once) and blended over the slice on the host.
 
 use super::output::{ms, print_line, print_warnings};
 use crate::engine::slice::{Slicer, geometry_of};
@@ -21,6 +23,7 @@ use crate::engine::{OpenOptions, Session};
 use crate::error::Error;
 use crate::files::png::{Provenance, write_rgba8};
 use crate::files::write::{OutputKind, check_output};
+use crate::scene::overlay::{LabelTable, Labels, blend_slice, resample};
 use crate::scene::slice::{
     Convention, Plane, SliceGrid, centre_position, edge_letters, index_axis, position_of_index,
 };
@@ -82,6 +85,50 @@ pub struct SliceArgs {
     /// Frame of a 4-D file (0-based).
     #[arg(long, default_value_t = 0)]
     pub frame: usize,
+    /// Integer label map (NIfTI; same or another grid, resampled onto the volume's by the
+    /// affines, nearest neighbour) drawn in colour over the slice; label 0 is not drawn.
+    #[arg(long, value_name = "LABELS")]
+    pub overlay: Option<PathBuf>,
+    /// FreeSurfer-style lookup table for the labels (`index name R G B A` per line); labels
+    /// not in it, or all without it, take a default palette.
+    #[arg(long, value_name = "FILE", requires = "overlay")]
+    pub overlay_lut: Option<PathBuf>,
+    /// Opacity of the label colours over the grey, 0..1.
+    #[arg(long, default_value_t = 0.5, requires = "overlay")]
+    pub overlay_opacity: f64,
+}
+
+/// The label map and its colours, read and resampled onto `volume`'s grid.
+fn load_overlay(
+    args: &SliceArgs,
+    volume: &crate::volume::Volume,
+) -> Result<Option<(Labels, LabelTable)>, Error> {
+    let Some(path) = &args.overlay else {
+        return Ok(None);
+    };
+    let source = VolumeSource::File(path.clone());
+    let labels = crate::volume::source::read(&source, &Default::default())?;
+    let resampled = resample(&labels.volume, volume).map_err(|e| Error::Usage(e.to_string()))?;
+    let table = match &args.overlay_lut {
+        None => LabelTable::default(),
+        Some(lut) => {
+            let bytes = crate::files::read::read_regular(lut, 16 << 20).map_err(|e| {
+                Error::Usage(format!(
+                    "cannot read the lookup table {}: {e}",
+                    lut.display()
+                ))
+            })?;
+            let text = String::from_utf8(bytes).map_err(|_| {
+                Error::Usage(format!(
+                    "{}: the lookup table is not UTF-8 text",
+                    lut.display()
+                ))
+            })?;
+            LabelTable::parse(&text, &lut.display().to_string())
+                .map_err(|e| Error::Usage(e.to_string()))?
+        }
+    };
+    Ok(Some((resampled, table)))
 }
 
 fn parse_window(text: &str) -> Result<(f64, f64), Error> {
@@ -116,12 +163,21 @@ fn convention_of(arg: ConventionArg) -> Convention {
 
 /// Runs the command.
 pub fn run(args: &SliceArgs, global: &super::GlobalOptions) -> Result<(), Error> {
-    let inputs: Vec<&std::path::Path> = args.file.as_deref().into_iter().collect();
+    let inputs: Vec<&std::path::Path> = [&args.file, &args.overlay, &args.overlay_lut]
+        .into_iter()
+        .filter_map(|p| p.as_deref())
+        .collect();
     check_output(&args.output, OutputKind::Png, &inputs, false)?;
     let window = parse_window(&args.window)?;
     if let Some(p) = args.pixel_mm.filter(|p| !(p.is_finite() && *p > 0.0)) {
         return Err(Error::Usage(format!(
             "--pixel-mm {p}: the pixel size must be a positive number of millimetres"
+        )));
+    }
+    if !(0.0..=1.0).contains(&args.overlay_opacity) {
+        return Err(Error::Usage(format!(
+            "--overlay-opacity {}: give an opacity from 0 to 1",
+            args.overlay_opacity
         )));
     }
     if let Some(mm) = args.mm.filter(|m| !m.is_finite()) {
@@ -142,6 +198,7 @@ pub fn run(args: &SliceArgs, global: &super::GlobalOptions) -> Result<(), Error>
     let source = VolumeSource::file_or_phantom(args.file.as_deref());
     let session = Session::open(&source, global.engine_config(), &options)?;
     print_warnings(&session.source.volume.warnings);
+    let overlay = load_overlay(args, &session.source.volume)?;
     let prepared = &session.twin.prepared;
     let geometry = geometry_of(prepared)?;
     let plane = plane_of(args.plane);
@@ -160,6 +217,17 @@ pub fn run(args: &SliceArgs, global: &super::GlobalOptions) -> Result<(), Error>
     let mut image = slicer.render(&session.engine, prepared, &grid, window)?;
     for px in image.rgba8.chunks_exact_mut(4) {
         px[3] = 255; // outside the volume: opaque black in a picture
+    }
+    if let Some((labels, table)) = &overlay {
+        let index = grid.in_index_space(&geometry);
+        let drawn = blend_slice(
+            &mut image.rgba8,
+            &index,
+            labels,
+            table,
+            args.overlay_opacity,
+        );
+        print_line(&format!("overlay: {drawn} labelled pixels"));
     }
     let letters = edge_letters(plane, convention);
     if args.letters

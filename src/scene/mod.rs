@@ -9,6 +9,7 @@ pub mod camera;
 pub mod classification;
 pub mod geometry;
 pub mod occupancy;
+pub mod overlay;
 pub mod recipe;
 pub mod slice;
 pub mod uniforms;
