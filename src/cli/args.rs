@@ -505,6 +505,10 @@ pub struct PhantomArgs {
     /// Dimensions X x Y x Z at 1 mm (the paper's cohort-A size by default).
     #[arg(long, default_value = "256x256x192", value_parser = parse_dims)]
     pub dims: [usize; 3],
+    /// Also write the phantom's ground-truth tissue labels here (an integer label map for
+    /// `slice --overlay`: 1 skull, 2 CSF, 3 GM, 4 WM, 5 lesion, 6 vessels).
+    #[arg(long, value_name = "NII")]
+    pub labels: Option<PathBuf>,
 }
 
 /// Options of `convert`.
