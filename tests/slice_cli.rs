@@ -372,3 +372,54 @@ fn an_overlay_on_another_grid_colours_the_blob_with_its_table_colour() {
     );
     assert_eq!(err.trim_end().lines().count(), 1, "{err}");
 }
+
+#[test]
+fn the_phantom_s_labels_overlay_its_lesion_in_the_left_hemisphere() {
+    let (volume, labels) = (temp("ph.nii"), temp("ph-labels.nii"));
+    let o = morphray(&[
+        "phantom",
+        "--dims",
+        "40x40x32",
+        "-o",
+        volume.to_str().unwrap(),
+        "--labels",
+        labels.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let lut = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tools/figures/phantom-labels-lut.txt"
+    );
+    let out = temp("ph-overlay.png");
+    // The lesion's centre: z = 0.30 of the brain's semi-axis (0.64 of 16 mm), x < 0.
+    let said = slice(
+        &volume,
+        &out,
+        &[
+            "--plane",
+            "axial",
+            "--mm",
+            "3",
+            "--overlay",
+            labels.to_str().unwrap(),
+            "--overlay-lut",
+            lut,
+            "--overlay-opacity",
+            "1",
+        ],
+    );
+    assert!(said.contains("overlay: "), "{said}");
+    let (px, w, _) = pixels(&out);
+    let lesion: Vec<u32> = px
+        .chunks_exact(4)
+        .enumerate()
+        .filter(|(_, p)| p[..3] == [255, 0, 0])
+        .map(|(i, _)| i as u32 % w)
+        .collect();
+    assert!(!lesion.is_empty(), "the lesion label is drawn");
+    let cx = lesion.iter().map(|&x| x as f64 + 0.5).sum::<f64>() / lesion.len() as f64;
+    assert!(
+        cx > w as f64 / 2.0,
+        "left lesion on the image's right: x {cx:.1} of {w}"
+    );
+}
