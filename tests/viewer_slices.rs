@@ -60,6 +60,11 @@ fn head(dir: &Path) -> PathBuf {
 
 /// Runs `morphray view` with a script, offscreen or under Xvfb, validation required.
 fn view(volume: &Path, script: &str, shot: &Path, window: bool) -> Output {
+    view_with(volume, script, shot, window, &[])
+}
+
+/// [`view`] with more arguments.
+fn view_with(volume: &Path, script: &str, shot: &Path, window: bool, extra: &[&str]) -> Output {
     let script_path = shot.with_extension("txt");
     std::fs::write(&script_path, script).unwrap();
     let bin = env!("CARGO_BIN_EXE_morphray");
@@ -91,6 +96,7 @@ fn view(volume: &Path, script: &str, shot: &Path, window: bool) -> Output {
         ])
         .args(["--frames", "3", "--script", script_path.to_str().unwrap()])
         .args(["--screenshot", shot.to_str().unwrap()])
+        .args(extra)
         .env("MORPHRAY_VALIDATION", "required")
         .output()
         .expect("morphray runs");
@@ -269,4 +275,76 @@ fn a_window_under_xvfb_shows_the_slice_layout() {
         grey > 100,
         "the coronal slice shows the head ({grey} px): {line}"
     );
+}
+
+/// Label 7 around the blob on a 2 mm grid with x flipped (another grid than the volume's).
+fn labels(dir: &Path) -> PathBuf {
+    let dims = [21usize, 19, 17];
+    let affine = [
+        [-2.0, 0.0, 0.0, 20.0],
+        [0.0, 2.0, 0.0, -18.0],
+        [0.0, 0.0, 2.0, -16.0],
+        [0.0, 0.0, 0.0, 1.0],
+    ];
+    let mut values = Vec::new();
+    for k in 0..dims[2] {
+        for j in 0..dims[1] {
+            for i in 0..dims[0] {
+                let w = [
+                    20.0 - 2.0 * i as f64,
+                    -18.0 + 2.0 * j as f64,
+                    -16.0 + 2.0 * k as f64,
+                ];
+                let d2: f64 = (0..3).map(|a| (w[a] - BLOB[a]).powi(2)).sum();
+                values.push(if d2 < 16.0 { 7u8 } else { 0 });
+            }
+        }
+    }
+    let v = Volume::from_voxels(
+        "labels",
+        dims,
+        Samples::from_u8(values),
+        affine,
+        LinearMap::IDENTITY,
+    )
+    .unwrap();
+    let path = dir.join("labels.nii");
+    write_nifti1(&v, &path, false).unwrap();
+    path
+}
+
+#[test]
+fn the_overlay_colours_the_blob_on_the_slices_and_its_switch_hides_it() {
+    let dir = temp_dir("overlay");
+    let volume = head(&dir);
+    let labels = labels(&dir);
+    let lut = dir.join("lut.txt");
+    std::fs::write(&lut, "7 Blob 255 0 0 0\n").unwrap();
+    let extra = [
+        "--overlay",
+        labels.to_str().unwrap(),
+        "--overlay-lut",
+        lut.to_str().unwrap(),
+        "--overlay-opacity",
+        "1",
+    ];
+    let cross = format!("crosshair {} {} {}\n", BLOB[0], BLOB[1], BLOB[2]);
+    let red = |p: [u8; 3]| p == [255, 0, 0];
+    let shot = dir.join("on.png");
+    let o = view_with(
+        &volume,
+        &format!("layout slices\n{cross}wait 2\n"),
+        &shot,
+        false,
+        &extra,
+    );
+    let axial = rect(&layout_line(&o), "axial");
+    let (x, n) = Png::read(&shot).mean_x(axial, red);
+    assert!(n > 10, "the label is drawn on the axial slice ({n} px)");
+    assert!(x > 0.5, "on the image's right (radiological): {x:.2}");
+    let shot = dir.join("off.png");
+    let script = format!("layout slices\n{cross}label 7 off\nwait 2\n");
+    let o = view_with(&volume, &script, &shot, false, &extra);
+    let (_, n) = Png::read(&shot).mean_x(rect(&layout_line(&o), "axial"), red);
+    assert_eq!(n, 0, "label 7 switched off");
 }

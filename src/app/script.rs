@@ -95,6 +95,8 @@ pub enum Action {
     Crosshair([f64; 3]),
     /// The slices' grey window in I_norm (black, white).
     SliceWindow(f64, f64),
+    /// Show or hide one label of the overlay.
+    Label(u16, bool),
 }
 
 /// An action with where it came from.
@@ -278,6 +280,13 @@ fn parse_line(line: &str) -> Result<Action, String> {
             number(next(), "y in mm")?,
             number(next(), "z in mm")?,
         ]),
+        "label" => {
+            let n = number(next(), "a label number")?;
+            if !(0.0..=65535.0).contains(&n) || n.fract() != 0.0 {
+                return Err(format!("{n} is not a label (0..65535)"));
+            }
+            Action::Label(n as u16, switch(next())?)
+        }
         "slice-window" => {
             let lo = number(next(), "the slices' black level (I_norm)")?;
             let hi = number(next(), "the slices' white level (I_norm)")?;

@@ -108,6 +108,25 @@ pub struct SliceControls {
     pub volume: u64,
     /// The window the slices on screen were rendered with.
     pub rendered_window: (f64, f64),
+    /// The label overlay on this volume's grid, if one was given.
+    pub overlay: Option<SliceOverlay>,
+    /// Labels switched off.
+    pub hidden: std::collections::BTreeSet<u16>,
+    /// What the slices show changed without their grids changing (a label toggle, the overlay
+    /// opacity): render them again.
+    pub dirty: bool,
+}
+
+/// A label overlay resampled onto the volume's grid, with its colours.
+pub struct SliceOverlay {
+    /// One label per volume voxel.
+    pub labels: crate::scene::overlay::Labels,
+    /// Colours.
+    pub table: crate::scene::overlay::LabelTable,
+    /// Overall opacity.
+    pub opacity: f64,
+    /// Non-zero labels present (for the toggles).
+    pub present: Vec<u16>,
 }
 
 fn slot(plane: Plane) -> usize {
@@ -157,7 +176,8 @@ impl SliceControls {
 
     /// True when the slices on screen are not those [`SliceControls::wanted`] describes.
     pub fn stale(&self, wanted: &[SliceGrid]) -> bool {
-        self.window != self.rendered_window
+        self.dirty
+            || self.window != self.rendered_window
             || wanted.iter().any(|g| {
                 self.shown[slot(g.plane)]
                     .as_ref()
@@ -231,6 +251,7 @@ fn slice_column(ui: &mut Ui, slices: &mut SliceControls) {
         .small()
         .weak(),
     );
+    label_toggles(ui, slices);
     let planes = slices.layout.planes();
     let area = ui.available_rect_before_wrap();
     let each = area.height() / planes.len().max(1) as f32;
@@ -244,6 +265,38 @@ fn slice_column(ui: &mut Ui, slices: &mut SliceControls) {
         slice_cell(ui, slices, plane, cell);
     }
     ui.allocate_rect(area, egui::Sense::hover());
+}
+
+/// One switch per label present (the first 32), in the label's colour, and the opacity.
+fn label_toggles(ui: &mut Ui, slices: &mut SliceControls) {
+    let Some(overlay) = &mut slices.overlay else {
+        return;
+    };
+    let mut changed = false;
+    ui.horizontal_wrapped(|ui| {
+        for &label in overlay.present.iter().take(32) {
+            let style = overlay.table.style(label);
+            let name = overlay
+                .table
+                .entries
+                .get(&label)
+                .map_or_else(|| label.to_string(), |(n, _)| n.clone());
+            let [r, g, b] = style.rgb;
+            let mut on = !slices.hidden.contains(&label);
+            let text = egui::RichText::new(name).color(Color32::from_rgb(r, g, b));
+            if ui.checkbox(&mut on, text).changed() {
+                if on {
+                    slices.hidden.remove(&label);
+                } else {
+                    slices.hidden.insert(label);
+                }
+                changed = true;
+            }
+        }
+    });
+    let slider = egui::Slider::new(&mut overlay.opacity, 0.0..=1.0).text("label opacity");
+    changed |= ui.add(slider).changed();
+    slices.dirty |= changed;
 }
 
 fn slice_cell(ui: &mut Ui, slices: &mut SliceControls, plane: Plane, cell: Rect) {

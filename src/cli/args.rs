@@ -486,6 +486,9 @@ pub struct ViewArgs {
     /// or --script).
     #[arg(long)]
     pub offscreen: bool,
+    /// Label overlay on the slices.
+    #[command(flatten)]
+    pub overlay: super::overlay::OverlayArgs,
     /// Initial scene (--size is the window size, default 1280x800).
     #[command(flatten)]
     pub scene: SceneArgs,

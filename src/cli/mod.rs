@@ -14,6 +14,7 @@ mod glyphs;
 mod info;
 mod kernels;
 pub mod output;
+mod overlay;
 mod peaks;
 mod plan;
 pub mod render;

@@ -23,7 +23,7 @@ use crate::engine::{OpenOptions, Session};
 use crate::error::Error;
 use crate::files::png::{Provenance, write_rgba8};
 use crate::files::write::{OutputKind, check_output};
-use crate::scene::overlay::{LabelTable, Labels, blend_slice, resample};
+use crate::scene::overlay::{blend_slice, resample};
 use crate::scene::slice::{
     Convention, Plane, SliceGrid, centre_position, edge_letters, index_axis, position_of_index,
 };
@@ -85,50 +85,9 @@ pub struct SliceArgs {
     /// Frame of a 4-D file (0-based).
     #[arg(long, default_value_t = 0)]
     pub frame: usize,
-    /// Integer label map (NIfTI; same or another grid, resampled onto the volume's by the
-    /// affines, nearest neighbour) drawn in colour over the slice; label 0 is not drawn.
-    #[arg(long, value_name = "LABELS")]
-    pub overlay: Option<PathBuf>,
-    /// FreeSurfer-style lookup table for the labels (`index name R G B A` per line); labels
-    /// not in it, or all without it, take a default palette.
-    #[arg(long, value_name = "FILE", requires = "overlay")]
-    pub overlay_lut: Option<PathBuf>,
-    /// Opacity of the label colours over the grey, 0..1.
-    #[arg(long, default_value_t = 0.5, requires = "overlay")]
-    pub overlay_opacity: f64,
-}
-
-/// The label map and its colours, read and resampled onto `volume`'s grid.
-fn load_overlay(
-    args: &SliceArgs,
-    volume: &crate::volume::Volume,
-) -> Result<Option<(Labels, LabelTable)>, Error> {
-    let Some(path) = &args.overlay else {
-        return Ok(None);
-    };
-    let source = VolumeSource::File(path.clone());
-    let labels = crate::volume::source::read(&source, &Default::default())?;
-    let resampled = resample(&labels.volume, volume).map_err(|e| Error::Usage(e.to_string()))?;
-    let table = match &args.overlay_lut {
-        None => LabelTable::default(),
-        Some(lut) => {
-            let bytes = crate::files::read::read_regular(lut, 16 << 20).map_err(|e| {
-                Error::Usage(format!(
-                    "cannot read the lookup table {}: {e}",
-                    lut.display()
-                ))
-            })?;
-            let text = String::from_utf8(bytes).map_err(|_| {
-                Error::Usage(format!(
-                    "{}: the lookup table is not UTF-8 text",
-                    lut.display()
-                ))
-            })?;
-            LabelTable::parse(&text, &lut.display().to_string())
-                .map_err(|e| Error::Usage(e.to_string()))?
-        }
-    };
-    Ok(Some((resampled, table)))
+    /// Label overlay.
+    #[command(flatten)]
+    pub overlay: super::overlay::OverlayArgs,
 }
 
 fn parse_window(text: &str) -> Result<(f64, f64), Error> {
@@ -163,21 +122,13 @@ fn convention_of(arg: ConventionArg) -> Convention {
 
 /// Runs the command.
 pub fn run(args: &SliceArgs, global: &super::GlobalOptions) -> Result<(), Error> {
-    let inputs: Vec<&std::path::Path> = [&args.file, &args.overlay, &args.overlay_lut]
-        .into_iter()
-        .filter_map(|p| p.as_deref())
-        .collect();
+    let mut inputs: Vec<&std::path::Path> = args.file.as_deref().into_iter().collect();
+    inputs.extend(args.overlay.inputs());
     check_output(&args.output, OutputKind::Png, &inputs, false)?;
     let window = parse_window(&args.window)?;
     if let Some(p) = args.pixel_mm.filter(|p| !(p.is_finite() && *p > 0.0)) {
         return Err(Error::Usage(format!(
             "--pixel-mm {p}: the pixel size must be a positive number of millimetres"
-        )));
-    }
-    if !(0.0..=1.0).contains(&args.overlay_opacity) {
-        return Err(Error::Usage(format!(
-            "--overlay-opacity {}: give an opacity from 0 to 1",
-            args.overlay_opacity
         )));
     }
     if let Some(mm) = args.mm.filter(|m| !m.is_finite()) {
@@ -195,10 +146,18 @@ pub fn run(args: &SliceArgs, global: &super::GlobalOptions) -> Result<(), Error>
         },
         first_frame: false,
     };
+    // The label map and its table before any GPU work: a bad one fails at once.
+    let overlay = args.overlay.load()?;
     let source = VolumeSource::file_or_phantom(args.file.as_deref());
     let session = Session::open(&source, global.engine_config(), &options)?;
     print_warnings(&session.source.volume.warnings);
-    let overlay = load_overlay(args, &session.source.volume)?;
+    let overlay = match overlay {
+        Some(o) => Some((
+            resample(&o.labels, &session.source.volume).map_err(|e| Error::Usage(e.to_string()))?,
+            o,
+        )),
+        None => None,
+    };
     let prepared = &session.twin.prepared;
     let geometry = geometry_of(prepared)?;
     let plane = plane_of(args.plane);
@@ -218,15 +177,10 @@ pub fn run(args: &SliceArgs, global: &super::GlobalOptions) -> Result<(), Error>
     for px in image.rgba8.chunks_exact_mut(4) {
         px[3] = 255; // outside the volume: opaque black in a picture
     }
-    if let Some((labels, table)) = &overlay {
+    if let Some((labels, o)) = &overlay {
         let index = grid.in_index_space(&geometry);
-        let drawn = blend_slice(
-            &mut image.rgba8,
-            &index,
-            labels,
-            table,
-            args.overlay_opacity,
-        );
+        let none = Default::default();
+        let drawn = blend_slice(&mut image.rgba8, &index, labels, &o.table, o.opacity, &none);
         print_line(&format!("overlay: {drawn} labelled pixels"));
     }
     let letters = edge_letters(plane, convention);

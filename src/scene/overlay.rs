@@ -71,8 +71,29 @@ fn affine_of(a: &[[f64; 4]; 4]) -> DMat4 {
     DMat4::from_cols_array_2d(a).transpose()
 }
 
+/// A label map with its colours and overall opacity, as a client holds it before resampling it
+/// onto each volume it shows.
+#[derive(Clone, Debug)]
+pub struct Overlay {
+    /// The label map as read.
+    pub labels: Volume,
+    /// Its colours.
+    pub table: LabelTable,
+    /// Overall opacity 0..1.
+    pub opacity: f64,
+}
+
 /// The label map `labels` resampled onto `volume`'s grid (module decisions).
 pub fn resample(labels: &Volume, volume: &Volume) -> Result<Labels, OverlayError> {
+    resample_onto(labels, volume.dims, &volume.orientation.affine)
+}
+
+/// [`resample`] onto a grid of `dims` voxels with the row-major index-to-world `affine`.
+pub fn resample_onto(
+    labels: &Volume,
+    dims: [usize; 3],
+    affine: &[[f64; 4]; 4],
+) -> Result<Labels, OverlayError> {
     let stored: Vec<u16> = (0..labels.samples.len())
         .map(|i| {
             let value = labels.to_physical.apply(labels.samples.get(i));
@@ -87,11 +108,11 @@ pub fn resample(labels: &Volume, volume: &Volume) -> Result<Labels, OverlayError
             Ok(rounded as u16)
         })
         .collect::<Result<_, _>>()?;
-    let to_world = affine_of(&volume.orientation.affine);
+    let to_world = affine_of(affine);
     let label_to_world = affine_of(&labels.orientation.affine);
-    if labels.dims == volume.dims && to_world.abs_diff_eq(label_to_world, 1e-9) {
+    if labels.dims == dims && to_world.abs_diff_eq(label_to_world, 1e-9) {
         return Ok(Labels {
-            dims: volume.dims,
+            dims,
             values: stored,
         });
     }
@@ -101,7 +122,7 @@ pub fn resample(labels: &Volume, volume: &Volume) -> Result<Labels, OverlayError
     }
     // Volume index -> label index, composed once in f64.
     let m = label_to_world.inverse() * to_world;
-    let [nx, ny, nz] = volume.dims;
+    let [nx, ny, nz] = dims;
     let ld = labels.dims;
     let mut values = Vec::with_capacity(nx * ny * nz);
     for k in 0..nz {
@@ -112,10 +133,7 @@ pub fn resample(labels: &Volume, volume: &Volume) -> Result<Labels, OverlayError
             }
         }
     }
-    Ok(Labels {
-        dims: volume.dims,
-        values,
-    })
+    Ok(Labels { dims, values })
 }
 
 /// The label of the voxel nearest to index position `p`, 0 outside the grid.
@@ -214,14 +232,25 @@ impl LabelTable {
     }
 }
 
+impl Labels {
+    /// The distinct non-zero labels present, ascending.
+    pub fn present(&self) -> Vec<u16> {
+        let set: std::collections::BTreeSet<u16> =
+            self.values.iter().copied().filter(|&l| l != 0).collect();
+        set.into_iter().collect()
+    }
+}
+
 /// Blends `labels` over the greyscale slice `rgba` (the slice `grid` of the labels' volume, in
-/// index space) with overall `opacity`; returns how many pixels got a label.
+/// index space) with overall `opacity`, leaving out the `hidden` labels; returns how many pixels
+/// got a label.
 pub fn blend_slice(
     rgba: &mut [u8],
     grid: &IndexGrid,
     labels: &Labels,
     table: &LabelTable,
     opacity: f64,
+    hidden: &std::collections::BTreeSet<u16>,
 ) -> usize {
     let mut drawn = 0;
     for y in 0..grid.height as usize {
@@ -230,7 +259,7 @@ pub fn blend_slice(
                 grid.origin[a] + x as f64 * grid.du[a] + y as f64 * grid.dv[a]
             }));
             let label = label_at(&labels.values, labels.dims, p);
-            if label == 0 {
+            if label == 0 || hidden.contains(&label) {
                 continue;
             }
             let style = table.style(label);

@@ -89,6 +89,8 @@ pub struct ViewerConfig {
     pub command: String,
     /// When the process started (time to first pixel of the first volume).
     pub started: Instant,
+    /// A label map drawn over the slices (resampled onto each volume's grid).
+    pub overlay: Option<crate::scene::overlay::Overlay>,
 }
 
 /// One device's GPU objects; dropped and rebuilt after a device loss.

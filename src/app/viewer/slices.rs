@@ -4,10 +4,13 @@
 //! Decisions: one submission per change, read back and uploaded as an egui texture (the
 //! slices are small: a 256^2 slice is 256 KiB), rather than a composition pass of their own;
 //! an unchanged crosshair costs nothing per frame. A failure is the status line's error, the
-//! session goes on.
+//! session goes on. A label overlay (`view --overlay`) is resampled onto each volume's grid
+//! when it arrives and blended over the slices on the host, as `morphray slice` does.
 
 use super::Viewer;
+use crate::app::slices_panel::SliceOverlay;
 use crate::engine::slice::{Slicer, geometry_of};
+use crate::scene::overlay::{blend_slice, resample_onto};
 
 impl Viewer {
     /// Brings the slice textures up to date with the controls (called before the interface).
@@ -23,6 +26,21 @@ impl Viewer {
                 Err(e) => {
                     self.status.error = Some(format!("slices: {e}"));
                     return;
+                }
+            }
+            slices.overlay = None;
+            if let Some(overlay) = &self.config.overlay {
+                let dims = prepared.dims.map(|d| d as usize);
+                match resample_onto(&overlay.labels, dims, &prepared.affine) {
+                    Ok(labels) => {
+                        slices.overlay = Some(SliceOverlay {
+                            present: labels.present(),
+                            labels,
+                            table: overlay.table.clone(),
+                            opacity: overlay.opacity,
+                        })
+                    }
+                    Err(e) => self.status.error = Some(format!("overlay: {e}")),
                 }
             }
         }
@@ -55,6 +73,17 @@ impl Viewer {
             for px in rgba.chunks_exact_mut(4) {
                 px[3] = 255;
             }
+            if let (Some(o), Some(geometry)) = (&slices.overlay, &slices.geometry) {
+                let index = grid.in_index_space(geometry);
+                blend_slice(
+                    &mut rgba,
+                    &index,
+                    &o.labels,
+                    &o.table,
+                    o.opacity,
+                    &slices.hidden,
+                );
+            }
             let size = [grid.width as usize, grid.height as usize];
             let texture = self.ctx.load_texture(
                 format!("slice {}", grid.plane.name()),
@@ -64,6 +93,7 @@ impl Viewer {
             slices.install(grid, texture);
         }
         slices.rendered_window = window;
+        slices.dirty = false;
     }
 }
 

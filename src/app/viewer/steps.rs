@@ -177,6 +177,15 @@ impl Viewer {
                 c.slices.crosshair = Some(glam::DVec3::from_array(*p));
                 watch = false;
             }
+            Action::Label(label, on) => {
+                if *on {
+                    c.slices.hidden.remove(label);
+                } else {
+                    c.slices.hidden.insert(*label);
+                }
+                c.slices.dirty = true;
+                watch = false;
+            }
             Action::SliceWindow(lo, hi) => {
                 c.slices.window = (*lo, *hi);
                 watch = false;
