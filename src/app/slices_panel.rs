@@ -519,6 +519,72 @@ mod tests {
     }
 
     #[test]
+    fn a_click_on_a_slice_moves_the_crosshair_and_a_right_drag_sets_the_window() {
+        let ctx = egui::Context::default();
+        let a = [
+            [1.0, 0.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0, 0.0],
+            [0.0, 0.0, 1.0, 0.0],
+            [0.0, 0.0, 0.0, 1.0],
+        ];
+        let mut s = SliceControls::default();
+        s.set_volume(1, VolumeGeometry::new([20, 10, 8], a).unwrap());
+        s.layout = Layout::One(Plane::Axial);
+        for grid in s.wanted() {
+            let image = egui::ColorImage::new([20, 10], vec![Color32::GRAY; 200]);
+            let texture = ctx.load_texture("t", image, Default::default());
+            s.install(grid, texture);
+        }
+        let run = |events: Vec<egui::Event>, s: &mut SliceControls| {
+            let input = egui::RawInput {
+                screen_rect: Some(Rect::from_min_size(Pos2::ZERO, vec2(900.0, 600.0))),
+                events,
+                ..Default::default()
+            };
+            ctx.run_ui(input, |ui| show(ui, s))
+                .drop_without_applying_deltas();
+        };
+        run(vec![], &mut s);
+        let rect = s.rects[0].expect("the axial slice is drawn");
+        // A quarter from the left and the top: radiological, so x is the larger quarter.
+        let at = rect.min + vec2(rect.width() * 0.25, rect.height() * 0.25);
+        let button = |button, pressed, pos| egui::Event::PointerButton {
+            pos,
+            button,
+            pressed,
+            modifiers: Default::default(),
+        };
+        let primary = egui::PointerButton::Primary;
+        run(vec![egui::Event::PointerMoved(at)], &mut s);
+        run(vec![button(primary, true, at)], &mut s);
+        run(vec![button(primary, false, at)], &mut s);
+        let cross = s.crosshair.unwrap();
+        // The box spans x -0.5..19.5 and y -0.5..9.5 (mm); z is unchanged (3.5).
+        assert!((cross.x - 14.5).abs() < 0.6, "{cross}");
+        assert!((cross.y - 7.0).abs() < 0.6, "{cross}");
+        assert_eq!(cross.z, 3.5);
+        let secondary = egui::PointerButton::Secondary;
+        let to = at + vec2(rect.width() * 0.5, 0.0);
+        run(vec![button(secondary, true, at)], &mut s);
+        for step in 1..=5 {
+            let p = at + (to - at) * (step as f32 / 5.0);
+            run(vec![egui::Event::PointerMoved(p)], &mut s);
+        }
+        run(vec![button(secondary, false, to)], &mut s);
+        let width = s.window.1 - s.window.0;
+        assert!(
+            width > 1.2,
+            "right-drag to the right widens the window: {:?}",
+            s.window
+        );
+        assert_eq!(
+            s.crosshair.unwrap(),
+            cross,
+            "a right-drag does not move the crosshair"
+        );
+    }
+
+    #[test]
     fn the_projection_puts_the_volume_centre_at_the_view_centre() {
         let camera = Camera::default();
         let bounds = (DVec3::splat(-10.0), DVec3::splat(10.0));
