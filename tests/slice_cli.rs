@@ -193,6 +193,23 @@ fn index_and_mm_name_the_same_plane_and_the_default_is_radiological() {
         err.starts_with("morphray: ") && err.contains("outside the volume"),
         "{err}"
     );
+    // A bricked volume cannot be sliced yet: said in one line, with what to do.
+    let o = morphray(&[
+        "--bricked",
+        "slice",
+        input.to_str().unwrap(),
+        "-o",
+        temp("y.png").to_str().unwrap(),
+        "--plane",
+        "axial",
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("bricked") && err.contains("--memory-budget"),
+        "{err}"
+    );
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
 }
 
 #[test]

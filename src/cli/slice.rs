@@ -159,6 +159,13 @@ pub fn run(args: &SliceArgs, global: &super::GlobalOptions) -> Result<(), Error>
         None => None,
     };
     let prepared = &session.twin.prepared;
+    if let crate::engine::VolumeLayout::Bricked(_) = prepared.layout {
+        return Err(Error::Usage(
+            "slices need the whole volume on the GPU, and this one was bricked (--bricked, or a \
+             --memory-budget too small for it): drop --bricked or raise --memory-budget"
+                .into(),
+        ));
+    }
     let geometry = geometry_of(prepared)?;
     let plane = plane_of(args.plane);
     let convention = convention_of(args.convention);
