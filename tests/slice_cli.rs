@@ -209,6 +209,10 @@ fn index_and_mm_name_the_same_plane_and_the_default_is_radiological() {
         err.contains("bricked") && err.contains("--memory-budget"),
         "{err}"
     );
+    assert!(
+        !err.contains("this device"),
+        "the device is not the problem: {err}"
+    );
     assert_eq!(err.trim_end().lines().count(), 1, "{err}");
 }
 
