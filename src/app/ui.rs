@@ -256,7 +256,7 @@ pub fn draw(ui: &mut Ui, controls: &mut Controls, shown: &Shown) -> Outcome {
             let rect = ui.max_rect();
             view_input(ui, rect, controls);
             view_overlays(ui, rect, controls, shown);
-            super::slices_panel::decorate_view(ui, rect, controls, shown.has_volume);
+            super::crosshair_3d::decorate_view(ui, rect, controls, shown.has_volume);
             rect
         })
         .inner;
