@@ -31,11 +31,13 @@
 //!   is composed in the same image the window would show, so screenshots match.
 
 pub mod camera_control;
+pub mod crosshair_3d;
 pub mod file_panel;
 pub mod frame_log;
 pub mod histogram;
 pub mod loader;
 pub mod script;
+pub mod slices_panel;
 pub mod status;
 pub mod ui;
 pub mod viewer;

@@ -11,6 +11,7 @@
 //!   "screenshot" shows the curvature.
 
 use super::camera_control::{Button, StandardView};
+use crate::scene::slice::Convention;
 use crate::scene::{RenderMode, TissueClass};
 use crate::volume::source::VolumeSource;
 use std::path::{Path, PathBuf};
@@ -90,6 +91,16 @@ pub enum Action {
     Close,
     /// Test hook: the next GPU frame fails as if the device had been lost.
     SimulateDeviceLost,
+    /// Slice layout: 3d, slices, axial, coronal or sagittal.
+    Layout(crate::app::slices_panel::Layout),
+    /// Slice convention.
+    Convention(crate::scene::slice::Convention),
+    /// Move the slices' crosshair to a world point (mm, RAS).
+    Crosshair([f64; 3]),
+    /// The slices' grey window in I_norm (black, white).
+    SliceWindow(f64, f64),
+    /// Show or hide one label of the overlay.
+    Label(u16, bool),
 }
 
 /// An action with where it came from.
@@ -250,6 +261,43 @@ fn parse_line(line: &str) -> Result<Action, String> {
                 return Err("the zoom factor must be positive".into());
             }
             Action::Zoom(f)
+        }
+        "layout" => {
+            let word = next().unwrap_or("");
+            Action::Layout(
+                crate::app::slices_panel::Layout::parse(word).ok_or_else(|| {
+                    format!("unknown layout `{word}`; use 3d, slices, axial, coronal or sagittal")
+                })?,
+            )
+        }
+        "convention" => match next() {
+            Some("radiological") => Action::Convention(Convention::Radiological),
+            Some("neurological") => Action::Convention(Convention::Neurological),
+            other => {
+                return Err(format!(
+                    "expected radiological or neurological, got {other:?}"
+                ));
+            }
+        },
+        "crosshair" => Action::Crosshair([
+            number(next(), "x in mm")?,
+            number(next(), "y in mm")?,
+            number(next(), "z in mm")?,
+        ]),
+        "label" => {
+            let n = number(next(), "a label number")?;
+            if !(0.0..=65535.0).contains(&n) || n.fract() != 0.0 {
+                return Err(format!("{n} is not a label (0..65535)"));
+            }
+            Action::Label(n as u16, switch(next())?)
+        }
+        "slice-window" => {
+            let lo = number(next(), "the slices' black level (I_norm)")?;
+            let hi = number(next(), "the slices' white level (I_norm)")?;
+            if lo >= hi {
+                return Err(format!("slice window {lo}..{hi} must have lo < hi"));
+            }
+            Action::SliceWindow(lo, hi)
         }
         "view" => {
             let word = next().ok_or("expected a view name")?;

@@ -70,6 +70,8 @@ pub struct Controls {
     pub files: FilePanel,
     /// A drag on the view in progress (for the script runner: a drag is one action).
     pub dragging: bool,
+    /// Slice layout, crosshair, window and convention (`slices_panel.rs`).
+    pub slices: super::slices_panel::SliceControls,
 }
 
 impl Controls {
@@ -84,6 +86,7 @@ impl Controls {
             extent_mm: 200.0,
             files: FilePanel::default(),
             dragging: false,
+            slices: Default::default(),
         }
     }
 
@@ -242,11 +245,13 @@ pub fn draw(ui: &mut Ui, controls: &mut Controls, shown: &Shown) -> Outcome {
             });
         });
 
+    super::slices_panel::show(ui, &mut controls.slices);
     let view = egui::CentralPanel::no_frame()
         .show(ui, |ui| {
             let rect = ui.max_rect();
             view_input(ui, rect, controls);
             view_overlays(ui, rect, controls, shown);
+            super::crosshair_3d::decorate_view(ui, rect, controls, shown.has_volume);
             rect
         })
         .inner;

@@ -178,6 +178,9 @@ pub enum Command {
     /// through VK_KHR_pipeline_executable_properties; Intel's ANV does, also on the stub Tiger
     /// Lake of tools/gen12).
     Kernels(KernelsArgs),
+    /// Write one axial, coronal or sagittal slice (world-oriented, the affine honoured) as a
+    /// greyscale PNG; prints the convention used (radiological by default).
+    Slice(super::slice::SliceArgs),
 }
 
 /// Options of `kernels`.
@@ -504,6 +507,9 @@ pub struct ViewArgs {
     /// or --script).
     #[arg(long)]
     pub offscreen: bool,
+    /// Label overlay on the slices.
+    #[command(flatten)]
+    pub overlay: super::overlay::OverlayArgs,
     /// Initial scene (--size is the window size, default 1280x800).
     #[command(flatten)]
     pub scene: SceneArgs,
@@ -523,6 +529,10 @@ pub struct PhantomArgs {
     /// Dimensions X x Y x Z at 1 mm (the paper's cohort-A size by default).
     #[arg(long, default_value = "256x256x192", value_parser = parse_dims)]
     pub dims: [usize; 3],
+    /// Also write the phantom's ground-truth tissue labels here (an integer label map for
+    /// `slice --overlay`: 1 skull, 2 CSF, 3 GM, 4 WM, 5 lesion, 6 vessels).
+    #[arg(long, value_name = "NII")]
+    pub labels: Option<PathBuf>,
 }
 
 /// Options of `convert`.

@@ -27,8 +27,10 @@ use std::path::{Path, PathBuf};
 /// Options of `derive`.
 #[derive(Debug, Args)]
 pub struct DeriveArgs {
-    /// NIfTI-1/2, ANALYZE or DICOM input; without one, the built-in digital phantom.
-    pub file: Option<PathBuf>,
+    /// NIfTI-1/2, ANALYZE or DICOM input (a folder, DICOMDIR, .dcm, or several files of one
+    /// series); without one, the built-in digital phantom.
+    #[arg(value_name = "FILE")]
+    pub file: Vec<PathBuf>,
     /// Folder the maps are written into (must exist).
     #[arg(short, long, value_name = "DIR")]
     pub output: PathBuf,
@@ -116,7 +118,7 @@ pub fn run(args: &DeriveArgs, global: &super::GlobalOptions) -> Result<(), Error
     if args.denoise != Denoise::None {
         wanted.push("denoised");
     }
-    let stem = base_name(args.file.as_deref());
+    let stem = base_name(args.file.first().map(PathBuf::as_path));
     let paths: Vec<(&str, PathBuf)> = wanted
         .iter()
         .map(|m| (*m, args.output.join(format!("{stem}_{m}.nii.gz"))))
@@ -127,7 +129,7 @@ pub fn run(args: &DeriveArgs, global: &super::GlobalOptions) -> Result<(), Error
         check_output(path, OutputKind::Nifti, &inputs, args.force)?;
     }
     let mut opened = session::open(
-        args.file.as_deref(),
+        &args.file,
         args.frame,
         false,
         global.engine_config(),

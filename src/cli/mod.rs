@@ -11,13 +11,16 @@ mod bench;
 mod convert;
 mod derive;
 mod devices;
+mod glyphs;
 mod info;
 mod kernels;
 pub mod output;
+mod overlay;
 mod peaks;
 mod plan;
 pub mod render;
 pub mod session;
+mod slice;
 pub mod source;
 mod ttfp;
 #[cfg(feature = "viewer")]
@@ -194,6 +197,7 @@ fn run_engine_command(command: &Command, global: &GlobalOptions) -> Result<(), E
         Command::Kernels(args) => kernels::run(args, global),
         Command::Convert(args) => convert::run(args),
         Command::Derive(args) => derive::run(args, global),
+        Command::Slice(args) => slice::run(args, global),
         Command::Phantom(args) => {
             // Before generating: an existing scan is never replaced without --force.
             use crate::files::write::{OutputKind, check_output};
@@ -213,6 +217,9 @@ fn run_engine_command(command: &Command, global: &GlobalOptions) -> Result<(), E
                 // No clobbering even of a file that appeared while the phantom was generated.
                 crate::volume::nifti::write_new_nifti1(&phantom.volume, &args.output, gzip)?;
             }
+            if let Some(path) = &args.labels {
+                write_phantom_labels(&phantom, path, args.force)?;
+            }
             output::print_line(&format!(
                 "wrote {} ({}x{}x{}, int16, 1 mm)",
                 args.output.display(),
@@ -223,4 +230,32 @@ fn run_engine_command(command: &Command, global: &GlobalOptions) -> Result<(), E
             Ok(())
         }
     }
+}
+
+/// Writes the phantom's tissue labels (u8, the phantom's grid) as a NIfTI label map.
+fn write_phantom_labels(
+    phantom: &crate::volume::phantom::Phantom,
+    path: &std::path::Path,
+    force: bool,
+) -> Result<(), Error> {
+    use crate::files::write::{OutputKind, check_output};
+    check_output(path, OutputKind::Nifti, &[], force)?;
+    let v = &phantom.volume;
+    let labels = crate::volume::Volume::from_voxels(
+        "phantom labels",
+        v.dims,
+        crate::volume::Samples::from_u8(phantom.labels.clone()),
+        v.orientation.affine,
+        crate::volume::LinearMap::IDENTITY,
+    )?;
+    let gzip = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("gz"));
+    if force {
+        crate::volume::nifti::write_nifti1(&labels, path, gzip)?;
+    } else {
+        crate::volume::nifti::write_new_nifti1(&labels, path, gzip)?;
+    }
+    output::print_line(&format!("wrote {} (tissue labels)", path.display()));
+    Ok(())
 }

@@ -24,7 +24,8 @@ pub fn run(args: &ViewArgs, global: &super::GlobalOptions) -> Result<(), super::
     }
     if let Some(path) = &args.screenshot {
         // Before the window and the GPU: a screenshot that cannot be written fails now.
-        let inputs: Vec<&std::path::Path> = args.file.iter().map(|p| p.as_path()).collect();
+        let mut inputs: Vec<&std::path::Path> = args.file.iter().map(|p| p.as_path()).collect();
+        inputs.extend(args.overlay.inputs());
         crate::files::write::check_output(
             path,
             crate::files::write::OutputKind::Png,
@@ -33,6 +34,7 @@ pub fn run(args: &ViewArgs, global: &super::GlobalOptions) -> Result<(), super::
         )
         .map_err(Error::from)?;
     }
+    let overlay = args.overlay.load()?;
     let engine = global.engine_config();
     let fail_on_validation = engine.device.validation == Validation::Required;
     let (width, height) = args.scene.size.unwrap_or((1280, 800));
@@ -50,6 +52,7 @@ pub fn run(args: &ViewArgs, global: &super::GlobalOptions) -> Result<(), super::
         log: scripted,
         command: std::env::args().collect::<Vec<_>>().join(" "),
         started,
+        overlay,
     };
     crate::app::run(config, args.offscreen, fail_on_validation)?;
     Ok(())

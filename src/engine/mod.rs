@@ -28,6 +28,7 @@ pub mod readback;
 mod render;
 mod robust;
 pub mod session;
+pub mod slice;
 mod twin;
 pub mod upload;
 mod vessels;

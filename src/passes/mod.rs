@@ -20,6 +20,7 @@ pub mod occupancy;
 #[cfg(feature = "viewer")]
 pub mod present;
 pub mod raymarch;
+pub mod slice;
 pub mod vesselness;
 
 use crate::gpu::shaders::ShaderInfo;

@@ -25,6 +25,7 @@ pub mod histogram;
 pub mod minmax;
 pub mod normalize;
 pub mod raymarch;
+pub mod slice;
 pub mod vesselness;
 
 pub use derivatives::{

@@ -40,6 +40,7 @@
 
 mod opening;
 mod paint;
+mod slices;
 mod steps;
 mod text;
 
@@ -92,6 +93,8 @@ pub struct ViewerConfig {
     pub command: String,
     /// When the process started (time to first pixel of the first volume).
     pub started: Instant,
+    /// A label map drawn over the slices (resampled onto each volume's grid).
+    pub overlay: Option<crate::scene::overlay::Overlay>,
 }
 
 /// One device's GPU objects; dropped and rebuilt after a device loss.
@@ -101,6 +104,8 @@ struct Gpu {
     /// composition of the previous may still read the other.
     targets: [Option<RenderTarget>; FRAMES_IN_FLIGHT],
     engine: Engine,
+    /// The slice panels' pipeline, created when a slice is first shown.
+    slicer: Option<crate::engine::slice::Slicer>,
     swapchain: Option<Swapchain>,
     surface: Option<Arc<Surface>>,
     device: Device,
@@ -146,6 +151,7 @@ impl Gpu {
             painter,
             targets: std::array::from_fn(|_| None),
             engine,
+            slicer: None,
             swapchain,
             surface,
             device,
@@ -461,6 +467,7 @@ impl Viewer {
             input.time = Some(self.config.started.elapsed().as_secs_f64());
         }
 
+        self.update_slices();
         // The interface.
         let before_ui = self.rendered_scene();
         let constant_volume = self
@@ -659,7 +666,7 @@ impl Viewer {
             letters.right,
             letters.top,
             letters.bottom
-        )
+        ) + &self.slices_layout(ppp)
     }
 }
 

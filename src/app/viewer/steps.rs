@@ -168,6 +168,32 @@ impl Viewer {
                 self.inject_device_lost = true;
                 watch = false;
             }
+            // Slice steps change no 3D scene: nothing to time against the raymarch.
+            Action::Layout(l) => {
+                c.slices.layout = *l;
+                watch = false;
+            }
+            Action::Convention(v) => {
+                c.slices.convention = *v;
+                watch = false;
+            }
+            Action::Crosshair(p) => {
+                c.slices.crosshair = Some(glam::DVec3::from_array(*p));
+                watch = false;
+            }
+            Action::Label(label, on) => {
+                if *on {
+                    c.slices.hidden.remove(label);
+                } else {
+                    c.slices.hidden.insert(*label);
+                }
+                c.slices.dirty = true;
+                watch = false;
+            }
+            Action::SliceWindow(lo, hi) => {
+                c.slices.window = (*lo, *hi);
+                watch = false;
+            }
         }
         if watch && let Some(before) = before {
             self.log.pending.push(Pending {

@@ -1,0 +1,116 @@
+//! The GPU side of the slice panels: renders the slices the layout shows when what they show
+//! changed (crosshair, convention, window, layout, volume) and hands them to egui as textures.
+//!
+//! Decisions: one submission per change, read back and uploaded as an egui texture (the
+//! slices are small: a 256^2 slice is 256 KiB), rather than a composition pass of their own;
+//! an unchanged crosshair costs nothing per frame. A failure is the status line's error, the
+//! session goes on. A label overlay (`view --overlay`) is resampled onto each volume's grid
+//! when it arrives and blended over the slices on the host, as `morphray slice` does.
+
+use super::Viewer;
+use crate::app::slices_panel::SliceOverlay;
+use crate::engine::slice::{Slicer, geometry_of};
+use crate::scene::overlay::{blend_slice, resample_onto};
+
+impl Viewer {
+    /// Brings the slice textures up to date with the controls (called before the interface).
+    pub(super) fn update_slices(&mut self) {
+        let (Some(current), Some(gpu)) = (&self.current, &mut self.gpu) else {
+            return;
+        };
+        let prepared = &current.loaded.twin.prepared;
+        let slices = &mut self.controls.slices;
+        if slices.volume != current.loaded.id {
+            match geometry_of(prepared) {
+                Ok(geometry) => slices.set_volume(current.loaded.id, geometry),
+                Err(e) => {
+                    self.status.error = Some(format!("slices: {e}"));
+                    return;
+                }
+            }
+            slices.overlay = None;
+            if let Some(overlay) = &self.config.overlay {
+                let dims = prepared.dims.map(|d| d as usize);
+                match resample_onto(&overlay.labels, dims, &prepared.affine) {
+                    Ok(labels) => {
+                        slices.overlay = Some(SliceOverlay {
+                            present: labels.present(),
+                            labels,
+                            table: overlay.table.clone(),
+                            opacity: overlay.opacity,
+                        })
+                    }
+                    Err(e) => self.status.error = Some(format!("overlay: {e}")),
+                }
+            }
+        }
+        let wanted = slices.wanted();
+        if wanted.is_empty() || !slices.stale(&wanted) {
+            return;
+        }
+        if gpu.slicer.is_none() {
+            match Slicer::new(&gpu.engine) {
+                Ok(s) => gpu.slicer = Some(s),
+                Err(e) => {
+                    self.status.error = Some(format!("slices: {e}"));
+                    return;
+                }
+            }
+        }
+        let Some(slicer) = &gpu.slicer else {
+            return;
+        };
+        let window = slices.window;
+        for grid in wanted {
+            let image = match slicer.render(&gpu.engine, prepared, &grid, window) {
+                Ok(image) => image,
+                Err(e) => {
+                    self.status.error = Some(format!("slices: {e}"));
+                    return;
+                }
+            };
+            let mut rgba = image.rgba8;
+            for px in rgba.chunks_exact_mut(4) {
+                px[3] = 255;
+            }
+            if let (Some(o), Some(geometry)) = (&slices.overlay, &slices.geometry) {
+                let index = grid.in_index_space(geometry);
+                blend_slice(
+                    &mut rgba,
+                    &index,
+                    &o.labels,
+                    &o.table,
+                    o.opacity,
+                    &slices.hidden,
+                );
+            }
+            let size = [grid.width as usize, grid.height as usize];
+            let texture = self.ctx.load_texture(
+                format!("slice {}", grid.plane.name()),
+                egui::ColorImage::from_rgba_unmultiplied(size, &rgba),
+                egui::TextureOptions::NEAREST,
+            );
+            slices.install(grid, texture);
+        }
+        slices.rendered_window = window;
+        slices.dirty = false;
+    }
+}
+
+impl Viewer {
+    /// The slices' part of the scripted log's layout line: the layout, the convention, and each
+    /// plane's image rectangle in pixels (0,0,0,0 when not shown).
+    pub(super) fn slices_layout(&self, ppp: f32) -> String {
+        let s = &self.controls.slices;
+        let mut line = format!(
+            " slices {} convention {}",
+            s.layout.name(),
+            s.convention.name()
+        );
+        for (plane, rect) in crate::scene::slice::Plane::ALL.iter().zip(s.rects) {
+            let r = rect.map_or([0; 4], |r| super::px_rect(r, ppp, self.size));
+            line += &format!(" {} {},{},{},{}", plane.name(), r[0], r[1], r[2], r[3]);
+        }
+        line
+    }
+}
