@@ -382,12 +382,15 @@ pub struct SceneArgs {
     #[arg(long = "window", value_name = "TISSUE=LO:HI", value_parser = parse_window)]
     pub window: Vec<(TissueClass, f64, f64)>,
     /// A tissue's opacity per mm of ray, 0..1: TISSUE=X, repeatable (`--opacity csf=0.1`).
-    #[arg(long = "opacity", value_name = "TISSUE=X", value_parser = parse_opacity)]
+    #[arg(long = "opacity", visible_alias = "tissue-opacity", value_name = "TISSUE=X", value_parser = parse_opacity)]
     pub opacity: Vec<(TissueClass, f32)>,
     /// A tissue's colour: TISSUE=#RRGGBB or TISSUE=R,G,B (0..255), repeatable
     /// (`--color wm=#f0f0e0`).
-    #[arg(long = "color", value_name = "TISSUE=#RRGGBB", value_parser = parse_tissue_colour)]
+    #[arg(long = "color", visible_alias = "tissue-color", value_name = "TISSUE=#RRGGBB", value_parser = parse_tissue_colour)]
     pub color: Vec<(TissueClass, [f32; 3])>,
+    /// Crop, clip planes and colour map (src/cli/clip.rs).
+    #[command(flatten)]
+    pub clip: super::clip::ClipArgs,
 }
 
 /// `TISSUE=REST` split, with the tissue named as on the command line.

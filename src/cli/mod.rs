@@ -8,6 +8,7 @@ mod accuracy;
 pub mod args;
 mod batch;
 mod bench;
+mod clip;
 mod convert;
 mod devices;
 mod info;

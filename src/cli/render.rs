@@ -87,6 +87,8 @@ pub fn recipe_from_args(args: &SceneArgs) -> Result<SceneRecipe, Error> {
         step_voxels: args.step,
         jitter: !args.no_jitter,
         background: args.background,
+        clip: args.clip.clip().map_err(Error::Usage)?,
+        colormap: args.clip.colormap,
         ..SceneRecipe::default()
     };
     recipe.check().map_err(|e| Error::Usage(e.0))?;
