@@ -1,6 +1,7 @@
 //! `render` with a crop box, clip planes and colour maps (issue 16 items 2 and 4), as a user runs
 //! it, with the pictures checked numerically: a greyscale MIP is exactly grey, a colour map is
-//! not, a crop removes its part of the picture, bad values are usage errors naming the option.
+//! not, a crop removes its part of the picture, bad values are usage errors naming the option;
+//! and the turntable movie (item 7) decoded frame by frame.
 
 use morphray::volume::nifti::write_nifti1;
 use std::path::{Path, PathBuf};
@@ -237,4 +238,92 @@ fn bad_crops_planes_and_colour_maps_are_usage_errors_naming_the_option() {
     assert_eq!(stderr(&o).trim_end().lines().count(), 1, "{}", stderr(&o));
     assert!(stderr(&o).starts_with("morphray: "), "{}", stderr(&o));
     assert!(stderr(&o).contains("at most 4"), "{}", stderr(&o));
+}
+
+#[test]
+fn a_turntable_movie_is_an_animated_png_of_the_frames_and_never_replaces_the_input() {
+    let input = ball();
+    let out = temp("spin.png");
+    let movie = temp("spin-movie.png");
+    let o = morphray(&[
+        "render",
+        input.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--size",
+        "32x24",
+        "--mode",
+        "mip",
+        "--turntable",
+        "4",
+        "--movie",
+        movie.to_str().unwrap(),
+        "--fps",
+        "10",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("4 frames at 10 fps"));
+    let decoder = png::Decoder::new(std::io::BufReader::new(
+        std::fs::File::open(&movie).unwrap(),
+    ));
+    let mut reader = decoder.read_info().unwrap();
+    let control = reader.info().animation_control.expect("an animated PNG");
+    assert_eq!(control.num_frames, 4);
+    assert_eq!(control.num_plays, 0, "loops forever");
+    let mut frames = Vec::new();
+    for i in 0..4 {
+        let mut rgba = vec![0; reader.output_buffer_size().unwrap()];
+        let info = reader.next_frame(&mut rgba).unwrap();
+        assert_eq!((info.width, info.height), (32, 24));
+        let fc = reader
+            .info()
+            .frame_control
+            .expect("a frame control per frame");
+        assert_eq!((fc.delay_num, fc.delay_den), (1, 10));
+        // Frame i of the movie is the turntable's still i, byte for byte.
+        let (_, _, still) = read_png(&temp(&format!("spin-{i:03}.png")));
+        assert_eq!(rgba, still, "frame {i}");
+        frames.push(rgba);
+    }
+    for i in 0..4 {
+        for j in i + 1..4 {
+            assert_ne!(frames[i], frames[j], "frames {i} and {j} are the same");
+        }
+    }
+    // The input is never the movie: refused before any work, the input untouched.
+    let before = std::fs::read(&input).unwrap();
+    let o = morphray(&[
+        "render",
+        input.to_str().unwrap(),
+        "-o",
+        temp("again.png").to_str().unwrap(),
+        "--turntable",
+        "2",
+        "--movie",
+        input.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("input"), "{}", stderr(&o));
+    assert_eq!(std::fs::read(&input).unwrap(), before);
+    // Without --turntable, --movie is a usage error.
+    let o = morphray(&[
+        "render",
+        "-o",
+        out.to_str().unwrap(),
+        "--movie",
+        movie.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    // A GIF name is refused with the extension to use.
+    let o = morphray(&[
+        "render",
+        "-o",
+        out.to_str().unwrap(),
+        "--turntable",
+        "2",
+        "--movie",
+        temp("spin.gif").to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains(".png"), "{}", stderr(&o));
 }

@@ -454,6 +454,9 @@ pub struct RenderArgs {
     /// to 10000 (every frame's file name is checked before the render starts).
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=10_000))]
     pub turntable: Option<u32>,
+    /// Turntable movie (src/cli/movie.rs).
+    #[command(flatten)]
+    pub movie: super::movie::MovieArgs,
     /// Frame of a 4-D file to render (0-based).
     #[arg(long, default_value_t = 0)]
     pub frame: usize,

@@ -13,6 +13,7 @@ mod convert;
 mod devices;
 mod info;
 mod kernels;
+mod movie;
 pub mod output;
 mod peaks;
 mod plan;

@@ -177,6 +177,7 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
     for path in &paths {
         check_output(path, OutputKind::Png, &inputs, false)?;
     }
+    args.movie.check(&paths, &inputs)?;
     let mut opened = session::open(
         args.file.as_deref(),
         args.frame,
@@ -203,6 +204,7 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
         .render_target(width, height, vk::Format::R8G8B8A8_UNORM)?;
     let command = std::env::args().collect::<Vec<_>>().join(" ");
     let mut said_empty = false;
+    let mut movie = super::movie::Movie::default();
     for (index, path) in (0..frames).zip(&paths) {
         let mut scene = base;
         if args.turntable.is_some() {
@@ -238,6 +240,8 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
             warnings: opened.source.volume.warnings.clone(),
         };
         write_rgba8(path, frame.width, frame.height, &frame.rgba8, &provenance)?;
+        let size = (frame.width, frame.height);
+        movie.push(&args.movie, frames, size, &frame.rgba8, &provenance)?;
         if !said_empty && pixels_off_background(&frame.rgba8, scene.background) == 0 {
             // Never a silent empty image (the exit status stays 0: the scene may mean it).
             let constant = opened.twin.prepared.normalization.constant;
@@ -258,6 +262,7 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
             ms(gpu_ms)
         ));
     }
+    movie.finish(&args.movie, frames)?;
     if validation {
         session::check_validation(&opened.engine)?;
     }
