@@ -327,3 +327,82 @@ fn a_turntable_movie_is_an_animated_png_of_the_frames_and_never_replaces_the_inp
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert!(stderr(&o).contains(".png"), "{}", stderr(&o));
 }
+
+/// Centre of mass (x, y) of the lit pixels, as fractions of the width and height.
+fn centre_of_lit(path: &Path) -> (f64, f64) {
+    let (w, h, rgba) = read_png(path);
+    let (mut sx, mut sy, mut n) = (0.0, 0.0, 0.0);
+    for (i, p) in rgba.chunks_exact(4).enumerate() {
+        if p[..3].iter().any(|&c| c > 1) {
+            sx += (i as u32 % w) as f64;
+            sy += (i as u32 / w) as f64;
+            n += 1.0;
+        }
+    }
+    assert!(n > 10.0, "{}: nothing lit", path.display());
+    (sx / n / w as f64, sy / n / h as f64)
+}
+
+#[test]
+fn superior_and_inferior_views_put_anterior_at_the_top() {
+    // Identity affine (RAS mm = voxel index): a blob at the patient's left (low x), anterior
+    // (high y), mid-height.
+    let input = float_volume("anterior-left-blob", [21, 19, 17], |x, y, z| {
+        let d2 = (x as f32 - 5.0).powi(2) + (y as f32 - 14.0).powi(2) + (z as f32 - 8.0).powi(2);
+        if d2 < 9.0 { 1000.0 } else { 0.0 }
+    });
+    let view = |name: &str| {
+        let out = temp(&format!("view-{name}.png"));
+        let o = render(
+            &input,
+            &out,
+            &[
+                "--mode",
+                "mip",
+                "--projection",
+                "orthographic",
+                "--view",
+                name,
+            ],
+        );
+        assert!(o.status.success(), "{name}: {}", stderr(&o));
+        centre_of_lit(&out)
+    };
+    // Superior: anterior up, the patient's left on the image's left (seen from above).
+    let (x, y) = view("superior");
+    assert!(
+        y < 0.4,
+        "superior: anterior blob at y {y}, expected the top"
+    );
+    assert!(
+        x < 0.4,
+        "superior: left blob at x {x}, expected the image's left"
+    );
+    // Inferior: anterior up, the patient's left on the image's right (seen from below).
+    let (x, y) = view("inferior");
+    assert!(
+        y < 0.4,
+        "inferior: anterior blob at y {y}, expected the top"
+    );
+    assert!(
+        x > 0.6,
+        "inferior: left blob at x {x}, expected the image's right"
+    );
+    // Anterior: the patient's left on the image's right, mid-height.
+    let (x, y) = view("a");
+    assert!(
+        x > 0.6 && (0.35..0.65).contains(&y),
+        "anterior: blob at ({x}, {y})"
+    );
+    // --view and --elevation together are a usage error.
+    let o = morphray(&[
+        "render",
+        "-o",
+        "x.png",
+        "--view",
+        "superior",
+        "--elevation",
+        "10",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+}

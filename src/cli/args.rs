@@ -391,6 +391,9 @@ pub struct SceneArgs {
     /// Crop, clip planes and colour map (src/cli/clip.rs).
     #[command(flatten)]
     pub clip: super::clip::ClipArgs,
+    /// A standard view (src/cli/view_preset.rs).
+    #[command(flatten)]
+    pub view: super::view_preset::ViewPresetArgs,
 }
 
 /// `TISSUE=REST` split, with the tissue named as on the command line.

@@ -23,6 +23,7 @@ pub mod source;
 mod ttfp;
 #[cfg(feature = "viewer")]
 mod view;
+mod view_preset;
 
 use crate::error::Error;
 use args::{Cli, Command};

@@ -74,8 +74,8 @@ pub fn recipe_from_args(args: &SceneArgs) -> Result<SceneRecipe, Error> {
         opacity: args.opacity.clone(),
         colour: args.color.clone(),
         camera: Camera {
-            azimuth_deg: args.azimuth,
-            elevation_deg: args.elevation,
+            azimuth_deg: args.view.angles().map_or(args.azimuth, |a| a.0),
+            elevation_deg: args.view.angles().map_or(args.elevation, |a| a.1),
             zoom: args.zoom,
             pan_mm: [args.pan.0, args.pan.1],
             projection: match args.projection {
@@ -208,7 +208,8 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
     for (index, path) in (0..frames).zip(&paths) {
         let mut scene = base;
         if args.turntable.is_some() {
-            scene.camera.azimuth_deg = args.scene.azimuth + 360.0 * index as f64 / frames as f64;
+            scene.camera.azimuth_deg =
+                base.camera.azimuth_deg + 360.0 * index as f64 / frames as f64;
             scene.frame = index;
         }
         let frame = opened

@@ -14,6 +14,7 @@ pub mod occupancy;
 pub mod recipe;
 pub mod uniforms;
 pub mod variant;
+pub mod views;
 pub mod visibility;
 
 pub use camera::{Camera, Projection};
