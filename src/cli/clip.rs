@@ -10,18 +10,24 @@ use clap::Args;
 
 /// Crop, clip planes and colour map.
 #[derive(Debug, Clone, Default, Args, serde::Serialize)]
+#[command(next_help_heading = "Scene")]
 pub struct ClipArgs {
     /// Keep only part of the volume: X0:X1,Y0:Y1,Z0:Z1 as fractions 0..1 along the voxel axes
-    /// i, j, k (`--crop 0:1,0:1,0.5:1` keeps the upper half of k). Rays start and end on the box.
+    /// i, j, k (`--crop 0:1,0:1,0.5:1` keeps the upper half of k).
+    ///
+    /// Rays start and end exactly on the box.
     #[arg(long, value_name = "X0:X1,Y0:Y1,Z0:Z1", value_parser = parse_crop)]
     pub crop: Option<[[f64; 2]; 3]>,
     /// Cut the volume with a plane in world mm, keeping the side where NX*x + NY*y + NZ*z + D >= 0
-    /// (the side the normal points to); repeatable, up to 4 (`--clip-plane -1,0,0,0` keeps x <= 0,
-    /// the patient's left half in RAS).
+    /// (the side the normal points to); repeatable, up to 4.
+    ///
+    /// `--clip-plane -1,0,0,0` keeps x <= 0: the patient's left half in RAS+ (+x = right).
     #[arg(long = "clip-plane", value_name = "NX,NY,NZ,D", value_parser = parse_plane, allow_hyphen_values = true)]
     pub clip_plane: Vec<ClipPlane>,
-    /// Colour map: of the display window in MIP/MinIP (default: grey), and of each sample's
-    /// intensity in DVR instead of the tissue colours (opacity still from the tissue windows).
+    /// Colour map of MIP/MinIP (default: grey), or of DVR samples instead of the tissue colours.
+    ///
+    /// In MIP/MinIP the map colours the display window; in DVR each sample's intensity through
+    /// the same window, while the tissue windows still decide opacity.
     #[arg(long, value_name = "gray|hot|viridis|inferno|bone", value_parser = parse_colormap)]
     pub colormap: Option<Colormap>,
 }

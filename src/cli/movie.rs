@@ -14,9 +14,11 @@ use std::path::{Path, PathBuf};
 
 /// Options of the turntable movie.
 #[derive(Debug, Clone, Args)]
+#[command(next_help_heading = "Output")]
 pub struct MovieArgs {
-    /// With --turntable N: also write the N frames as one looping animated PNG (APNG: lossless,
-    /// plays in web browsers; `ffmpeg -i OUT.png out.mp4` converts it to a video).
+    /// With --turntable N: also write the N frames as one looping animated PNG.
+    ///
+    /// APNG: lossless, plays in web browsers; `ffmpeg -i OUT.png out.mp4` converts it to a video.
     #[arg(long, value_name = "OUT.png", requires = "turntable")]
     pub movie: Option<PathBuf>,
     /// Frames per second of --movie.

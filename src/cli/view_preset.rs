@@ -7,8 +7,10 @@ use clap::Args;
 
 /// A standard view instead of --azimuth/--elevation.
 #[derive(Debug, Clone, Default, Args, serde::Serialize)]
+#[command(next_help_heading = "Scene")]
 pub struct ViewPresetArgs {
     /// A standard view: anterior, posterior, left, right, superior or inferior (or the initial).
+    ///
     /// Superior and inferior show anterior at the top, as radiologists expect.
     #[arg(long = "view", value_name = "NAME", value_parser = parse_view, conflicts_with_all = ["azimuth", "elevation"])]
     #[serde(serialize_with = "view_name")]
