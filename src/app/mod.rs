@@ -31,6 +31,7 @@
 //!   is composed in the same image the window would show, so screenshots match.
 
 pub mod camera_control;
+pub mod clip_panel;
 pub mod frame_log;
 pub mod histogram;
 pub mod loader;

@@ -48,33 +48,7 @@ impl ClipArgs {
 }
 
 fn parse_crop(text: &str) -> Result<[[f64; 2]; 3], String> {
-    let parts: Vec<&str> = text.split(',').collect();
-    if parts.len() != 3 {
-        return Err(format!(
-            "`{text}`: expected three ranges X0:X1,Y0:Y1,Z0:Z1 (fractions 0..1), e.g. \
-             0:1,0:1,0.5:1"
-        ));
-    }
-    let mut crop = [[0.0; 2]; 3];
-    for ((axis, part), range) in ["X", "Y", "Z"].iter().zip(&parts).zip(&mut crop) {
-        let (lo, hi) = part
-            .split_once(':')
-            .ok_or_else(|| format!("{axis} range `{part}`: expected LO:HI, e.g. 0.25:0.75"))?;
-        let number = |v: &str| {
-            v.trim()
-                .parse::<f64>()
-                .ok()
-                .filter(|x| x.is_finite())
-                .ok_or_else(|| format!("{axis} range `{part}`: `{v}` is not a finite number"))
-        };
-        *range = [number(lo)?, number(hi)?];
-    }
-    let clip = Clip {
-        crop,
-        ..Clip::default()
-    };
-    clip.check().map_err(|e| e.0)?;
-    Ok(crop)
+    crate::scene::clip::parse_crop(text).map_err(|e| e.0)
 }
 
 fn parse_plane(text: &str) -> Result<ClipPlane, String> {

@@ -151,6 +151,44 @@ impl Clip {
     }
 }
 
+/// Parses `X0:X1,Y0:Y1,Z0:Z1` (fractions 0..1 of the voxel axes), as `--crop` and the viewer's
+/// scripts write it, and checks it.
+pub fn parse_crop(text: &str) -> Result<[[f64; 2]; 3], ClipError> {
+    let parts: Vec<&str> = text.split(',').collect();
+    if parts.len() != 3 {
+        return Err(ClipError(format!(
+            "`{text}`: expected three ranges X0:X1,Y0:Y1,Z0:Z1 (fractions 0..1), e.g. \
+             0:1,0:1,0.5:1"
+        )));
+    }
+    let mut crop = [[0.0; 2]; 3];
+    for ((axis, part), range) in ["X", "Y", "Z"].iter().zip(&parts).zip(&mut crop) {
+        let (lo, hi) = part.split_once(':').ok_or_else(|| {
+            ClipError(format!(
+                "{axis} range `{part}`: expected LO:HI, e.g. 0.25:0.75"
+            ))
+        })?;
+        let number = |v: &str| {
+            v.trim()
+                .parse::<f64>()
+                .ok()
+                .filter(|x| x.is_finite())
+                .ok_or_else(|| {
+                    ClipError(format!(
+                        "{axis} range `{part}`: `{v}` is not a finite number"
+                    ))
+                })
+        };
+        *range = [number(lo)?, number(hi)?];
+    }
+    Clip {
+        crop,
+        ..Clip::default()
+    }
+    .check()?;
+    Ok(crop)
+}
+
 /// `intersect_box` against the crop box and the clip planes: the ray interval `(t_near, t_far)`
 /// (t_near clamped at 0) that lies in the volume, the crop box and every kept half-space, or
 /// None. With no crop and no plane it is exactly [`intersect_box`].
