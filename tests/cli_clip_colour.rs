@@ -406,3 +406,41 @@ fn superior_and_inferior_views_put_anterior_at_the_top() {
     ]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
 }
+
+#[test]
+fn turntable_progress_is_shown_when_asked_and_silent_in_a_pipe() {
+    let input = ball();
+    let out = temp("progress.png");
+    let args = [
+        "render",
+        input.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--size",
+        "16x16",
+        "--turntable",
+        "3",
+    ];
+    // stderr is a pipe here: no progress unless asked.
+    let quiet = morphray(&args);
+    assert!(quiet.status.success(), "{}", stderr(&quiet));
+    assert!(!stderr(&quiet).contains("frames 1/3"), "{}", stderr(&quiet));
+    let asked = Command::new(env!("CARGO_BIN_EXE_morphray"))
+        .args(args)
+        .env("MORPHRAY_PROGRESS", "always")
+        .output()
+        .unwrap();
+    assert!(asked.status.success(), "{}", stderr(&asked));
+    let err = stderr(&asked);
+    for i in 1..=3 {
+        assert!(err.contains(&format!("morphray: frames {i}/3")), "{err}");
+    }
+    assert!(err.contains("rendering 16x16"), "{err}");
+    // stdout keeps exactly the `wrote` lines.
+    let out = String::from_utf8_lossy(&asked.stdout);
+    assert_eq!(
+        out.lines().filter(|l| l.starts_with("wrote")).count(),
+        3,
+        "{out}"
+    );
+}

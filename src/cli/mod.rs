@@ -17,6 +17,7 @@ mod movie;
 pub mod output;
 mod peaks;
 mod plan;
+mod progress;
 pub mod render;
 pub mod session;
 pub mod source;

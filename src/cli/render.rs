@@ -205,6 +205,8 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
     let command = std::env::args().collect::<Vec<_>>().join(" ");
     let mut said_empty = false;
     let mut movie = super::movie::Movie::default();
+    let mut progress = super::progress::Progress::new(u64::from(frames), "frames");
+    progress.message(&format!("rendering {width}x{height}"));
     for (index, path) in (0..frames).zip(&paths) {
         let mut scene = base;
         if args.turntable.is_some() {
@@ -243,6 +245,7 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
         write_rgba8(path, frame.width, frame.height, &frame.rgba8, &provenance)?;
         let size = (frame.width, frame.height);
         movie.push(&args.movie, frames, size, &frame.rgba8, &provenance)?;
+        progress.step();
         if !said_empty && pixels_off_background(&frame.rgba8, scene.background) == 0 {
             // Never a silent empty image (the exit status stays 0: the scene may mean it).
             let constant = opened.twin.prepared.normalization.constant;
@@ -263,6 +266,7 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
             ms(gpu_ms)
         ));
     }
+    progress.finish();
     movie.finish(&args.movie, frames)?;
     if validation {
         session::check_validation(&opened.engine)?;
