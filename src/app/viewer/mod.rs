@@ -602,7 +602,6 @@ impl Viewer {
         }
         self.flush_completed();
         self.idle_frames = self.idle_frames.saturating_sub(1);
-        self.status.rate.frame(Instant::now());
         result.platform = Some(full.platform_output);
         if last {
             let path = self.config.screenshot.clone();
