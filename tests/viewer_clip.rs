@@ -181,3 +181,86 @@ fn crop_clip_and_colour_maps_act_on_the_view() {
         );
     }
 }
+
+/// A 2-frame 4-D NIfTI (f32, identity affine): frame 0 has a blob at the patient's right (high
+/// x), frame 1 at the patient's left (low x). Made from two 3-D files: the header's dims are
+/// patched to 4-D and the second file's voxels appended.
+fn two_frames(dir: &Path) -> PathBuf {
+    let dims = [24usize, 20, 18];
+    let file = |name: &str, cx: f32| {
+        let mut values = Vec::new();
+        for z in 0..dims[2] {
+            for y in 0..dims[1] {
+                for x in 0..dims[0] {
+                    let d2 = (x as f32 - cx).powi(2)
+                        + (y as f32 - 10.0).powi(2)
+                        + (z as f32 - 9.0).powi(2);
+                    values.push(if d2 < 16.0 { 1000.0 } else { 0.0 });
+                }
+            }
+        }
+        let volume = morphray::volume::Volume::from_voxels(
+            name,
+            dims,
+            morphray::volume::Samples::from_f32(&values),
+            [
+                [1.0, 0.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0, 0.0],
+                [0.0, 0.0, 1.0, 0.0],
+                [0.0, 0.0, 0.0, 1.0],
+            ],
+            morphray::volume::LinearMap::IDENTITY,
+        )
+        .unwrap();
+        let path = dir.join(format!("{name}.nii"));
+        write_nifti1(&volume, &path, false).unwrap();
+        std::fs::read(path).unwrap()
+    };
+    let mut frame0 = file("right", 17.0);
+    let frame1 = file("left", 6.0);
+    let offset = f32::from_le_bytes(frame0[108..112].try_into().unwrap()) as usize;
+    frame0[40..42].copy_from_slice(&4i16.to_le_bytes()); // dim[0]: 4 dimensions
+    frame0[48..50].copy_from_slice(&2i16.to_le_bytes()); // dim[4]: 2 frames
+    frame0.extend_from_slice(&frame1[offset..]);
+    let path = dir.join("two-frames.nii");
+    std::fs::write(&path, frame0).unwrap();
+    path
+}
+
+#[test]
+fn view_frame_shows_that_frame_of_a_4d_file() {
+    let dir = temp_dir("frames");
+    let input = two_frames(&dir);
+    let mut sides = Vec::new();
+    for frame in ["0", "1"] {
+        let shot = dir.join(format!("frame{frame}.png"));
+        let o = view_under_xvfb(&[
+            input.to_str().unwrap(),
+            "--frame",
+            frame,
+            "--size",
+            "640x480",
+            "--mode",
+            "mip",
+            "--projection",
+            "orthographic",
+            "--frames",
+            "2",
+            "--screenshot",
+            shot.to_str().unwrap(),
+        ]);
+        let log = String::from_utf8_lossy(&o.stdout).into_owned();
+        let r = view_rect(&log);
+        let png = Png::read(&shot);
+        let left = lit(&png.pixels([r[0], r[1], r[2] / 2, r[3]]));
+        let right = lit(&png.pixels([r[0] + r[2] / 2, r[1], r[2] / 2, r[3]]));
+        sides.push((left, right));
+    }
+    // Anterior view: the patient's right (frame 0's blob) on the image's left, and the patient's
+    // left (frame 1's blob) on the image's right.
+    let [(l0, r0), (l1, r1)] = [sides[0], sides[1]];
+    assert!(
+        l0 > 10 * r0.max(1) && r1 > 10 * l1.max(1),
+        "frame 0 {l0}/{r0}, frame 1 {l1}/{r1}"
+    );
+}

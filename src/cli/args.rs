@@ -557,6 +557,9 @@ pub struct ViewArgs {
     /// or --script).
     #[arg(long)]
     pub offscreen: bool,
+    /// Frame of a 4-D file to show (0-based), as `render --frame`.
+    #[arg(long, default_value_t = 0)]
+    pub frame: usize,
     /// Initial scene (--size is the window size, default 1280x800).
     #[command(flatten)]
     pub scene: SceneArgs,

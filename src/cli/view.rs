@@ -49,6 +49,7 @@ pub fn run(args: &ViewArgs, global: &super::GlobalOptions) -> Result<(), super::
         log: scripted,
         command: std::env::args().collect::<Vec<_>>().join(" "),
         started,
+        frame: args.frame,
     };
     crate::app::run(config, args.offscreen, fail_on_validation)?;
     Ok(())

@@ -88,6 +88,8 @@ pub struct ViewerConfig {
     pub command: String,
     /// When the process started (time to first pixel of the first volume).
     pub started: Instant,
+    /// Which frame of a 4-D file to show (0-based), for every file this session opens.
+    pub frame: usize,
 }
 
 /// One device's GPU objects; dropped and rebuilt after a device loss.
@@ -266,7 +268,7 @@ impl Viewer {
             1,
             config.file.clone(),
             config.started,
-            opening::open_options(recipe, config.size),
+            opening::open_options(recipe, config.size, config.frame),
         );
         let log = FrameLog::new(config.log);
         let runner = Runner::new(config.script.clone());

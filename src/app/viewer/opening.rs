@@ -176,8 +176,12 @@ impl Viewer {
             stage: "queued".into(),
             since: now,
         });
-        self.loader
-            .load(id, path.clone(), now, open_options(recipe, self.size));
+        self.loader.load(
+            id,
+            path.clone(),
+            now,
+            open_options(recipe, self.size, self.config.frame),
+        );
         self.pending_load = Some((id, label, path));
         if let Some(text) = label_for_log {
             self.log.pending.push(Pending {
@@ -233,10 +237,10 @@ impl Viewer {
 
 /// How the viewer opens a volume: planned for the window's size, hashed for screenshots'
 /// provenance, pipelines ahead of time.
-pub(super) fn open_options(recipe: SceneRecipe, size: [u32; 2]) -> OpenOptions {
+pub(super) fn open_options(recipe: SceneRecipe, size: [u32; 2], frame: usize) -> OpenOptions {
     OpenOptions {
         read: ReadOptions {
-            frame: 0,
+            frame,
             hash: true,
             series: None,
         },
