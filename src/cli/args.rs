@@ -520,6 +520,9 @@ pub struct RenderArgs {
     pub output: PathBuf,
     /// Render N frames of a full orbit (azimuth advancing 360/N degrees per frame), N from 1
     /// to 10000 (every frame's file name is checked before the render starts).
+    ///
+    /// Progress shows on stderr when it is a terminal (MORPHRAY_PROGRESS=always: also in logs,
+    /// as plain lines; =never: not at all).
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=10_000))]
     pub turntable: Option<u32>,
     /// Turntable movie (src/cli/movie.rs).
