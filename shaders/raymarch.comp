@@ -22,7 +22,8 @@
 // (sampling.glsl).
 //
 // Geometry: rays start in world space (mm) and are marched in index space with the parameter
-// in mm (geometry.glsl); ray starts are jittered per pixel against wood-grain banding.
+// in mm (geometry.glsl); the interval is cut to the crop box and clip planes (clip.glsl) before
+// any sample is placed; ray starts are jittered per pixel against wood-grain banding.
 // The f64 twin of this whole shader is src/reference/raymarch.rs.
 #extension GL_GOOGLE_include_directive : require
 #extension GL_KHR_shader_subgroup_basic : require
@@ -68,6 +69,11 @@ layout(set = 0, binding = 4, std140) uniform Params {
     vec4 atlas;             // BRICKED: xyz atlas dims in texels, w storage brick side
     uvec4 brick_grid;       // BRICKED: xyz storage brick grid, w halo
     uvec4 atlas_slots;      // BRICKED: xy slots per atlas row and layer
+    // Helper "clip" (issue 16 items 2 and 4): crop box, clip planes, colour map.
+    vec4 crop_lo;           // xyz index-space crop box corner; w: clip planes in use
+    vec4 crop_hi;           // xyz the opposite corner; w: 1 = colours from the colour map
+    vec4 clip_planes[4];    // index space: unit normal xyz, w offset; keeps dot(n, p) + w >= 0
+    vec4 colormap[16];      // rgb control points at i / 15
 } params;
 
 // Benchmark counters (COUNT_SAMPLES only): samples marched and samples that passed
@@ -83,6 +89,8 @@ layout(set = 0, binding = 6, std430) readonly buffer Occupancy { uint bits[]; } 
 layout(set = 0, binding = 7, std430) readonly buffer BrickTable { uint slots[]; } brick_table;
 
 #include "geometry.glsl"
+#include "clip.glsl"
+#include "colormap.glsl"
 #include "jitter.glsl"
 #include "classification.glsl"
 #include "compositing.glsl"
@@ -157,6 +165,7 @@ void main() {
     float t_near;
     float t_far;
     bool hit = intersect_box(origin, direction, dims, t_near, t_far);
+    hit = hit && clip_ray(origin, direction, dims, t_near, t_far);
     float offset = params.march.z > 0.5 ? jitter(pixel, params.image.z) : 0.5;
     float start = t_near + offset * dt;
     // Samples at start + i * dt for i in [0, n) while inside; clamped before the conversion
@@ -216,6 +225,9 @@ void main() {
             }
             a = NAIVE_OPACITY ? opacity_correct_naive(a, params.march.x) : opacity_correct(a, params.march.x);
             vec3 colour = cls.rgb;
+            if (params.crop_hi.w > 0.5) {
+                colour = colormap_lookup(display_position(v));
+            }
             if (SHADING) {
                 colour = shade(colour, normal, direction_world);
             }
@@ -246,7 +258,7 @@ void main() {
         }
         if (found) {
             float grey = clamp((extreme - params.intensity.x) / max(params.intensity.y - params.intensity.x, 1e-6), 0.0, 1.0);
-            result = vec4(vec3(grey), 1.0);
+            result = vec4(params.crop_hi.w > 0.5 ? colormap_lookup(grey) : vec3(grey), 1.0);
         }
     }
     imageStore(target, ivec2(pixel), result);

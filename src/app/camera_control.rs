@@ -17,78 +17,7 @@
 use crate::scene::Camera;
 use glam::DVec3;
 
-/// The six standard views, named for where the camera looks from.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum StandardView {
-    /// From the front (the face): patient's left on the image's right.
-    Anterior,
-    /// From behind.
-    Posterior,
-    /// From the patient's left side.
-    Left,
-    /// From the patient's right side.
-    Right,
-    /// From above (the vertex).
-    Superior,
-    /// From below.
-    Inferior,
-}
-
-impl StandardView {
-    /// All six, in the order of the interface's buttons.
-    pub const ALL: [StandardView; 6] = [
-        StandardView::Anterior,
-        StandardView::Posterior,
-        StandardView::Left,
-        StandardView::Right,
-        StandardView::Superior,
-        StandardView::Inferior,
-    ];
-
-    /// Lower-case name (`anterior`, ...), as in scripts.
-    pub fn name(self) -> &'static str {
-        match self {
-            StandardView::Anterior => "anterior",
-            StandardView::Posterior => "posterior",
-            StandardView::Left => "left",
-            StandardView::Right => "right",
-            StandardView::Superior => "superior",
-            StandardView::Inferior => "inferior",
-        }
-    }
-
-    /// Parses a name or its first letter (`a`, `anterior`, ...).
-    pub fn parse(text: &str) -> Option<StandardView> {
-        let t = text.trim().to_lowercase();
-        StandardView::ALL
-            .into_iter()
-            .find(|v| v.name() == t || (t.len() == 1 && v.name().starts_with(&t)))
-    }
-
-    /// The key that selects it (its initial: A, P, L, R, S, I).
-    pub fn letter(self) -> char {
-        match self {
-            StandardView::Anterior => 'A',
-            StandardView::Posterior => 'P',
-            StandardView::Left => 'L',
-            StandardView::Right => 'R',
-            StandardView::Superior => 'S',
-            StandardView::Inferior => 'I',
-        }
-    }
-
-    /// Azimuth and elevation in degrees (see `scene/camera.rs`: azimuth 90 = from the right).
-    pub fn angles(self) -> (f64, f64) {
-        match self {
-            StandardView::Anterior => (0.0, 0.0),
-            StandardView::Posterior => (180.0, 0.0),
-            StandardView::Left => (-90.0, 0.0),
-            StandardView::Right => (90.0, 0.0),
-            StandardView::Superior => (0.0, 90.0),
-            StandardView::Inferior => (0.0, -90.0),
-        }
-    }
-}
+pub use crate::scene::views::StandardView;
 
 /// What a mouse drag does.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -261,8 +190,9 @@ mod tests {
         // From the patient's left side the face points to the image's left.
         assert_eq!(labels_of(StandardView::Left), ["A", "P", "S", "I"]);
         assert_eq!(labels_of(StandardView::Right), ["P", "A", "S", "I"]);
-        // From above, nose down (posterior up): left on the right, as in the anterior view.
-        assert_eq!(labels_of(StandardView::Superior), ["R", "L", "P", "A"]);
+        // From above with anterior up (as radiologists expect, issue 16): the patient's right
+        // is on the image's right, as when looking down at the top of a head facing away.
+        assert_eq!(labels_of(StandardView::Superior), ["L", "R", "A", "P"]);
         // From below: anterior up, and the patient's left stays on the image's right.
         assert_eq!(labels_of(StandardView::Inferior), ["R", "L", "A", "P"]);
     }

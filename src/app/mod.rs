@@ -7,12 +7,13 @@
 //! window.rs          winit event loop, egui-winit input, redraw scheduling, close
 //! ui.rs              panels: tissues, rendering, view, file, status bar; view input/overlays
 //! histogram.rs       the I_norm histogram with peaks and draggable tissue windows
-//! camera_control.rs  mouse/keys -> camera, six standard views, orientation letters
+//! camera_control.rs  mouse/keys -> camera, orientation letters (views: scene/views.rs)
+//! clip_panel.rs      crop sliders, one clip plane, colour map (edits Scene::clip/colormap)
 //! loader.rs          worker thread: opens volumes the library's way (plan, whole or bricked,
 //!                    analyse, derive), derives later effects (never the UI thread)
 //! script.rs          scripted actions for tests and demos
 //! frame_log.rs       per-frame passes and action -> first-frame latencies
-//! status.rs          status line: file, dims, spacing, device, first pixel, FPS, GPU passes,
+//! status.rs          status line: file, dims, spacing, device, first pixel, volume FPS, GPU,
 //!                    the memory plan (layout, degradations)
 //! viewer/mod.rs      the frame loop tying these together, window or offscreen
 //! viewer/opening.rs  volumes adopted, the twin's rule, plans made again, volumes reopened
@@ -31,6 +32,7 @@
 //!   is composed in the same image the window would show, so screenshots match.
 
 pub mod camera_control;
+pub mod clip_panel;
 pub mod crosshair_3d;
 pub mod file_panel;
 pub mod frame_log;

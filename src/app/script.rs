@@ -78,6 +78,12 @@ pub enum Action {
     Open(VolumeSource),
     /// Open the DICOM input on screen again with this series (an index from `morphray info`).
     Series(usize),
+    /// Crop box, fractions of the voxel axes (`crop 0:1,0:1,0.5:1`).
+    Crop([[f64; 2]; 3]),
+    /// The first clip plane, world mm (`clip NX NY NZ D`), or none (`clip off`).
+    Clip(Option<crate::scene::ClipPlane>),
+    /// Colour map (`colormap hot`), or tissue colours / grey (`colormap off`).
+    Colormap(Option<crate::scene::Colormap>),
     /// Save the whole window as PNG.
     Screenshot(PathBuf),
     /// Let this many frames pass.
@@ -356,6 +362,37 @@ fn parse_line(line: &str) -> Result<Action, String> {
             }
             Action::Series(n as usize)
         }
+        "crop" => {
+            let text = next().ok_or("expected X0:X1,Y0:Y1,Z0:Z1 (fractions 0..1)")?;
+            Action::Crop(crate::scene::clip::parse_crop(text).map_err(|e| e.0)?)
+        }
+        "clip" => match next() {
+            Some("off") => Action::Clip(None),
+            first => {
+                let nx = number(first, "NX of the plane's normal")?;
+                let ny = number(next(), "NY")?;
+                let nz = number(next(), "NZ")?;
+                let d = number(next(), "D in mm")?;
+                if nx == 0.0 && ny == 0.0 && nz == 0.0 {
+                    return Err("the plane's normal must not be zero".into());
+                }
+                Action::Clip(Some(crate::scene::ClipPlane {
+                    normal: [nx, ny, nz],
+                    offset_mm: d,
+                }))
+            }
+        },
+        "colormap" => match next() {
+            Some("off") => Action::Colormap(None),
+            Some(name) => Action::Colormap(Some(crate::scene::Colormap::parse(name).ok_or_else(
+                || {
+                    format!(
+                        "unknown colour map `{name}`; use gray, hot, viridis, inferno, bone or off"
+                    )
+                },
+            )?)),
+            None => return Err("expected a colour map name or off".into()),
+        },
         "screenshot" => Action::Screenshot(PathBuf::from(next().ok_or("expected a PNG path")?)),
         "wait" => {
             let n = number(next(), "a number of frames")?;

@@ -238,6 +238,7 @@ pub fn draw(ui: &mut Ui, controls: &mut Controls, shown: &Shown) -> Outcome {
                 histogram_rect = tissue_panel(ui, controls);
                 ui.separator();
                 rendering_panel(ui, controls);
+                super::clip_panel::clip_panel(ui, &mut controls.scene, controls.extent_mm);
                 ui.separator();
                 camera_panel(ui, controls);
                 ui.separator();

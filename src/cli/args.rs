@@ -11,85 +11,140 @@ use std::path::PathBuf;
 #[derive(Debug, Parser)]
 #[command(name = "morphray", version, about, long_about = None, propagate_version = true)]
 pub struct Cli {
-    /// Vulkan device to use: an index from the device list, or part of its name
-    /// (case-insensitive). Default: the best suitable device (or $MORPHRAY_DEVICE).
-    #[arg(long, global = true, value_name = "INDEX|NAME")]
+    /// Vulkan device to use: an index from the device list, or part of its name (case-insensitive).
+    ///
+    /// Default: the best suitable device (or $MORPHRAY_DEVICE).
+    #[arg(
+        long,
+        global = true,
+        help_heading = "Device and profiling",
+        value_name = "INDEX|NAME"
+    )]
     pub device: Option<String>,
 
-    /// Load the Khronos validation layer (core + synchronization) and fail on any error it
-    /// reports. Slow; for debugging and tests.
-    #[arg(long, global = true)]
+    /// Load the Khronos validation layer (core + synchronization) and fail on any error it reports.
+    ///
+    /// Slow; for debugging and tests.
+    #[arg(
+        long,
+        global = true,
+        help_heading = "Device and profiling",
+        hide_short_help = true
+    )]
     pub validation: bool,
 
-    /// Most GPU memory morphray may hold, in bytes (suffixes K, M, G allowed: 512M). Over it,
-    /// the plan degrades, cheapest accuracy first (8-bit derived volumes, R8 intensities,
-    /// bricking, then gradients on the fly; `morphray plan` shows which and what each costs) or
-    /// the command stops with a message naming what did not fit. Default: what the device
-    /// reports available (VK_EXT_memory_budget, or the heap size).
-    #[arg(long, global = true, value_name = "BYTES", value_parser = crate::gpu::profile::parse_bytes)]
+    /// Most GPU memory morphray may hold, in bytes (suffixes K, M, G allowed: 512M).
+    ///
+    /// Over it, the plan degrades, cheapest accuracy first (8-bit derived volumes, R8 intensities,
+    /// bricking, then gradients on the fly; `morphray plan` shows which and what each costs) or the
+    /// command stops with a message naming what did not fit. Default: what the device reports
+    /// available (VK_EXT_memory_budget, or the heap size).
+    #[arg(long, global = true, help_heading = "Device and profiling", hide_short_help = true, value_name = "BYTES", value_parser = crate::gpu::profile::parse_bytes)]
     pub memory_budget: Option<u64>,
 
-    /// Brick the volume even when it fits whole (32^3 bricks with a 3-voxel halo, read through
-    /// a brick table), to measure what bricking costs. Bricking is otherwise automatic: over the
-    /// budget, or over the device's 3D image limit.
-    #[arg(long, global = true)]
+    /// Brick the volume even when it fits whole (32^3 bricks with a 3-voxel halo, read through a
+    /// brick table), to measure what bricking costs.
+    ///
+    /// Bricking is otherwise automatic: over the budget, or over the device's 3D image limit.
+    #[arg(
+        long,
+        global = true,
+        help_heading = "Device and profiling",
+        hide_short_help = true
+    )]
     pub bricked: bool,
 
     /// Run under a device profile: `gen12` (Intel Xe-LP: 2048-texel 3D images, unified memory
     /// without staging, a 12 GiB budget from 16 GiB of RAM, subgroup sizes 8/16/32, no float
-    /// atomics, 36-bit timestamps) or the path of a .toml profile with the same keys. A profile
-    /// only clamps what the real device offers, so the constrained paths really run.
-    #[arg(long, global = true, value_name = "gen12|FILE.toml")]
+    /// atomics, 36-bit timestamps) or the path of a .toml profile with the same keys.
+    ///
+    /// A profile only clamps what the real device offers, so the constrained paths really run.
+    #[arg(
+        long,
+        global = true,
+        help_heading = "Device and profiling",
+        hide_short_help = true,
+        value_name = "gen12|FILE.toml"
+    )]
     pub profile: Option<String>,
 
     /// Workgroup size of the tunable kernels, for profiling: `8x8` for all of them (z = 1), or
     /// `raymarch=16x8`, `normalize=8x8x4`, `derivatives=8x8x2` for one (repeatable; later wins).
+    ///
     /// The WGSL reductions (minmax, histogram) keep their 256 invocations.
-    #[arg(long, global = true, value_name = "[PASS=]XxY[xZ]")]
+    #[arg(
+        long,
+        global = true,
+        help_heading = "Device and profiling",
+        hide_short_help = true,
+        value_name = "[PASS=]XxY[xZ]"
+    )]
     pub wg: Vec<String>,
 
     /// Pin the subgroup size of every kernel (requiredSubgroupSize), for profiling SIMD8/16/32 on
     /// devices with subgroup size control; an unsupported size is an error naming the range.
-    #[arg(long, global = true, value_name = "N")]
+    #[arg(
+        long,
+        global = true,
+        help_heading = "Device and profiling",
+        hide_short_help = true,
+        value_name = "N"
+    )]
     pub subgroup: Option<u32>,
 
-    /// Where compiled GPU pipelines are kept between runs, so later starts skip the driver's
-    /// shader compiler: a directory, `memory` (this run only) or `off` (no pipeline cache).
+    /// Where compiled GPU pipelines are kept between runs, so later starts skip the driver's shader
+    /// compiler: a directory, `memory` (this run only) or `off` (no pipeline cache).
+    ///
     /// Default: $MORPHRAY_CACHE_DIR, else $XDG_CACHE_HOME/morphray, else ~/.cache/morphray. One
     /// file per GPU and driver (pipelines-VENDOR-DEVICE-DRIVER-UUID.bin); a damaged file, or one
     /// from another GPU or driver, is ignored with a note and replaced. The file is written after
     /// the first frame, only when it changed; failing to write it is a warning, not an error.
-    #[arg(long, global = true, value_name = "DIR|memory|off")]
+    #[arg(
+        long,
+        global = true,
+        help_heading = "Device and profiling",
+        hide_short_help = true,
+        value_name = "DIR|memory|off"
+    )]
     pub pipeline_cache: Option<String>,
 
-    /// Which intensity range becomes I_norm 0..1 (the scale the tissue windows are in):
-    /// `robust` = from percentiles of the finite voxels, so a few hot voxels (fat, vessels,
-    /// spikes) cannot squeeze every tissue into the darkest bins; values outside are clamped.
+    /// Which intensity range becomes I_norm 0..1 (the scale the tissue windows are in): `robust` =
+    /// from percentiles of the finite voxels, so a few hot voxels (fat, vessels, spikes) cannot
+    /// squeeze every tissue into the darkest bins; values outside are clamped.
+    ///
     /// `minmax` = the paper's eq. 1, the finite minimum and maximum (paper-literal preset;
     /// `morphray peaks` reports both).
-    #[arg(long, global = true, value_enum, default_value_t = NormalizeArg::Robust)]
+    #[arg(long, global = true, help_heading = "Input", value_enum, default_value_t = NormalizeArg::Robust)]
     pub normalize: NormalizeArg,
 
     /// Which MR contrast the tissues are labelled for: T1 = CSF < GM < WM, T2 = WM < GM < CSF.
-    /// `auto` = read it from the histogram: T2 when the largest tissue mode is dark and sharp
-    /// and a large broad mode (CSF) is more than twice as bright, T1 when the tissue bulk is at
-    /// the bright end; when the histogram cannot tell (one mode, conflicting shapes, a bright
-    /// mode that may be CSF or fat), T1 is assumed and `peaks` and `render` say so with the
-    /// reason. `t1` / `t2` = take it as given. FLAIR looks like T1 in a histogram and is read as
-    /// T1, GM and WM swapped (no setting fixes that yet). `--windows paper` uses T1 windows.
-    #[arg(long, global = true, value_enum, default_value_t = ContrastArg::Auto)]
+    ///
+    /// `auto` = read it from the histogram: T2 when the largest tissue mode is dark and sharp and a
+    /// large broad mode (CSF) is more than twice as bright, T1 when the tissue bulk is at the
+    /// bright end; when the histogram cannot tell (one mode, conflicting shapes, a bright mode that
+    /// may be CSF or fat), T1 is assumed and `peaks` and `render` say so with the reason. `t1` /
+    /// `t2` = take it as given. FLAIR looks like T1 in a histogram and is read as T1, GM and WM
+    /// swapped (no setting fixes that yet). `--windows paper` uses T1 windows.
+    #[arg(long, global = true, help_heading = "Input", value_enum, default_value_t = ContrastArg::Auto)]
     pub contrast: ContrastArg,
 
     /// Write a trace of the run (Chrome trace JSON; opens in ui.perfetto.dev and
     /// chrome://tracing): host phases (read, inflate, instance, device, pipelines, prepare,
     /// frames) on their threads and every GPU pass, from timestamps, on a "GPU queue" track.
-    #[arg(long, global = true, value_name = "OUT.json")]
+    #[arg(
+        long,
+        global = true,
+        help_heading = "Device and profiling",
+        hide_short_help = true,
+        value_name = "OUT.json"
+    )]
     pub trace: Option<std::path::PathBuf>,
 
-    /// Which series of a DICOM input (a folder, a DICOMDIR or a .dcm file): a
-    /// SeriesInstanceUID, or the index `morphray info PATH` lists. Default: the largest 3-D
-    /// image series (localizers and derived images are never the default).
-    #[arg(long, global = true, value_name = "UID|INDEX", value_parser = parse_series)]
+    /// Which series of a DICOM input (a folder, a DICOMDIR or a .dcm file): a SeriesInstanceUID, or
+    /// the index `morphray info PATH` lists.
+    ///
+    /// Default: the largest 3-D image series (localizers and derived images are never the default).
+    #[arg(long, global = true, help_heading = "Input", value_name = "UID|INDEX", value_parser = parse_series)]
     pub series: Option<crate::volume::source::dicom::SeriesChoice>,
 
     /// What to do.
@@ -340,8 +395,10 @@ pub enum PrecisionArg {
 
 /// Everything that defines a rendered image.
 #[derive(Debug, Clone, Args, serde::Serialize)]
+#[command(next_help_heading = "Scene")]
 pub struct SceneArgs {
-    /// Image size in pixels, WIDTHxHEIGHT [default: 1024x1024 for render, 1920x1080 for bench].
+    /// Image size in pixels, WIDTHxHEIGHT [default: 1024x1024 for render, the window's 1280x800
+    /// for view, 1920x1080 for bench, 256x256 for accuracy].
     #[arg(long, value_parser = parse_size)]
     pub size: Option<(u32, u32)>,
     /// Camera rotation about the superior axis in degrees: 0 = anterior view (patient's left on
@@ -363,15 +420,19 @@ pub struct SceneArgs {
     /// What each ray computes.
     #[arg(long, value_enum, default_value_t = ModeArg::Dvr)]
     pub mode: ModeArg,
-    /// Visible tissue classes, comma-separated, from csf, gm, wm, pathology
-    /// (`--tissues pathology` alone "unmasks" lesions and vessels). Default: all but pathology.
+    /// Visible tissue classes, comma-separated, from csf, gm, wm, pathology (`--tissues pathology`
+    /// alone "unmasks" lesions and vessels).
+    ///
+    /// Default: all but pathology.
     #[arg(long, default_value = "csf,gm,wm", value_delimiter = ',')]
     pub tissues: Vec<String>,
     /// Tissue windows: adaptive (from this volume's histogram peaks) or the paper's constants.
     #[arg(long, value_enum, default_value_t = WindowsArg::Adaptive)]
     pub windows: WindowsArg,
-    /// Sampling distance along each ray, in voxels of the finest axis. Smaller is more accurate
-    /// and slower; opacity is corrected so the image does not darken or brighten with it.
+    /// Sampling distance along each ray, in voxels of the finest axis.
+    ///
+    /// Smaller is more accurate and slower; opacity is corrected so the image does not darken or
+    /// brighten with it.
     #[arg(long, default_value_t = 0.5, value_parser = parse_finite)]
     pub step: f64,
     /// Curvature weight w(k) = 1 + s*tanh(|k|/k_ref) on opacity (paper eq. 4), emphasizing thin,
@@ -384,8 +445,9 @@ pub struct SceneArgs {
     /// Where the gradient term comes from.
     #[arg(long, value_enum, default_value_t = GradientArg::Precomputed)]
     pub gradient: GradientArg,
-    /// Precision of the stored derived volumes. For diagnosis-quality stills use `--step 0.125
-    /// --derived-precision f16` (ACCURACY.md).
+    /// Precision of the stored derived volumes.
+    ///
+    /// For diagnosis-quality stills use `--step 0.125 --derived-precision f16` (ACCURACY.md).
     #[arg(long, value_enum, default_value_t = PrecisionArg::Snorm8)]
     pub derived_precision: PrecisionArg,
     /// Background colour as #RRGGBB or R,G,B in 0..255.
@@ -395,17 +457,24 @@ pub struct SceneArgs {
     #[arg(long)]
     pub no_jitter: bool,
     /// A tissue's window by hand, in I_norm units (0..1; `morphray peaks` shows where the modes
-    /// are): TISSUE=LO:HI, repeatable (`--window wm=0.7:0.95 --window gm=0.5:0.7`). Replaces
-    /// the adaptive or paper window of that tissue; the viewer's bands do the same.
+    /// are): TISSUE=LO:HI, repeatable (`--window wm=0.7:0.95 --window gm=0.5:0.7`).
+    ///
+    /// Replaces the adaptive or paper window of that tissue; the viewer's bands do the same.
     #[arg(long = "window", value_name = "TISSUE=LO:HI", value_parser = parse_window)]
     pub window: Vec<(TissueClass, f64, f64)>,
     /// A tissue's opacity per mm of ray, 0..1: TISSUE=X, repeatable (`--opacity csf=0.1`).
-    #[arg(long = "opacity", value_name = "TISSUE=X", value_parser = parse_opacity)]
+    #[arg(long = "opacity", visible_alias = "tissue-opacity", value_name = "TISSUE=X", value_parser = parse_opacity)]
     pub opacity: Vec<(TissueClass, f32)>,
     /// A tissue's colour: TISSUE=#RRGGBB or TISSUE=R,G,B (0..255), repeatable
     /// (`--color wm=#f0f0e0`).
-    #[arg(long = "color", value_name = "TISSUE=#RRGGBB", value_parser = parse_tissue_colour)]
+    #[arg(long = "color", visible_alias = "tissue-color", value_name = "TISSUE=#RRGGBB", value_parser = parse_tissue_colour)]
     pub color: Vec<(TissueClass, [f32; 3])>,
+    /// Crop, clip planes and colour map (src/cli/clip.rs).
+    #[command(flatten)]
+    pub clip: super::clip::ClipArgs,
+    /// A standard view (src/cli/view_preset.rs).
+    #[command(flatten)]
+    pub view: super::view_preset::ViewPresetArgs,
 }
 
 /// `TISSUE=REST` split, with the tissue named as on the command line.
@@ -459,19 +528,26 @@ fn parse_tissue_colour(text: &str) -> Result<(TissueClass, [f32; 3]), String> {
 
 /// Options of `render`.
 #[derive(Debug, Args)]
+#[command(next_help_heading = "Output")]
 pub struct RenderArgs {
     /// Input: a NIfTI-1/2 file (.nii, .nii.gz, .hdr/.img), or DICOM (an exam's folder, a
     /// DICOMDIR, a .dcm file, or several files of one series); without one, the built-in
     /// digital phantom (256x256x192, 1 mm). DICOM series are listed by `morphray info`.
-    #[arg(value_name = "FILE")]
+    #[arg(value_name = "FILE", help_heading = "Input")]
     pub file: Vec<PathBuf>,
     /// Output PNG (with --turntable N: frames are written as NAME-000.png, NAME-001.png, ...).
     #[arg(short, long, value_name = "PNG")]
     pub output: PathBuf,
     /// Render N frames of a full orbit (azimuth advancing 360/N degrees per frame), N from 1
     /// to 10000 (every frame's file name is checked before the render starts).
+    ///
+    /// Progress shows on stderr when it is a terminal (MORPHRAY_PROGRESS=always: also in logs,
+    /// as plain lines; =never: not at all).
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=10_000))]
     pub turntable: Option<u32>,
+    /// Turntable movie (src/cli/movie.rs).
+    #[command(flatten)]
+    pub movie: super::movie::MovieArgs,
     /// Frame of a 4-D file to render (0-based).
     #[arg(long, default_value_t = 0)]
     pub frame: usize,
@@ -510,6 +586,9 @@ pub struct ViewArgs {
     /// Label overlay on the slices.
     #[command(flatten)]
     pub overlay: super::overlay::OverlayArgs,
+    /// Frame of a 4-D file to show (0-based), as `render --frame`.
+    #[arg(long, default_value_t = 0)]
+    pub frame: usize,
     /// Initial scene (--size is the window size, default 1280x800).
     #[command(flatten)]
     pub scene: SceneArgs,
@@ -518,8 +597,9 @@ pub struct ViewArgs {
 /// Options of `phantom`.
 #[derive(Debug, Args)]
 pub struct PhantomArgs {
-    /// Output file, .nii or .nii.gz (gzip-compressed). An existing file is not replaced
-    /// unless --force is given (it may be a scan).
+    /// Output file, .nii or .nii.gz (gzip-compressed).
+    ///
+    /// An existing file is not replaced unless --force is given (it may be a scan).
     #[arg(short, long, value_name = "NII")]
     pub output: PathBuf,
     /// Replace an existing output file (atomically: the old file stays whole until the new one
@@ -593,7 +673,9 @@ pub struct AccuracyArgs {
     #[arg(long, value_name = "SVG")]
     pub plot: Option<PathBuf>,
     /// Image size of the timing renders, WIDTHxHEIGHT (RGBA8, as `render` draws); errors are
-    /// measured at --size, where the f64 reference is affordable. Default: --size.
+    /// measured at --size, where the f64 reference is affordable.
+    ///
+    /// Default: --size.
     #[arg(long, value_parser = parse_size)]
     pub time_size: Option<(u32, u32)>,
     /// Frame of a 4-D file (0-based).

@@ -8,16 +8,19 @@ mod accuracy;
 pub mod args;
 mod batch;
 mod bench;
+mod clip;
 mod convert;
 mod derive;
 mod devices;
 mod glyphs;
 mod info;
 mod kernels;
+mod movie;
 pub mod output;
 mod overlay;
 mod peaks;
 mod plan;
+mod progress;
 pub mod render;
 pub mod session;
 mod slice;
@@ -25,6 +28,7 @@ pub mod source;
 mod ttfp;
 #[cfg(feature = "viewer")]
 mod view;
+mod view_preset;
 
 use crate::error::Error;
 use args::{Cli, Command};

@@ -74,8 +74,8 @@ pub fn recipe_from_args(args: &SceneArgs) -> Result<SceneRecipe, Error> {
         opacity: args.opacity.clone(),
         colour: args.color.clone(),
         camera: Camera {
-            azimuth_deg: args.azimuth,
-            elevation_deg: args.elevation,
+            azimuth_deg: args.view.angles().map_or(args.azimuth, |a| a.0),
+            elevation_deg: args.view.angles().map_or(args.elevation, |a| a.1),
             zoom: args.zoom,
             pan_mm: [args.pan.0, args.pan.1],
             projection: match args.projection {
@@ -87,6 +87,8 @@ pub fn recipe_from_args(args: &SceneArgs) -> Result<SceneRecipe, Error> {
         step_voxels: args.step,
         jitter: !args.no_jitter,
         background: args.background,
+        clip: args.clip.clip().map_err(Error::Usage)?,
+        colormap: args.clip.colormap,
         ..SceneRecipe::default()
     };
     recipe.check().map_err(|e| Error::Usage(e.0))?;
@@ -175,6 +177,7 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
     for path in &paths {
         check_output(path, OutputKind::Png, &inputs, false)?;
     }
+    args.movie.check(&paths, &inputs)?;
     let mut opened = session::open(
         args.file.as_slice(),
         args.frame,
@@ -201,10 +204,14 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
         .render_target(width, height, vk::Format::R8G8B8A8_UNORM)?;
     let command = std::env::args().collect::<Vec<_>>().join(" ");
     let mut said_empty = false;
+    let mut movie = super::movie::Movie::default();
+    let mut progress = super::progress::Progress::new(u64::from(frames), "frames");
+    progress.message(&format!("rendering {width}x{height}"));
     for (index, path) in (0..frames).zip(&paths) {
         let mut scene = base;
         if args.turntable.is_some() {
-            scene.camera.azimuth_deg = args.scene.azimuth + 360.0 * index as f64 / frames as f64;
+            scene.camera.azimuth_deg =
+                base.camera.azimuth_deg + 360.0 * index as f64 / frames as f64;
             scene.frame = index;
         }
         let frame = opened
@@ -236,6 +243,9 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
             warnings: opened.source.volume.warnings.clone(),
         };
         write_rgba8(path, frame.width, frame.height, &frame.rgba8, &provenance)?;
+        let size = (frame.width, frame.height);
+        movie.push(&args.movie, frames, size, &frame.rgba8, &provenance)?;
+        progress.step();
         if !said_empty && pixels_off_background(&frame.rgba8, scene.background) == 0 {
             // Never a silent empty image (the exit status stays 0: the scene may mean it).
             let constant = opened.twin.prepared.normalization.constant;
@@ -256,6 +266,8 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
             ms(gpu_ms)
         ));
     }
+    progress.finish();
+    movie.finish(&args.movie, frames)?;
     if validation {
         session::check_validation(&opened.engine)?;
     }

@@ -53,6 +53,7 @@ pub fn run(args: &ViewArgs, global: &super::GlobalOptions) -> Result<(), super::
         command: std::env::args().collect::<Vec<_>>().join(" "),
         started,
         overlay,
+        frame: args.frame,
     };
     crate::app::run(config, args.offscreen, fail_on_validation)?;
     Ok(())

@@ -29,6 +29,25 @@ pub struct Provenance {
     pub warnings: Vec<String>,
 }
 
+impl Provenance {
+    /// The tEXt chunks (key, value) in the order they are written (movies use them too).
+    pub fn chunks(&self) -> Vec<(String, String)> {
+        let software = format!("morphray {}", env!("CARGO_PKG_VERSION"));
+        let warnings = serde_json::to_string(&self.warnings).unwrap_or_else(|_| "[]".into());
+        [
+            ("Software", software),
+            ("morphray:input", self.input.clone()),
+            ("morphray:input-sha256", self.input_sha256.clone()),
+            ("morphray:command", self.command.clone()),
+            ("morphray:parameters", self.parameters.clone()),
+            ("morphray:warnings", warnings),
+        ]
+        .into_iter()
+        .map(|(k, v)| (k.to_string(), v))
+        .collect()
+    }
+}
+
 /// A PNG that could not be written.
 #[derive(Debug, thiserror::Error)]
 pub enum PngError {
@@ -85,17 +104,8 @@ fn encode(
     let mut encoder = png::Encoder::new(out, width, height);
     encoder.set_color(png::ColorType::Rgba);
     encoder.set_depth(png::BitDepth::Eight);
-    let software = format!("morphray {}", env!("CARGO_PKG_VERSION"));
-    let warnings = serde_json::to_string(&provenance.warnings).unwrap_or_else(|_| "[]".into());
-    for (key, value) in [
-        ("Software", software.as_str()),
-        ("morphray:input", provenance.input.as_str()),
-        ("morphray:input-sha256", provenance.input_sha256.as_str()),
-        ("morphray:command", provenance.command.as_str()),
-        ("morphray:parameters", provenance.parameters.as_str()),
-        ("morphray:warnings", warnings.as_str()),
-    ] {
-        encoder.add_text_chunk(key.to_string(), value.to_string())?;
+    for (key, value) in provenance.chunks() {
+        encoder.add_text_chunk(key, value)?;
     }
     let mut writer = encoder.write_header()?;
     writer.write_image_data(rgba)?;

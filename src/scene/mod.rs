@@ -7,6 +7,8 @@
 
 pub mod camera;
 pub mod classification;
+pub mod clip;
+pub mod colormap;
 pub mod geometry;
 pub mod occupancy;
 pub mod overlay;
@@ -14,10 +16,13 @@ pub mod recipe;
 pub mod slice;
 pub mod uniforms;
 pub mod variant;
+pub mod views;
 pub mod visibility;
 
 pub use camera::{Camera, Projection};
 pub use classification::{Classification, TissueClass, TissueStyle, Window};
+pub use clip::{Clip, ClipPlane};
+pub use colormap::Colormap;
 pub use geometry::VolumeGeometry;
 pub use recipe::{RecipeError, SceneRecipe, WindowSet};
 
@@ -222,6 +227,12 @@ pub struct Scene {
     pub intensity_window: [f32; 2],
     /// MinIP ignores samples below this I_norm (the background would otherwise win every ray).
     pub minip_floor: f32,
+    // Helper "clip" (issue 16 items 2 and 4): crop box, clip planes, colour map.
+    /// Crop box and clip planes: rays sample only the kept region (`clip.rs`).
+    pub clip: Clip,
+    /// MIP/MinIP: the map of the display window (None: grey). DVR: sample colours from the map
+    /// instead of the tissue colours (None: tissue colours).
+    pub colormap: Option<Colormap>,
 }
 
 impl Scene {
@@ -256,6 +267,8 @@ impl Scene {
             background: [0.0, 0.0, 0.0],
             intensity_window: [0.0, 1.0],
             minip_floor: 0.0,
+            clip: Clip::default(),
+            colormap: None,
         }
     }
 }

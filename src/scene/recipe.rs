@@ -13,7 +13,7 @@
 //!   `recipe.effects` once, before the file is read, and the scene gets the planned (possibly
 //!   degraded) effects afterwards.
 
-use super::{Camera, Classification, Effects, Scene, TissueClass};
+use super::{Camera, Classification, Clip, Colormap, Effects, Scene, TissueClass};
 use crate::analysis::TissueReport;
 
 /// Which tissue windows a scene starts from.
@@ -56,6 +56,10 @@ pub struct SceneRecipe {
     pub curvature_strength: f32,
     /// MIP/MinIP display window in I_norm.
     pub intensity_window: [f32; 2],
+    /// Crop box and clip planes.
+    pub clip: Clip,
+    /// Colour map (MIP/MinIP; DVR instead of tissue colours).
+    pub colormap: Option<Colormap>,
 }
 
 impl Default for SceneRecipe {
@@ -93,6 +97,7 @@ impl SceneRecipe {
                 "--zoom {zoom} must be a positive number"
             )));
         }
+        self.clip.check().map_err(|e| RecipeError(e.0))?;
         Ok(())
     }
 
@@ -112,6 +117,8 @@ impl SceneRecipe {
             background: scene.background,
             curvature_strength: scene.curvature_strength,
             intensity_window: scene.intensity_window,
+            clip: scene.clip,
+            colormap: scene.colormap,
         }
     }
 
@@ -127,6 +134,8 @@ impl SceneRecipe {
         scene.curvature_strength = self.curvature_strength;
         scene.intensity_window = self.intensity_window;
         scene.minip_floor = report.background_threshold as f32;
+        scene.clip = self.clip;
+        scene.colormap = self.colormap;
         scene
     }
 

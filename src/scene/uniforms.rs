@@ -7,6 +7,8 @@
 use super::Scene;
 use super::camera::CameraRays;
 use super::classification::MIN_EDGE;
+use super::clip::MAX_CLIP_PLANES;
+use super::colormap::COLORMAP_POINTS;
 use super::geometry::VolumeGeometry;
 
 /// Sample cap per ray: protects against absurd step sizes; 2^16 steps of 0.125 voxel cross an
@@ -56,6 +58,15 @@ pub struct RaymarchUniforms {
     pub brick_grid: [u32; 4],
     /// Bricked volumes: xy slots per atlas row and layer.
     pub atlas_slots: [u32; 4],
+    // Helper "clip" (issue 16 items 2 and 4): crop box, clip planes, colour map.
+    /// Crop box, index space: xyz smallest corner; w = clip planes in use.
+    pub crop_lo: [f32; 4],
+    /// Crop box, index space: xyz largest corner; w = 1 when colours come from `colormap`.
+    pub crop_hi: [f32; 4],
+    /// Clip planes in index space: unit normal xyz, w offset; keeps `n . p + w >= 0`.
+    pub clip_planes: [[f32; 4]; MAX_CLIP_PLANES],
+    /// Colour map control points (rgb, w unused) at positions i / 15.
+    pub colormap: [[f32; 4]; COLORMAP_POINTS],
 }
 
 /// Where a bricked volume's bricks are (zeros for a whole volume).
@@ -144,7 +155,17 @@ impl RaymarchUniforms {
         } else {
             0.0
         };
+        let clip = scene.clip.to_index(geometry);
+        let colormap = scene
+            .colormap
+            .unwrap_or(super::Colormap::Gray)
+            .points()
+            .map(|[r, g, b]| [r, g, b, 0.0]);
         RaymarchUniforms {
+            crop_lo: vec4(clip.lo, clip.count as f64),
+            crop_hi: vec4(clip.hi, scene.colormap.is_some() as u32 as f64),
+            clip_planes: clip.planes.map(|p| p.to_array().map(|v| v as f32)),
+            colormap,
             world_to_index: geometry
                 .world_to_index
                 .to_cols_array_2d()

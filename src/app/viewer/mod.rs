@@ -95,6 +95,8 @@ pub struct ViewerConfig {
     pub started: Instant,
     /// A label map drawn over the slices (resampled onto each volume's grid).
     pub overlay: Option<crate::scene::overlay::Overlay>,
+    /// Which frame of a 4-D file to show (0-based), for every file this session opens.
+    pub frame: usize,
 }
 
 /// One device's GPU objects; dropped and rebuilt after a device loss.
@@ -276,7 +278,7 @@ impl Viewer {
             1,
             config.source.clone(),
             config.started,
-            opening::open_options(recipe, config.size, config.series.clone()),
+            opening::open_options(recipe, config.size, config.series.clone(), config.frame),
         );
         let log = FrameLog::new(config.log);
         let runner = Runner::new(config.script.clone());
@@ -614,7 +616,6 @@ impl Viewer {
         }
         self.flush_completed();
         self.idle_frames = self.idle_frames.saturating_sub(1);
-        self.status.rate.frame(Instant::now());
         result.platform = Some(full.platform_output);
         if last {
             let path = self.config.screenshot.clone();

@@ -206,8 +206,12 @@ impl Viewer {
             stage: "queued".into(),
             since: now,
         });
-        self.loader
-            .load(id, source, now, open_options(recipe, self.size, series));
+        self.loader.load(
+            id,
+            source,
+            now,
+            open_options(recipe, self.size, series, self.config.frame),
+        );
         self.pending_load = Some((id, label));
         if let Some(text) = label_for_log {
             self.log.pending.push(Pending {
@@ -271,15 +275,17 @@ pub(super) fn shown_series(loaded: &LoadedVolume) -> Option<SeriesChoice> {
 }
 
 /// How the viewer opens a volume: planned for the window's size, hashed for screenshots'
-/// provenance, pipelines ahead of time, the DICOM series `series`.
+/// provenance, pipelines ahead of time, the DICOM series `series`, the frame `frame` of a 4-D
+/// file.
 pub(super) fn open_options(
     recipe: SceneRecipe,
     size: [u32; 2],
     series: Option<SeriesChoice>,
+    frame: usize,
 ) -> OpenOptions {
     OpenOptions {
         read: ReadOptions {
-            frame: 0,
+            frame,
             hash: true,
             series,
         },

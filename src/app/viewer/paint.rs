@@ -214,6 +214,10 @@ impl Viewer {
             // A frame that raymarched reports its own raymarch; one that only recomposed keeps
             // the last raymarch's time on show.
             let raymarched = done.passes.iter().any(|p| p.name == "raymarch");
+            if raymarched {
+                // The status bar's rate counts volume frames, not interface frames.
+                self.status.rate.frame(std::time::Instant::now());
+            }
             let mut passes: Vec<(String, f64)> = self
                 .status
                 .passes

@@ -138,6 +138,9 @@ impl Viewer {
             Action::CurvatureStrength(s) => c.scene.curvature_strength = *s,
             Action::Shading(on) => c.scene.effects.shading = *on,
             Action::Background(rgb) => c.scene.background = *rgb,
+            Action::Crop(crop) => c.scene.clip.crop = *crop,
+            Action::Clip(plane) => c.scene.clip.planes[0] = *plane,
+            Action::Colormap(map) => c.scene.colormap = *map,
             Action::Open(source) => {
                 self.open(source.clone(), None, Some(step.text.clone()));
                 watch = false;

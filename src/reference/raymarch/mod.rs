@@ -41,6 +41,9 @@
 //! - Non-finite scene or gradient parameters, and a negative `tau`, are rejected with
 //!   [`ReferenceError`] instead of producing NaN.
 //!
+//! Crop and clip: the box interval is cut by `scene::clip::intersect_clipped` (the twin of
+//! `clip.glsl`); colour maps are `scene::colormap` (the twin of `colormap.glsl`).
+//!
 //! Ray/box: `scene::geometry::intersect_box` and `geometry.glsl` share one rule for direction
 //! components below 1e-20 (a containment test on the closed slab, whatever the zero's sign), so
 //! rays lying in either face plane hit in both.
@@ -64,10 +67,11 @@ pub use inputs::{ReferenceDerived, ReferenceError, ReferenceVolume};
 pub use sampling::{fetch, trilinear};
 
 use crate::scene::camera::CameraRays;
-use crate::scene::geometry::{VolumeGeometry, intersect_box};
+use crate::scene::clip::{IndexClip, intersect_clipped};
+use crate::scene::geometry::VolumeGeometry;
 use crate::scene::uniforms::{GradientStats, MAX_STEPS};
 use crate::scene::{
-    Classification, CurvatureMode, GradientFilter, GradientSource, Interpolation,
+    Classification, Colormap, CurvatureMode, GradientFilter, GradientSource, Interpolation,
     OpacityCorrection, RenderMode, Scene,
 };
 use formulas::{curvature_with, gradient_central_with, gradient_sobel_with};
@@ -166,6 +170,8 @@ pub struct ReferenceRaymarch<'a> {
     minip_floor: f64,
     width: u32,
     height: u32,
+    clip: IndexClip,
+    colormap: Option<Colormap>,
 }
 
 impl<'a> ReferenceRaymarch<'a> {
@@ -286,6 +292,12 @@ impl<'a> ReferenceRaymarch<'a> {
             });
         }
 
+        if scene.clip.check().is_err() {
+            return Err(ReferenceError::BadParameter {
+                what: "clip (crop or plane)",
+                value: f64::NAN,
+            });
+        }
         let step_voxels = scene.sanitized_step_voxels();
         let rays = scene.camera.rays(geometry.world_bounds(), width, height);
         Ok(ReferenceRaymarch {
@@ -322,6 +334,8 @@ impl<'a> ReferenceRaymarch<'a> {
             minip_floor,
             width,
             height,
+            clip: scene.clip.to_index(geometry),
+            colormap: scene.colormap,
         })
     }
 
@@ -359,7 +373,7 @@ impl<'a> ReferenceRaymarch<'a> {
         let dt = self.step_mm;
         let finite = origin.is_finite() && direction.is_finite() && direction_world.is_finite();
         let hit = if finite {
-            intersect_box(origin, direction, self.volume.dims)
+            intersect_clipped(origin, direction, self.volume.dims, &self.clip)
         } else {
             None
         };
@@ -467,9 +481,12 @@ impl<'a> ReferenceRaymarch<'a> {
     /// GPU pixel differs: every intermediate of the shader's loop body.
     pub fn dvr_sample(&self, p: DVec3, view_direction: DVec3) -> Option<DvrSample> {
         let value = self.value(p);
-        let (f, colour) = self.classification.classify(value);
+        let (f, mut colour) = self.classification.classify(value);
         if f <= 0.0 {
             return None;
+        }
+        if let Some(map) = self.colormap {
+            colour = map.lookup(self.display_position(value));
         }
         let (magnitude, curvature, normal) = self.derivatives(p, value);
         let mut opacity = (f * magnitude * self.inv_max_magnitude).clamp(0.0, 1.0);
@@ -532,9 +549,21 @@ impl<'a> ReferenceRaymarch<'a> {
         if !found {
             return self.with_background([0.0; 4]);
         }
+        let grey = self.display_position(extreme);
+        match self.colormap {
+            Some(map) => {
+                let [r, g, b] = map.lookup(grey);
+                [r, g, b, 1.0]
+            }
+            None => [grey, grey, grey, 1.0],
+        }
+    }
+
+    /// Where I_norm `v` falls in the display window, in [0, 1]: the grey level of MIP/MinIP and
+    /// the colour map's input (`display_position` in `colormap.glsl`).
+    fn display_position(&self, v: f64) -> f64 {
         let [lo, hi] = self.intensity_window;
-        let grey = ((extreme - lo) / (hi - lo).max(1e-6)).clamp(0.0, 1.0);
-        [grey, grey, grey, 1.0]
+        ((v - lo) / (hi - lo).max(1e-6)).clamp(0.0, 1.0)
     }
 }
 
