@@ -439,9 +439,11 @@ pub struct SceneArgs {
     /// folded structures; computes the Hessian.
     #[arg(long, value_enum, default_value_t = Switch::Off)]
     pub curvature: Switch,
-    /// Phong shading with world-space gradient normals (headlight).
-    #[arg(long, value_enum, default_value_t = Switch::Off)]
-    pub shading: Switch,
+    /// Phong shading with world-space gradient normals (headlight). Default: on for `render`
+    /// (a still: a shaded surface, at about 11 % of a frame on the H100, BENCHMARKS.md), off for
+    /// the interactive and measuring commands.
+    #[arg(long, value_enum)]
+    pub shading: Option<Switch>,
     /// Where the gradient term comes from.
     #[arg(long, value_enum, default_value_t = GradientArg::Precomputed)]
     pub gradient: GradientArg,

@@ -14,7 +14,7 @@
 //!   gets no contrast note.
 
 use super::args::{
-    GradientArg, ModeArg, PrecisionArg, ProjectionArg, RenderArgs, SceneArgs, WindowsArg,
+    GradientArg, ModeArg, PrecisionArg, ProjectionArg, RenderArgs, SceneArgs, Switch, WindowsArg,
 };
 use super::output::{ms, print_line, print_warnings};
 use super::session;
@@ -52,7 +52,7 @@ pub fn recipe_from_args(args: &SceneArgs) -> Result<SceneRecipe, Error> {
             ModeArg::Minip => RenderMode::MinIp,
         },
         curvature: args.curvature.on(),
-        shading: args.shading.on(),
+        shading: args.shading.is_some_and(Switch::on),
         gradient_source: match args.gradient {
             GradientArg::Precomputed => GradientSource::Precomputed,
             GradientArg::OnTheFly => GradientSource::OnTheFly,
@@ -178,12 +178,17 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
         check_output(path, OutputKind::Png, &inputs, false)?;
     }
     args.movie.check(&paths, &inputs)?;
+    // A still is shaded unless asked otherwise (see --shading).
+    let scene_args = SceneArgs {
+        shading: Some(args.scene.shading.unwrap_or(Switch::On)),
+        ..args.scene.clone()
+    };
     let mut opened = session::open(
         args.file.as_slice(),
         args.frame,
         true,
         global.engine_config(),
-        Some(&args.scene),
+        Some(&scene_args),
         true,
     )?;
     print_warnings(&opened.source.volume.warnings);
@@ -225,7 +230,7 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
             "engine": format!("morphray {}", env!("CARGO_PKG_VERSION")),
             "input": opened.source.label,
             "frame_of_4d_file": args.frame,
-            "arguments": args.scene,
+            "arguments": scene_args,
             "turntable_index": args.turntable.map(|_| index),
             "scene": scene,
             "device": opened.engine.device().adapter().name,

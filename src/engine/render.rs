@@ -38,9 +38,11 @@ pub use crate::gpu::FRAMES_IN_FLIGHT;
 
 /// Empty-space skipping is used only when at most this fraction of the 8^3 bricks can hold a
 /// visible sample. With (nearly) every brick visible there is nothing to skip and the brick
-/// lookups only cost: on the H100 at 1920x1080, MNI152 with the adaptive windows (every brick
-/// visible) rendered 13 % faster without skipping, while the phantom (20 % of bricks visible)
-/// rendered 2.8x faster with it (ACCURACY.md).
+/// lookups only cost: on the H100 at 1920x1080, MNI152 under adaptive windows that then made
+/// every brick visible rendered 13 % faster without skipping, while the phantom (20 % of bricks
+/// visible) rendered 2.8x faster with it (ACCURACY.md). Since the darkest window no longer
+/// reaches the zero background, MNI152 has 28.8 % of its bricks visible and skips (2.28x faster,
+/// BENCHMARKS.md).
 pub const MAX_OCCUPANCY_FOR_SKIPPING: f64 = 0.9;
 
 /// An output image with its readback buffer and per-frame uniform buffers.
