@@ -41,7 +41,9 @@ pub mod loader;
 pub mod script;
 pub mod slices_panel;
 pub mod status;
+mod status_bar;
 pub mod ui;
+pub mod view_area;
 pub mod viewer;
 pub mod window;
 

@@ -9,12 +9,12 @@
 //!   script runner both call, so a scripted run exercises the interface's own code paths.
 //! - The 3D view is the central panel without a frame: the presenter copies the raymarched image
 //!   under it, egui draws only the overlays; its rectangle (in pixels) sizes the render target.
+//!   Its input and overlays are in `view_area.rs`, the status bar in `status_bar.rs`, the file
+//!   panel in `file_panel.rs`.
 //! - Camera input is read from egui's response on the view (so egui decides who owns a drag:
 //!   a slider drag never orbits the volume), keys only when no text field has focus.
 
-use super::camera_control::{
-    Button, CameraController, DragKind, StandardView, drag_kind, edge_labels, view_for_key,
-};
+use super::camera_control::{CameraController, StandardView};
 use super::file_panel::FilePanel;
 use super::histogram;
 use super::script::Preset;
@@ -23,7 +23,7 @@ use crate::analysis::{Contrast, TissueReport};
 use crate::scene::visibility::{EmptyScene, predict_empty};
 use crate::scene::{Classification, RenderMode, Scene, TissueClass};
 use crate::volume::source::VolumeSource;
-use egui::{Color32, Pos2, Rect, RichText, Ui, vec2};
+use egui::{Color32, Rect, RichText, Ui, vec2};
 use std::path::PathBuf;
 
 /// Width of the tool panel, points.
@@ -228,7 +228,7 @@ pub fn draw(ui: &mut Ui, controls: &mut Controls, shown: &Shown) -> Outcome {
 
     egui::Panel::bottom("status")
         .resizable(false)
-        .show(ui, |ui| status_bar(ui, shown.status));
+        .show(ui, |ui| super::status_bar::status_bar(ui, shown.status));
 
     egui::Panel::left("tools")
         .resizable(false)
@@ -250,8 +250,8 @@ pub fn draw(ui: &mut Ui, controls: &mut Controls, shown: &Shown) -> Outcome {
     let view = egui::CentralPanel::no_frame()
         .show(ui, |ui| {
             let rect = ui.max_rect();
-            view_input(ui, rect, controls);
-            view_overlays(ui, rect, controls, shown);
+            super::view_area::view_input(ui, rect, controls);
+            super::view_area::view_overlays(ui, rect, controls, shown);
             super::crosshair_3d::decorate_view(ui, rect, controls, shown.has_volume);
             rect
         })
@@ -426,245 +426,11 @@ fn camera_panel(ui: &mut Ui, controls: &mut Controls) {
     );
 }
 
-/// Colours of the per-pass bar segments, in order.
-const PASS_COLOURS: [Color32; 5] = [
-    Color32::from_rgb(230, 150, 60),
-    Color32::from_rgb(90, 160, 230),
-    Color32::from_rgb(120, 200, 120),
-    Color32::from_rgb(200, 110, 200),
-    Color32::from_rgb(200, 200, 90),
-];
-
-fn status_bar(ui: &mut Ui, status: &Status) {
-    ui.horizontal(|ui| {
-        ui.label(RichText::new(status.volume_text()).small());
-    });
-    ui.horizontal(|ui| {
-        ui.label(RichText::new(status.timing_text()).small());
-        let shares = status.pass_shares();
-        if !shares.is_empty() {
-            let (rect, _) = ui.allocate_exact_size(vec2(120.0, 10.0), egui::Sense::hover());
-            let mut x = rect.left();
-            for (i, (_, _, share)) in shares.iter().enumerate() {
-                let w = rect.width() * *share as f32;
-                ui.painter().rect_filled(
-                    Rect::from_min_size(Pos2::new(x, rect.top()), vec2(w, rect.height())),
-                    0.0,
-                    PASS_COLOURS[i % PASS_COLOURS.len()],
-                );
-                x += w;
-            }
-            for (i, (name, ms, _)) in shares.iter().enumerate() {
-                ui.label(
-                    RichText::new(format!("{name} {ms:.2}"))
-                        .small()
-                        .color(PASS_COLOURS[i % PASS_COLOURS.len()]),
-                );
-            }
-        }
-    });
-    if let Some(loading) = &status.loading {
-        ui.horizontal(|ui| {
-            ui.spinner();
-            ui.label(
-                RichText::new(format!(
-                    "Loading {}: {} ({:.1} s)",
-                    loading.label,
-                    loading.stage,
-                    loading.since.elapsed().as_secs_f64()
-                ))
-                .small(),
-            );
-        });
-    }
-    if let Some(deriving) = &status.deriving {
-        ui.horizontal(|ui| {
-            ui.spinner();
-            ui.label(RichText::new(deriving.as_str()).small());
-        });
-    }
-    if let Some(plan) = &status.plan {
-        // What the memory plan did (layout, degradations), as `render` says on stderr.
-        let colour = if plan.contains("degraded") {
-            Color32::from_rgb(255, 200, 90)
-        } else {
-            Color32::GRAY
-        };
-        ui.label(RichText::new(format!("Plan: {plan}")).small().color(colour));
-    }
-    if let Some(note) = &status.note {
-        ui.label(
-            RichText::new(note.as_str())
-                .small()
-                .color(Color32::LIGHT_GREEN),
-        );
-    }
-    if let Some(error) = &status.error {
-        ui.label(
-            RichText::new(error.as_str())
-                .small()
-                .color(Color32::from_rgb(255, 110, 100)),
-        );
-    }
-}
-
-fn view_input(ui: &mut Ui, rect: Rect, controls: &mut Controls) {
-    let response = ui.interact(rect, ui.id().with("3d view"), egui::Sense::click_and_drag());
-    let shift = ui.input(|i| i.modifiers.shift);
-    let pixels = ui.ctx().pixels_per_point();
-    let view_px = [
-        (rect.width() * pixels).round().max(1.0) as u32,
-        (rect.height() * pixels).round().max(1.0) as u32,
-    ];
-    let buttons = [
-        (egui::PointerButton::Primary, Button::Primary),
-        (egui::PointerButton::Secondary, Button::Secondary),
-        (egui::PointerButton::Middle, Button::Middle),
-    ];
-    controls.dragging = false;
-    for (egui_button, button) in buttons {
-        if response.dragged_by(egui_button) {
-            controls.dragging = true;
-            let d = response.drag_delta() * pixels;
-            let delta = [d.x as f64, d.y as f64];
-            match drag_kind(button, shift) {
-                DragKind::Orbit => controls.camera.orbit(&mut controls.scene.camera, delta),
-                DragKind::Pan => controls.camera.pan(
-                    &mut controls.scene.camera,
-                    delta,
-                    view_px,
-                    controls.extent_mm,
-                ),
-            }
-        }
-    }
-    if response.double_clicked() {
-        controls.camera.reset(&mut controls.scene.camera);
-    }
-    if response.hovered() {
-        let scroll = ui.input(|i| i.smooth_scroll_delta.y);
-        if scroll != 0.0 {
-            // egui-winit turns one wheel notch into 50 points of scroll.
-            controls
-                .camera
-                .zoom(&mut controls.scene.camera, scroll as f64 / 50.0);
-        }
-    }
-    if !ui.ctx().egui_wants_keyboard_input() {
-        let keys: Vec<egui::Key> = ui.input(|i| {
-            i.events
-                .iter()
-                .filter_map(|e| match e {
-                    egui::Event::Key {
-                        key,
-                        pressed: true,
-                        repeat: false,
-                        modifiers,
-                        ..
-                    } if modifiers.is_none() || modifiers.shift_only() => Some(*key),
-                    _ => None,
-                })
-                .collect()
-        });
-        for key in keys {
-            let name = key.name();
-            if name.len() == 1
-                && let Some(view) = name.chars().next().and_then(view_for_key)
-            {
-                controls.view(view);
-            }
-            if key == egui::Key::Home {
-                controls.camera.reset(&mut controls.scene.camera);
-            }
-        }
-    }
-}
-
-/// Where each orientation letter is drawn, in points (for tests and the scripted log).
-pub fn letter_positions(rect: Rect) -> [(Pos2, egui::Align2); 4] {
-    let m = 6.0;
-    [
-        (
-            Pos2::new(rect.left() + m, rect.center().y),
-            egui::Align2::LEFT_CENTER,
-        ),
-        (
-            Pos2::new(rect.right() - m, rect.center().y),
-            egui::Align2::RIGHT_CENTER,
-        ),
-        (
-            Pos2::new(rect.center().x, rect.top() + m),
-            egui::Align2::CENTER_TOP,
-        ),
-        (
-            Pos2::new(rect.center().x, rect.bottom() - m),
-            egui::Align2::CENTER_BOTTOM,
-        ),
-    ]
-}
-
-fn view_overlays(ui: &mut Ui, rect: Rect, controls: &Controls, shown: &Shown) {
-    let painter = ui.painter_at(rect);
-    if shown.has_volume
-        && let Some(message) = empty_view_message(&controls.scene, shown.constant_volume)
-    {
-        // Wrapped to the view, centred: the reason is a sentence, longer than a narrow view.
-        let colour = Color32::from_rgb(255, 220, 0);
-        let galley = painter.layout(
-            message,
-            egui::FontId::proportional(15.0),
-            colour,
-            (rect.width() - 24.0).max(40.0),
-        );
-        painter.galley(rect.center() - galley.size() / 2.0, galley, colour);
-    }
-    if shown.has_volume {
-        let labels = edge_labels(&controls.scene.camera);
-        let texts = [labels.left, labels.right, labels.top, labels.bottom];
-        for ((pos, align), text) in letter_positions(rect).into_iter().zip(texts) {
-            painter.text(
-                pos,
-                align,
-                text,
-                egui::FontId::proportional(18.0),
-                Color32::from_rgb(255, 220, 0),
-            );
-        }
-    } else if shown.status.loading.is_none() {
-        painter.text(
-            rect.center(),
-            egui::Align2::CENTER_CENTER,
-            "Open a NIfTI file (Open..., or drop it here)",
-            egui::FontId::proportional(16.0),
-            Color32::GRAY,
-        );
-    }
-    if let Some(loading) = &shown.status.loading {
-        let spinner = Rect::from_center_size(rect.center(), vec2(32.0, 32.0));
-        ui.put(spinner, egui::Spinner::new().size(32.0));
-        painter.text(
-            rect.center() + vec2(0.0, 30.0),
-            egui::Align2::CENTER_TOP,
-            format!("Loading {}: {}", loading.label, loading.stage),
-            egui::FontId::proportional(14.0),
-            Color32::WHITE,
-        );
-    }
-    if let Some(error) = &shown.status.error {
-        painter.text(
-            rect.left_top() + vec2(8.0, 28.0),
-            egui::Align2::LEFT_TOP,
-            error,
-            egui::FontId::proportional(13.0),
-            Color32::from_rgb(255, 110, 100),
-        );
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::scene::{Camera, Window};
+    use egui::Pos2;
 
     fn controls() -> Controls {
         let w = |lo, hi| Some(Window { lo, hi, edge: 0.01 });

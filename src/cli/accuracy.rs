@@ -27,6 +27,8 @@
 //! - Devices measured are one class each; the integrated class is projected from the counted
 //!   samples onto an Intel Xe-LP (passes/cost.rs), labelled as a model.
 
+use super::accuracy_report::{AccuracyReport, Recommendation, SettingResult, print_table};
+use super::accuracy_settings::settings;
 use super::args::AccuracyArgs;
 use super::output::{json, print_line, print_warnings};
 use super::session;
@@ -37,16 +39,11 @@ use crate::passes::raymarch::RaymarchVariant;
 use crate::reference::derivatives::{DEFAULT_TAU, IndexToWorld, voxel_derivatives};
 use crate::reference::raymarch::{ReferenceDerived, ReferenceRaymarch, ReferenceVolume};
 use crate::scene::uniforms::GradientStats;
-use crate::scene::{
-    CurvatureSource, DerivedPrecision, GradientFilter, GradientSource, Interpolation,
-    OpacityCorrection, Scene, VolumeGeometry,
-};
+use crate::scene::{OpacityCorrection, Scene, VolumeGeometry};
 use crate::study::metrics::{ImageError, compare};
 use crate::study::pareto::{frontier_with_spread, frontier_within};
 use crate::study::plot::{PlotError, PlotPoint, write_svg};
-use crate::study::stability::{
-    OpacityStability, UNSTABLE_RELATIVE_ERROR, opacity_grid, worst_errors,
-};
+use crate::study::stability::{UNSTABLE_RELATIVE_ERROR, opacity_grid, worst_errors};
 use ash::vk;
 
 /// The views every setting is rendered from: (azimuth, elevation) in degrees.
@@ -67,177 +64,6 @@ const WARM_UP_FRAMES: u32 = 2;
 
 /// The reference's step in voxels.
 const REFERENCE_STEP: f64 = 0.125;
-
-type Edit = fn(&mut Scene);
-
-/// One knob setting.
-struct Setting {
-    name: &'static str,
-    knob: &'static str,
-    curvature: bool,
-    format: vk::Format,
-    edit: Edit,
-}
-
-fn settings() -> Vec<Setting> {
-    let r16 = vk::Format::R16_UNORM;
-    let s = |name, knob, edit: Edit| Setting {
-        name,
-        knob,
-        curvature: false,
-        format: r16,
-        edit,
-    };
-    let mut v = vec![
-        s("default", "default", |_| {}),
-        s("step 0.125", "step", |x| x.step_voxels = 0.125),
-        s("step 0.25", "step", |x| x.step_voxels = 0.25),
-        s("step 1", "step", |x| x.step_voxels = 1.0),
-        s("step 2", "step", |x| x.step_voxels = 2.0),
-        s("nearest", "interpolation", |x| {
-            x.effects.quality.interpolation = Interpolation::Nearest
-        }),
-        s("tricubic", "interpolation", |x| {
-            x.effects.quality.interpolation = Interpolation::Tricubic
-        }),
-        s("gradient f32", "gradient", |x| {
-            x.effects.quality.derived_precision = DerivedPrecision::F32
-        }),
-        s("gradient f16", "gradient", |x| {
-            x.effects.quality.derived_precision = DerivedPrecision::F16
-        }),
-        s("gradient on the fly", "gradient", |x| {
-            x.effects.gradient_source = GradientSource::OnTheFly
-        }),
-        s("gradient on the fly, Sobel", "gradient", |x| {
-            x.effects.gradient_source = GradientSource::OnTheFly;
-            x.effects.quality.gradient_filter = GradientFilter::Sobel;
-        }),
-        s("naive opacity correction", "opacity correction", |x| {
-            x.effects.quality.opacity_correction = OpacityCorrection::Naive
-        }),
-        s("termination 0.95", "early termination", |x| {
-            x.early_termination = 0.95
-        }),
-        s("termination 0.99", "early termination", |x| {
-            x.early_termination = 0.99
-        }),
-        s("termination off", "early termination", |x| {
-            x.early_termination = 2.0
-        }),
-        s("no empty-space skipping", "empty-space skipping", |x| {
-            x.effects.quality.empty_space_skipping = false
-        }),
-    ];
-    for (name, format) in [
-        ("I_norm R8", vk::Format::R8_UNORM),
-        ("I_norm R16F", vk::Format::R16_SFLOAT),
-        ("I_norm R32F", vk::Format::R32_SFLOAT),
-    ] {
-        v.push(Setting {
-            name,
-            knob: "storage format",
-            curvature: false,
-            format,
-            edit: |_| {},
-        });
-    }
-    // The storage formats again at the stills' step, where the step no longer hides their
-    // quantization: what the defaults' R16 and f16 buy for diagnosis-quality images.
-    v.push(Setting {
-        name: "step 0.125, I_norm R8",
-        knob: "storage format at step 0.125",
-        curvature: false,
-        format: vk::Format::R8_UNORM,
-        edit: |x| x.step_voxels = 0.125,
-    });
-    v.push(s(
-        "step 0.125, gradient f16",
-        "storage format at step 0.125",
-        |x| {
-            x.step_voxels = 0.125;
-            x.effects.quality.derived_precision = DerivedPrecision::F16;
-        },
-    ));
-    let c = |name, edit: Edit| Setting {
-        name,
-        knob: "curvature",
-        curvature: true,
-        format: r16,
-        edit,
-    };
-    v.push(c("curvature stored", |x| x.effects.curvature = true));
-    v.push(c("curvature on the fly", |x| {
-        x.effects.curvature = true;
-        x.effects.quality.curvature_source = CurvatureSource::OnTheFly;
-    }));
-    v.push(c("curvature stored, f16", |x| {
-        x.effects.curvature = true;
-        x.effects.quality.derived_precision = DerivedPrecision::F16;
-    }));
-    v.push(c("curvature stored, f32", |x| {
-        x.effects.curvature = true;
-        x.effects.quality.derived_precision = DerivedPrecision::F32;
-    }));
-    v
-}
-
-/// One setting's result.
-#[derive(Clone, Debug, serde::Serialize)]
-struct SettingResult {
-    name: &'static str,
-    knob: &'static str,
-    group: &'static str,
-    /// Median over the timing rounds of the mean frame time over the views.
-    gpu_ms: f64,
-    /// Relative half-width of the rounds' 10th..90th percentile range: the time's resolution.
-    time_spread: f64,
-    precompute_ms: f64,
-    error: ImageError,
-    samples_per_frame: f64,
-    xe_lp_model_ms: f64,
-    frontier: bool,
-    xe_lp_frontier: bool,
-    default: bool,
-    skipped: Option<String>,
-    /// Why the setting is kept off the frontier despite its images (a failed stability check).
-    unstable: Option<String>,
-    /// Whether the setting uses the naive f32 opacity correction.
-    naive_opacity: bool,
-}
-
-#[derive(serde::Serialize)]
-struct Recommendation {
-    device_class: String,
-    interaction: Option<&'static str>,
-    diagnosis: Option<&'static str>,
-    rule: &'static str,
-}
-
-#[derive(serde::Serialize)]
-struct AccuracyReport<'a> {
-    engine: String,
-    device: String,
-    device_type: &'static str,
-    input: &'a str,
-    dims: [u32; 3],
-    image: [u32; 2],
-    /// Size of the timing renders (RGBA8).
-    time_image: [u32; 2],
-    views: Vec<(f64, f64)>,
-    frames: u32,
-    reference: &'static str,
-    settings: Vec<SettingResult>,
-    default_on_frontier: bool,
-    /// Median over the settings of each setting's round-to-round time spread (relative
-    /// half-width of its 10th..90th percentile range).
-    typical_time_spread: f64,
-    /// Worst relative errors of the exact and the naive opacity correction on this device.
-    opacity_stability: OpacityStability,
-    recommendations: Vec<Recommendation>,
-    /// The loader's repairs and warnings about the input.
-    warnings: Vec<String>,
-}
 
 /// The f64 derived volumes of the whole pipeline's truth: |g|, k and unit normals per voxel.
 fn reference_derived(
@@ -311,7 +137,7 @@ fn reference_image(r: &ReferenceRaymarch<'_>, width: u32, height: u32) -> Vec<[f
 
 /// A typical round-to-round time spread above this means the timings measured contention, not
 /// the settings (a quiet H100 shows about 1 %, a quiet lavapipe under 10 %).
-const NOISY_TIME_SPREAD: f64 = 0.15;
+pub(super) const NOISY_TIME_SPREAD: f64 = 0.15;
 
 /// Median and relative half-width of the 10th..90th percentile range of `values`.
 fn median_and_spread(values: &mut [f64]) -> (f64, f64) {
@@ -771,92 +597,4 @@ pub fn run(args: &AccuracyArgs, global: &super::GlobalOptions) -> Result<(), Err
     session::persist_pipeline_cache(&opened.engine);
     print_table(&report);
     Ok(())
-}
-
-fn print_table(r: &AccuracyReport<'_>) {
-    print_line(&format!(
-        "{} on {}: {} {}x{}x{}, error at {}x{} px, time at {}x{} px, {} views, {} frames",
-        r.engine,
-        r.device,
-        r.input,
-        r.dims[0],
-        r.dims[1],
-        r.dims[2],
-        r.image[0],
-        r.image[1],
-        r.time_image[0],
-        r.time_image[1],
-        r.views.len(),
-        r.frames
-    ));
-    print_line(&format!("reference: {}", r.reference));
-    print_line(
-        "setting                        group          GPU ms   +-%   precompute  RMSE      PSNR dB  SSIM    max abs  frontier  Xe-LP model ms",
-    );
-    for s in &r.settings {
-        if let Some(why) = &s.skipped {
-            print_line(&format!("{:<30} {:<14} skipped: {why}", s.name, s.group));
-            continue;
-        }
-        print_line(&format!(
-            "{:<30} {:<14} {:>7.3} {:>5.1}  {:>9.3}  {:>8.5}  {:>7.2}  {:>6.4}  {:>7.4}  {:<8}  {:>8.3}{}",
-            s.name,
-            s.group,
-            s.gpu_ms,
-            s.time_spread * 100.0,
-            s.precompute_ms,
-            s.error.rmse,
-            s.error.psnr_db,
-            s.error.ssim,
-            s.error.max_abs,
-            if s.frontier {
-                "yes"
-            } else if s.unstable.is_some() {
-                "unstable"
-            } else {
-                ""
-            },
-            s.xe_lp_model_ms,
-            if s.default {
-                "   <- render/view default"
-            } else {
-                ""
-            }
-        ));
-    }
-    print_line(&format!(
-        "default on the measured frontier: {}",
-        if r.default_on_frontier { "yes" } else { "NO" }
-    ));
-    if r.typical_time_spread > NOISY_TIME_SPREAD {
-        print_line(&format!(
-            "warning: GPU times varied by +-{:.0} % between rounds (median over the settings): \
-             the device was busy, time differences under {:.0} % count as ties, so the frontier \
-             and the recommendations rest on the errors alone; rerun on an idle device",
-            r.typical_time_spread * 100.0,
-            r.typical_time_spread * 200.0
-        ));
-    }
-    print_line(&format!(
-        "opacity correction on this device, worst relative error over NUMERICS.md's grid: exact {:.2e}, naive {:.2e} (a = {:e}, r = {})",
-        r.opacity_stability.exact.relative,
-        r.opacity_stability.naive.relative,
-        r.opacity_stability.naive.alpha,
-        r.opacity_stability.naive.ratio
-    ));
-    for s in r.settings.iter().filter(|s| s.unstable.is_some()) {
-        print_line(&format!(
-            "kept off the frontier: {}: {}",
-            s.name,
-            s.unstable.as_deref().unwrap_or("")
-        ));
-    }
-    for rec in &r.recommendations {
-        print_line(&format!(
-            "recommended for {}: interaction `{}`, diagnosis `{}`",
-            rec.device_class,
-            rec.interaction.unwrap_or("-"),
-            rec.diagnosis.unwrap_or("-")
-        ));
-    }
 }

@@ -3,9 +3,12 @@
 //! Decision: every scene option of `render` lives in [`SceneArgs`], flattened into each command
 //! that renders or plans, so `render`, `view`, `bench` and `plan` accept the same spelling.
 
-use crate::scene::TissueClass;
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use std::path::PathBuf;
+
+pub use super::scene_args::{
+    GradientArg, ModeArg, PrecisionArg, ProjectionArg, SceneArgs, Switch, WindowsArg,
+};
 
 /// morphray: GPU volume rendering of MRI scans (NIfTI) on Vulkan.
 #[derive(Debug, Parser)]
@@ -319,215 +322,6 @@ pub struct PeaksArgs {
     pub frame: usize,
 }
 
-/// Rendering mode.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum, serde::Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum ModeArg {
-    /// Direct volume rendering: the paper's composite with gradient-modulated opacity.
-    Dvr,
-    /// Maximum intensity projection.
-    Mip,
-    /// Minimum intensity projection (ignoring background below the tissue floor).
-    Minip,
-}
-
-/// Which tissue windows to use.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum, serde::Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum WindowsArg {
-    /// Placed around the CSF / GM / WM peaks found in this volume's histogram.
-    Adaptive,
-    /// The paper's fixed constants (CSF 0.05-0.12, GM 0.12-0.18, WM > 0.18, pathology > 0.20):
-    /// T1 windows, wrong for a T2 volume.
-    Paper,
-}
-
-/// An on/off switch.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum, serde::Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Switch {
-    /// Enabled.
-    On,
-    /// Disabled.
-    Off,
-}
-
-impl Switch {
-    /// True for `on`.
-    pub fn on(self) -> bool {
-        self == Switch::On
-    }
-}
-
-/// Projection.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum, serde::Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum ProjectionArg {
-    /// Pinhole camera, 30 degree vertical field of view.
-    Perspective,
-    /// Parallel rays.
-    Orthographic,
-}
-
-/// Source of the gradient term.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum, serde::Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum GradientArg {
-    /// Computed once into derived volumes (more memory, faster frames).
-    Precomputed,
-    /// Computed per sample from the intensity volume (no derived memory).
-    OnTheFly,
-}
-
-/// Storage precision of the derived volumes (gradient magnitude, curvature).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum, serde::Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum PrecisionArg {
-    /// 8-bit SNORM scaled by the volume's maximum: half the memory of f16 and, at the default
-    /// step, the same image (ACCURACY.md).
-    #[value(name = "8bit")]
-    Snorm8,
-    /// 16-bit float: for stills at fine steps (84 dB against 70 dB at step 0.125).
-    F16,
-    /// 32-bit float: the reference precision (no measurable gain over f16).
-    F32,
-}
-
-/// Everything that defines a rendered image.
-#[derive(Debug, Clone, Args, serde::Serialize)]
-#[command(next_help_heading = "Scene")]
-pub struct SceneArgs {
-    /// Image size in pixels, WIDTHxHEIGHT [default: 1024x1024 for render, the window's 1280x800
-    /// for view, 1920x1080 for bench, 256x256 for accuracy].
-    #[arg(long, value_parser = parse_size)]
-    pub size: Option<(u32, u32)>,
-    /// Camera rotation about the superior axis in degrees: 0 = anterior view (patient's left on
-    /// the image's right), 90 = from the patient's right, 180 = posterior.
-    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = parse_finite)]
-    pub azimuth: f64,
-    /// Camera elevation in degrees above the axial plane (90 = from superior).
-    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = parse_finite)]
-    pub elevation: f64,
-    /// Magnification; 1 fits the whole volume in the image.
-    #[arg(long, default_value_t = 1.0, value_parser = parse_finite)]
-    pub zoom: f64,
-    /// Move the view by RIGHT,UP millimetres in the image plane.
-    #[arg(long, default_value = "0,0", value_parser = parse_pair, allow_hyphen_values = true)]
-    pub pan: (f64, f64),
-    /// Projection.
-    #[arg(long, value_enum, default_value_t = ProjectionArg::Perspective)]
-    pub projection: ProjectionArg,
-    /// What each ray computes.
-    #[arg(long, value_enum, default_value_t = ModeArg::Dvr)]
-    pub mode: ModeArg,
-    /// Visible tissue classes, comma-separated, from csf, gm, wm, pathology (`--tissues pathology`
-    /// alone "unmasks" lesions and vessels).
-    ///
-    /// Default: all but pathology.
-    #[arg(long, default_value = "csf,gm,wm", value_delimiter = ',')]
-    pub tissues: Vec<String>,
-    /// Tissue windows: adaptive (from this volume's histogram peaks) or the paper's constants.
-    #[arg(long, value_enum, default_value_t = WindowsArg::Adaptive)]
-    pub windows: WindowsArg,
-    /// Sampling distance along each ray, in voxels of the finest axis.
-    ///
-    /// Smaller is more accurate and slower; opacity is corrected so the image does not darken or
-    /// brighten with it.
-    #[arg(long, default_value_t = 0.5, value_parser = parse_finite)]
-    pub step: f64,
-    /// Curvature weight w(k) = 1 + s*tanh(|k|/k_ref) on opacity (paper eq. 4), emphasizing thin,
-    /// folded structures; computes the Hessian.
-    #[arg(long, value_enum, default_value_t = Switch::Off)]
-    pub curvature: Switch,
-    /// Phong shading with world-space gradient normals (headlight). Default: on for `render`
-    /// (a still: a shaded surface, at about 11 % of a frame on the H100, BENCHMARKS.md), off for
-    /// the interactive and measuring commands.
-    #[arg(long, value_enum)]
-    pub shading: Option<Switch>,
-    /// Where the gradient term comes from.
-    #[arg(long, value_enum, default_value_t = GradientArg::Precomputed)]
-    pub gradient: GradientArg,
-    /// Precision of the stored derived volumes.
-    ///
-    /// For diagnosis-quality stills use `--step 0.125 --derived-precision f16` (ACCURACY.md).
-    #[arg(long, value_enum, default_value_t = PrecisionArg::Snorm8)]
-    pub derived_precision: PrecisionArg,
-    /// Background colour as #RRGGBB or R,G,B in 0..255.
-    #[arg(long, default_value = "#000000", value_parser = parse_colour)]
-    pub background: [f32; 3],
-    /// Disable the per-pixel jitter of ray starts (shows wood-grain banding; for comparisons).
-    #[arg(long)]
-    pub no_jitter: bool,
-    /// A tissue's window by hand, in I_norm units (0..1; `morphray peaks` shows where the modes
-    /// are): TISSUE=LO:HI, repeatable (`--window wm=0.7:0.95 --window gm=0.5:0.7`).
-    ///
-    /// Replaces the adaptive or paper window of that tissue; the viewer's bands do the same.
-    #[arg(long = "window", value_name = "TISSUE=LO:HI", value_parser = parse_window)]
-    pub window: Vec<(TissueClass, f64, f64)>,
-    /// A tissue's opacity per mm of ray, 0..1: TISSUE=X, repeatable (`--opacity csf=0.1`).
-    #[arg(long = "opacity", visible_alias = "tissue-opacity", value_name = "TISSUE=X", value_parser = parse_opacity)]
-    pub opacity: Vec<(TissueClass, f32)>,
-    /// A tissue's colour: TISSUE=#RRGGBB or TISSUE=R,G,B (0..255), repeatable
-    /// (`--color wm=#f0f0e0`).
-    #[arg(long = "color", visible_alias = "tissue-color", value_name = "TISSUE=#RRGGBB", value_parser = parse_tissue_colour)]
-    pub color: Vec<(TissueClass, [f32; 3])>,
-    /// Crop, clip planes and colour map (src/cli/clip.rs).
-    #[command(flatten)]
-    pub clip: super::clip::ClipArgs,
-    /// A standard view (src/cli/view_preset.rs).
-    #[command(flatten)]
-    pub view: super::view_preset::ViewPresetArgs,
-}
-
-/// `TISSUE=REST` split, with the tissue named as on the command line.
-fn tissue_and(text: &str) -> Result<(TissueClass, &str), String> {
-    let (name, rest) = text
-        .split_once('=')
-        .ok_or_else(|| format!("`{text}`: expected TISSUE=VALUE, e.g. wm=0.7:0.95"))?;
-    let tissue = TissueClass::parse(name)
-        .ok_or_else(|| format!("unknown tissue `{name}`; use csf, gm, wm or pathology"))?;
-    Ok((tissue, rest))
-}
-
-fn parse_window(text: &str) -> Result<(TissueClass, f64, f64), String> {
-    let (tissue, rest) = tissue_and(text)?;
-    let (lo, hi) = rest
-        .split_once(':')
-        .ok_or_else(|| format!("`{rest}`: expected LO:HI in I_norm units, e.g. 0.7:0.95"))?;
-    let number = |v: &str| {
-        v.trim()
-            .parse::<f64>()
-            .ok()
-            .filter(|x| x.is_finite())
-            .ok_or_else(|| format!("`{v}` is not a finite number"))
-    };
-    let (lo, hi) = (number(lo)?, number(hi)?);
-    if !((0.0..=1.0).contains(&lo) && lo < hi && hi <= 1.5) {
-        return Err(format!(
-            "window {lo}:{hi}: needs 0 <= LO < HI (I_norm runs from 0 to 1; HI may pass 1 to \
-             include the brightest voxels)"
-        ));
-    }
-    Ok((tissue, lo, hi))
-}
-
-fn parse_opacity(text: &str) -> Result<(TissueClass, f32), String> {
-    let (tissue, rest) = tissue_and(text)?;
-    let x: f32 = rest
-        .trim()
-        .parse()
-        .map_err(|_| format!("`{rest}` is not a number"))?;
-    if !(0.0..=1.0).contains(&x) {
-        return Err(format!("opacity {x} must lie in 0..1"));
-    }
-    Ok((tissue, x))
-}
-
-fn parse_tissue_colour(text: &str) -> Result<(TissueClass, [f32; 3]), String> {
-    let (tissue, rest) = tissue_and(text)?;
-    Ok((tissue, parse_colour(rest)?))
-}
-
 /// Options of `render`.
 #[derive(Debug, Args)]
 #[command(next_help_heading = "Output")]
@@ -724,7 +518,7 @@ pub struct BenchArgs {
     pub scene: SceneArgs,
 }
 
-fn parse_size(text: &str) -> Result<(u32, u32), String> {
+pub(super) fn parse_size(text: &str) -> Result<(u32, u32), String> {
     let (w, h) = text
         .split_once(['x', 'X'])
         .ok_or_else(|| format!("`{text}` is not WIDTHxHEIGHT (for example 1024x768)"))?;
@@ -744,7 +538,7 @@ fn parse_size(text: &str) -> Result<(u32, u32), String> {
 
 /// A finite number: NaN and infinities are usage errors naming the flag (clap adds the name),
 /// instead of a camera at NaN degrees rendered as 0 with `null` in the provenance.
-fn parse_finite(text: &str) -> Result<f64, String> {
+pub(super) fn parse_finite(text: &str) -> Result<f64, String> {
     match text.trim().parse::<f64>() {
         Ok(v) if v.is_finite() => Ok(v),
         Ok(_) => Err(format!("`{text}` is not a finite number")),
@@ -752,7 +546,7 @@ fn parse_finite(text: &str) -> Result<f64, String> {
     }
 }
 
-fn parse_pair(text: &str) -> Result<(f64, f64), String> {
+pub(super) fn parse_pair(text: &str) -> Result<(f64, f64), String> {
     let (a, b) = text
         .split_once(',')
         .ok_or_else(|| format!("`{text}` is not X,Y"))?;
@@ -762,7 +556,7 @@ fn parse_pair(text: &str) -> Result<(f64, f64), String> {
     }
 }
 
-fn parse_colour(text: &str) -> Result<[f32; 3], String> {
+pub(super) fn parse_colour(text: &str) -> Result<[f32; 3], String> {
     let text = text.trim();
     if let Some(hex) = text.strip_prefix('#') {
         if let Some(v) = (hex.len() == 6)

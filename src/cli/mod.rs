@@ -5,6 +5,8 @@
 //! A panic, which would be a bug, is also reported as one line.
 
 mod accuracy;
+mod accuracy_report;
+mod accuracy_settings;
 pub mod args;
 mod batch;
 mod bench;
@@ -22,6 +24,7 @@ mod peaks;
 mod plan;
 mod progress;
 pub mod render;
+pub mod scene_args;
 pub mod session;
 mod slice;
 pub mod source;

@@ -1,0 +1,122 @@
+//! The knob settings `morphray accuracy` renders: each changes one knob from the render/view
+//! default (see the study's method in `accuracy.rs`).
+
+use crate::scene::{
+    CurvatureSource, DerivedPrecision, GradientFilter, GradientSource, Interpolation,
+    OpacityCorrection, Scene,
+};
+use ash::vk;
+
+pub(super) type Edit = fn(&mut Scene);
+
+/// One knob setting.
+pub(super) struct Setting {
+    pub(super) name: &'static str,
+    pub(super) knob: &'static str,
+    pub(super) curvature: bool,
+    pub(super) format: vk::Format,
+    pub(super) edit: Edit,
+}
+
+pub(super) fn settings() -> Vec<Setting> {
+    let r16 = vk::Format::R16_UNORM;
+    let s = |name, knob, edit: Edit| Setting {
+        name,
+        knob,
+        curvature: false,
+        format: r16,
+        edit,
+    };
+    let mut v = vec![
+        s("default", "default", |_| {}),
+        s("step 0.125", "step", |x| x.step_voxels = 0.125),
+        s("step 0.25", "step", |x| x.step_voxels = 0.25),
+        s("step 1", "step", |x| x.step_voxels = 1.0),
+        s("step 2", "step", |x| x.step_voxels = 2.0),
+        s("nearest", "interpolation", |x| {
+            x.effects.quality.interpolation = Interpolation::Nearest
+        }),
+        s("tricubic", "interpolation", |x| {
+            x.effects.quality.interpolation = Interpolation::Tricubic
+        }),
+        s("gradient f32", "gradient", |x| {
+            x.effects.quality.derived_precision = DerivedPrecision::F32
+        }),
+        s("gradient f16", "gradient", |x| {
+            x.effects.quality.derived_precision = DerivedPrecision::F16
+        }),
+        s("gradient on the fly", "gradient", |x| {
+            x.effects.gradient_source = GradientSource::OnTheFly
+        }),
+        s("gradient on the fly, Sobel", "gradient", |x| {
+            x.effects.gradient_source = GradientSource::OnTheFly;
+            x.effects.quality.gradient_filter = GradientFilter::Sobel;
+        }),
+        s("naive opacity correction", "opacity correction", |x| {
+            x.effects.quality.opacity_correction = OpacityCorrection::Naive
+        }),
+        s("termination 0.95", "early termination", |x| {
+            x.early_termination = 0.95
+        }),
+        s("termination 0.99", "early termination", |x| {
+            x.early_termination = 0.99
+        }),
+        s("termination off", "early termination", |x| {
+            x.early_termination = 2.0
+        }),
+        s("no empty-space skipping", "empty-space skipping", |x| {
+            x.effects.quality.empty_space_skipping = false
+        }),
+    ];
+    for (name, format) in [
+        ("I_norm R8", vk::Format::R8_UNORM),
+        ("I_norm R16F", vk::Format::R16_SFLOAT),
+        ("I_norm R32F", vk::Format::R32_SFLOAT),
+    ] {
+        v.push(Setting {
+            name,
+            knob: "storage format",
+            curvature: false,
+            format,
+            edit: |_| {},
+        });
+    }
+    // The storage formats again at the stills' step, where the step no longer hides their
+    // quantization: what the defaults' R16 and f16 buy for diagnosis-quality images.
+    v.push(Setting {
+        name: "step 0.125, I_norm R8",
+        knob: "storage format at step 0.125",
+        curvature: false,
+        format: vk::Format::R8_UNORM,
+        edit: |x| x.step_voxels = 0.125,
+    });
+    v.push(s(
+        "step 0.125, gradient f16",
+        "storage format at step 0.125",
+        |x| {
+            x.step_voxels = 0.125;
+            x.effects.quality.derived_precision = DerivedPrecision::F16;
+        },
+    ));
+    let c = |name, edit: Edit| Setting {
+        name,
+        knob: "curvature",
+        curvature: true,
+        format: r16,
+        edit,
+    };
+    v.push(c("curvature stored", |x| x.effects.curvature = true));
+    v.push(c("curvature on the fly", |x| {
+        x.effects.curvature = true;
+        x.effects.quality.curvature_source = CurvatureSource::OnTheFly;
+    }));
+    v.push(c("curvature stored, f16", |x| {
+        x.effects.curvature = true;
+        x.effects.quality.derived_precision = DerivedPrecision::F16;
+    }));
+    v.push(c("curvature stored, f32", |x| {
+        x.effects.curvature = true;
+        x.effects.quality.derived_precision = DerivedPrecision::F32;
+    }));
+    v
+}
