@@ -21,7 +21,7 @@ use crate::gpu::{
     Access, ComputePipeline, DescriptorSet, Device, GpuError, GpuResult, Image, ImageDesc,
     Recording, Resource, Sampler,
 };
-use crate::passes::vesselness::{GaussianParams, axis_kernels};
+use crate::passes::vesselness::{GaussianAxis, axis_kernels};
 use ash::vk;
 use std::sync::Arc;
 
@@ -180,31 +180,13 @@ impl DenoisePass {
                 {
                     // Fresh images: nothing to preserve.
                     rec.barriers(&[], &[(dst, Access::Nothing, Access::ComputeWriteImage)]);
-                    let set = DescriptorSet::new(
-                        &self.gaussian,
-                        0,
-                        &[
-                            (
-                                "source",
-                                Resource::CombinedImageSampler(src.clone(), nearest.clone()),
-                            ),
-                            ("blurred", Resource::StorageImage(dst.clone())),
-                        ],
-                    )?;
-                    let (radius, sigma) = kernels[axis];
-                    let p = GaussianParams {
+                    let axis_pass = GaussianAxis {
+                        pipeline: &self.gaussian,
+                        nearest,
                         dims,
-                        axis: axis as i32,
-                        radius: radius as i32,
-                        sigma,
-                        unused: 0.0,
+                        groups,
                     };
-                    rec.dispatch(&self.gaussian, &[set], bytemuck::bytes_of(&p), groups)?;
-                    // Orders the writes before the next axis's (or every later pass's) fetches.
-                    rec.barriers(
-                        &[],
-                        &[(dst, Access::ComputeWriteImage, Access::ComputeSampled)],
-                    );
+                    axis_pass.record(rec, src, dst, axis, kernels[axis])?;
                 }
                 rec.keep(images[1].clone());
                 rec.keep(images[2].clone());

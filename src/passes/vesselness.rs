@@ -139,6 +139,58 @@ pub struct VesselnessPass {
     frangi: Arc<ComputePipeline>,
 }
 
+/// One axis of the separable Gaussian (the vesselness scale space's step, and the Gaussian
+/// denoising's): `src` sampled, blurred along an index axis into `dst`.
+pub struct GaussianAxis<'a> {
+    /// The `gaussian_axis` pipeline.
+    pub pipeline: &'a Arc<ComputePipeline>,
+    /// The sampler `src` is read through (texel centres only).
+    pub nearest: &'a Arc<Sampler>,
+    /// Volume dimensions (w unused).
+    pub dims: [i32; 4],
+    /// Workgroups covering the volume.
+    pub groups: [u32; 3],
+}
+
+impl GaussianAxis<'_> {
+    /// Records the pass along `axis` with `(radius, sigma)` in voxels; `dst` must be in
+    /// `Access::ComputeWriteImage` and is left in `Access::ComputeSampled`.
+    pub fn record(
+        &self,
+        rec: &mut Recording,
+        src: &Arc<Image>,
+        dst: &Arc<Image>,
+        axis: usize,
+        (radius, sigma): (u32, f32),
+    ) -> GpuResult<()> {
+        let set = DescriptorSet::new(
+            self.pipeline,
+            0,
+            &[
+                (
+                    "source",
+                    Resource::CombinedImageSampler(src.clone(), self.nearest.clone()),
+                ),
+                ("blurred", Resource::StorageImage(dst.clone())),
+            ],
+        )?;
+        let p = GaussianParams {
+            dims: self.dims,
+            axis: axis as i32,
+            radius: radius as i32,
+            sigma,
+            unused: 0.0,
+        };
+        rec.dispatch(self.pipeline, &[set], bytemuck::bytes_of(&p), self.groups)?;
+        // Orders the writes before the next axis's (or every later pass's) fetches.
+        rec.barriers(
+            &[],
+            &[(dst, Access::ComputeWriteImage, Access::ComputeSampled)],
+        );
+        Ok(())
+    }
+}
+
 impl VesselnessPass {
     /// Creates both pipelines.
     pub fn new(device: &Device, cache: vk::PipelineCache) -> GpuResult<Self> {
@@ -183,31 +235,13 @@ impl VesselnessPass {
                 // Orders the previous reads (or nothing) of dst before its writes.
                 rec.barriers(&[], &[(dst, *dst_state, Access::ComputeWriteImage)]);
                 *dst_state = Access::ComputeWriteImage;
-                let set = DescriptorSet::new(
-                    &self.gaussian,
-                    0,
-                    &[
-                        (
-                            "source",
-                            Resource::CombinedImageSampler(src.clone(), nearest.clone()),
-                        ),
-                        ("blurred", Resource::StorageImage(dst.clone())),
-                    ],
-                )?;
-                let (radius, sigma) = kernels[axis];
-                let p = GaussianParams {
+                let axis_pass = GaussianAxis {
+                    pipeline: &self.gaussian,
+                    nearest,
                     dims,
-                    axis: axis as i32,
-                    radius: radius as i32,
-                    sigma,
-                    unused: 0.0,
+                    groups,
                 };
-                rec.dispatch(&self.gaussian, &[set], bytemuck::bytes_of(&p), groups)?;
-                // Orders the writes before the next dispatch's fetches.
-                rec.barriers(
-                    &[],
-                    &[(dst, Access::ComputeWriteImage, Access::ComputeSampled)],
-                );
+                axis_pass.record(rec, src, dst, axis, kernels[axis])?;
                 *dst_state = Access::ComputeSampled;
             }
             let before = if index == 0 {
