@@ -463,21 +463,30 @@ fn a_tiny_accuracy_study_reports_every_knob_with_a_frontier() {
     write_nifti1(&phantom.volume, &input, true).unwrap();
     let json = temp("accuracy.json");
     let svg = temp("accuracy.svg");
-    let o = morphray(&[
-        "accuracy",
-        input.to_str().unwrap(),
-        "--size",
-        "16x16",
-        "--views",
-        "1",
-        "--frames",
-        "2",
-        "--json",
-        json.to_str().unwrap(),
-        "--plot",
-        svg.to_str().unwrap(),
-    ]);
+    // Progress asked for (stderr is a pipe here): the timing rounds are counted.
+    let o = Command::new(env!("CARGO_BIN_EXE_morphray"))
+        .args([
+            "accuracy",
+            input.to_str().unwrap(),
+            "--size",
+            "16x16",
+            "--views",
+            "1",
+            "--frames",
+            "2",
+            "--json",
+            json.to_str().unwrap(),
+            "--plot",
+            svg.to_str().unwrap(),
+        ])
+        .env("MORPHRAY_VALIDATION", "required")
+        .env("MORPHRAY_PROGRESS", "always")
+        .output()
+        .unwrap();
     assert!(o.status.success(), "{}", stderr(&o));
+    for round in ["rounds 1/2", "rounds 2/2"] {
+        assert!(stderr(&o).contains(round), "{}", stderr(&o));
+    }
     let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
     let settings = v["settings"].as_array().unwrap();
     let knobs: std::collections::BTreeSet<&str> = settings

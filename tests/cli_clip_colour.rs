@@ -444,3 +444,36 @@ fn turntable_progress_is_shown_when_asked_and_silent_in_a_pipe() {
         "{out}"
     );
 }
+
+#[test]
+fn bench_says_its_phases_when_progress_is_asked_and_nothing_in_a_pipe() {
+    let input = ball();
+    let args = [
+        "bench",
+        input.to_str().unwrap(),
+        "--trials",
+        "0",
+        "--frames",
+        "2",
+        "--repeat",
+        "1",
+        "--size",
+        "16x16",
+    ];
+    let quiet = morphray(&args);
+    assert!(quiet.status.success(), "{}", stderr(&quiet));
+    assert!(!stderr(&quiet).contains("bench: "), "{}", stderr(&quiet));
+    let asked = Command::new(env!("CARGO_BIN_EXE_morphray"))
+        .args(args)
+        .env("MORPHRAY_PROGRESS", "always")
+        .output()
+        .unwrap();
+    assert!(asked.status.success(), "{}", stderr(&asked));
+    let err = stderr(&asked);
+    for phase in [
+        "morphray: bench: analysis and derivative passes, 1 repeats each",
+        "morphray: bench: orbit of 2 frames at 16x16",
+    ] {
+        assert!(err.contains(phase), "{err}");
+    }
+}

@@ -413,7 +413,9 @@ pub fn run(args: &AccuracyArgs, global: &super::GlobalOptions) -> Result<(), Err
         "accuracy: timing {} rounds at {}x{}",
         args.frames, time_size.0, time_size.1
     );
+    let mut progress = super::progress::Progress::new(u64::from(args.frames), "rounds");
     for round in 0..args.frames {
+        progress.step();
         for slot in live.iter_mut().flatten() {
             let mut round_ms = 0.0;
             for &(azimuth, elevation) in views {
@@ -438,6 +440,7 @@ pub fn run(args: &AccuracyArgs, global: &super::GlobalOptions) -> Result<(), Err
             slot.times.push(round_ms / views.len() as f64);
         }
     }
+    progress.finish();
     for (result, slot) in results.iter_mut().zip(live.iter_mut()) {
         if let Some(slot) = slot {
             (result.gpu_ms, result.time_spread) = median_and_spread(&mut slot.times);

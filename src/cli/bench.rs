@@ -14,6 +14,7 @@
 
 use super::args::BenchArgs;
 use super::output::{json, print_line, print_warnings};
+use super::progress::say;
 use super::session::{self, OpenTimings};
 use crate::engine::plan::{Layout, Plan};
 use crate::error::Error;
@@ -263,6 +264,10 @@ pub fn run(args: &BenchArgs, global: &super::GlobalOptions) -> Result<(), Error>
     // Before this process opens a device of its own, so the trials have the machine to
     // themselves.
     let ttfp = if args.trials > 0 {
+        say(&format!(
+            "bench: time to first pixel, {} cold and {} warm processes",
+            args.trials, args.trials
+        ));
         Some(super::ttfp::run_trials(args, &input, args.file.is_none())?)
     } else {
         None
@@ -304,6 +309,10 @@ pub fn run(args: &BenchArgs, global: &super::GlobalOptions) -> Result<(), Error>
     let full_study = global.memory_budget.is_none() && !bricked;
     let normalized_bytes = crate::engine::plan::texel_bytes(opened.plan.normalized_format) as f64;
     let mut passes = Vec::new();
+    say(&format!(
+        "bench: analysis and derivative passes, {} repeats each",
+        args.repeat
+    ));
     if !bricked {
         let (mut minmax, mut normalize, mut histogram) = (Vec::new(), Vec::new(), Vec::new());
         let mut record = |timings: &[crate::gpu::PassTiming]| {
@@ -428,6 +437,10 @@ pub fn run(args: &BenchArgs, global: &super::GlobalOptions) -> Result<(), Error>
         s.frame = i;
         s
     };
+    say(&format!(
+        "bench: orbit of {} frames at {width}x{height}, three times (timed, read back, counted)",
+        args.frames
+    ));
     for i in 0..3 {
         opened
             .engine

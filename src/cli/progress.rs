@@ -9,6 +9,8 @@
 //! - The spinner ticks on indicatif's own thread, so it moves while the render thread waits for
 //!   the GPU (a 4096x4096 MIP on a CPU device took 37 s with no sign of life).
 //! - stdout is untouched: the `wrote ...` lines stay machine-readable.
+//! - Measuring commands (`bench`) say their phases as plain lines ([`say`]) instead: a ticking
+//!   bar's thread would wake during the frames whose CPU wall they time.
 
 use std::io::IsTerminal;
 use std::time::Duration;
@@ -27,6 +29,14 @@ fn mode() -> Mode {
         _ if std::io::stderr().is_terminal() => Mode::Bar,
         Ok("always") => Mode::Lines,
         _ => Mode::Off,
+    }
+}
+
+/// One line on stderr naming a phase of a long command (`bench: orbit of 200 frames`), where
+/// progress is shown at all (a terminal, or `MORPHRAY_PROGRESS=always`).
+pub fn say(text: &str) {
+    if mode() != Mode::Off {
+        eprintln!("morphray: {text}");
     }
 }
 
