@@ -264,3 +264,62 @@ fn view_frame_shows_that_frame_of_a_4d_file() {
         "frame 0 {l0}/{r0}, frame 1 {l1}/{r1}"
     );
 }
+
+#[test]
+fn save_3d_view_writes_the_volume_alone_at_the_size_asked() {
+    let dir = temp_dir("save-view");
+    let spec = PhantomSpec {
+        dims: [40, 40, 32],
+        ..PhantomSpec::cohort_a()
+    };
+    let volume = dir.join("small.nii.gz");
+    write_nifti1(&generate(&spec).unwrap().volume, &volume, true).unwrap();
+    let saved = dir.join("view.png");
+    let script = dir.join("save.txt");
+    std::fs::write(
+        &script,
+        format!(
+            "wait 2\nsave-view {saved} 96x64\nsave-view {bad} 0x5\nsave-view {input} 32x32\n\
+             wait 1\nclose\n",
+            saved = saved.display(),
+            bad = dir.join("bad.png").display(),
+            input = volume.display(),
+        ),
+    )
+    .unwrap();
+    let o = view_under_xvfb(&[
+        volume.to_str().unwrap(),
+        "--size",
+        "480x360",
+        "--script",
+        script.to_str().unwrap(),
+    ]);
+    let log = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert!(log.contains("(3D view, 96x64)"), "{log}");
+    let png = Png::read(&saved);
+    // The view alone: the picture's own size, not the window's, and the volume in it.
+    assert_eq!(png.width, 96);
+    assert_eq!(png.rgba.len(), 96 * 64 * 4);
+    assert!(
+        lit(&png.pixels([0, 0, 96, 64])) > 200,
+        "the volume is in it"
+    );
+    let chunks = morphray::files::png::read_text_chunks(&saved).unwrap();
+    assert!(
+        chunks
+            .iter()
+            .any(|(k, v)| k == "morphray:input" && v.contains("small"))
+    );
+    // A size that is not one, and the open volume as the output: errors, nothing written.
+    assert!(
+        log.contains("error shown: Save 3D view: 0x5 is not a size"),
+        "{log}"
+    );
+    assert!(!dir.join("bad.png").exists());
+    assert!(log.contains("error shown: Save 3D view:"), "{log}");
+    assert_eq!(
+        log.matches("error shown: Save 3D view:").count(),
+        2,
+        "{log}"
+    );
+}

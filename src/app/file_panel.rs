@@ -22,12 +22,15 @@ pub struct FilePanel {
     purpose: Purpose,
     /// The series of the DICOM input on screen (None for other inputs).
     pub series: Option<SeriesListing>,
+    /// Size "Save 3D view..." renders at (width, height in pixels).
+    pub view_size: [u32; 2],
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Purpose {
     Open,
     Save,
+    SaveView,
 }
 
 impl Default for FilePanel {
@@ -39,6 +42,7 @@ impl Default for FilePanel {
                 .add_file_filter_extensions("DICOM", vec!["dcm", "dicom", "ima"]),
             purpose: Purpose::Open,
             series: None,
+            view_size: [2048, 2048],
         }
     }
 }
@@ -85,6 +89,20 @@ impl FilePanel {
                 self.dialog.save_file();
             }
         });
+        ui.horizontal(|ui| {
+            if ui
+                .button("Save 3D view...")
+                .on_hover_text("The volume alone, without the panels, rendered at this size")
+                .clicked()
+            {
+                self.purpose = Purpose::SaveView;
+                self.dialog.save_file();
+            }
+            let max = super::viewer::MAX_VIEW_SIDE;
+            ui.add(egui::DragValue::new(&mut self.view_size[0]).range(1..=max));
+            ui.label("x");
+            ui.add(egui::DragValue::new(&mut self.view_size[1]).range(1..=max));
+        });
         if let Some(listing) = &self.series {
             series_picker(ui, listing, requests);
         }
@@ -97,6 +115,7 @@ impl FilePanel {
             requests.push(match self.purpose {
                 Purpose::Open => Request::Open(VolumeSource::File(path)),
                 Purpose::Save => Request::Screenshot(path),
+                Purpose::SaveView => Request::SaveView(path, self.view_size),
             });
         }
         let dropped: Vec<PathBuf> = ctx.input(|i| {

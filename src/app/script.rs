@@ -86,6 +86,9 @@ pub enum Action {
     Colormap(Option<crate::scene::Colormap>),
     /// Save the whole window as PNG.
     Screenshot(PathBuf),
+    /// Save the 3D view alone at a size (`save-view PATH 2048x2048`; default the view's size
+    /// in pixels is not known to a script, so 1024x1024).
+    SaveView(PathBuf, [u32; 2]),
     /// Let this many frames pass.
     Wait(u32),
     /// Let this many frames pass as an interactive window would: the raymarch runs only if
@@ -394,6 +397,24 @@ fn parse_line(line: &str) -> Result<Action, String> {
             None => return Err("expected a colour map name or off".into()),
         },
         "screenshot" => Action::Screenshot(PathBuf::from(next().ok_or("expected a PNG path")?)),
+        "save-view" => {
+            let path = PathBuf::from(next().ok_or("expected a PNG path")?);
+            let size = match next() {
+                None => [1024, 1024],
+                Some(text) => {
+                    let (w, h) = text
+                        .split_once('x')
+                        .ok_or_else(|| format!("expected WIDTHxHEIGHT, got `{text}`"))?;
+                    let side = |v: &str| {
+                        v.trim()
+                            .parse::<u32>()
+                            .map_err(|_| format!("`{text}` is not WIDTHxHEIGHT in pixels"))
+                    };
+                    [side(w)?, side(h)?]
+                }
+            };
+            Action::SaveView(path, size)
+        }
         "wait" => {
             let n = number(next(), "a number of frames")?;
             if n < 0.0 || n.fract() != 0.0 {

@@ -39,6 +39,8 @@ pub enum Request {
     Series(usize),
     /// Save the window as PNG.
     Screenshot(PathBuf),
+    /// Save the 3D view alone, rendered at this size (width, height), as PNG.
+    SaveView(PathBuf, [u32; 2]),
 }
 
 /// Which window presets the tissue windows follow.

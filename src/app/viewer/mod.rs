@@ -40,9 +40,12 @@
 
 mod opening;
 mod paint;
+mod save_view;
 mod slices;
 mod steps;
 mod text;
+
+pub use save_view::MAX_SIDE as MAX_VIEW_SIDE;
 
 pub use text::px_rect;
 use text::{describe, peak_text};
@@ -531,6 +534,7 @@ impl Viewer {
                 Request::Open(source) => self.open(source, None, None),
                 Request::Series(index) => self.open_series(index, None),
                 Request::Screenshot(path) => self.screenshot_requests.push(path),
+                Request::SaveView(path, size) => self.save_view(&path, size),
             }
         }
         self.request_derived();

@@ -149,6 +149,10 @@ impl Viewer {
                 self.open_series(*index, Some(step.text.clone()));
                 watch = false;
             }
+            Action::SaveView(path, size) => {
+                self.save_view(path, *size);
+                watch = false;
+            }
             Action::Screenshot(path) => {
                 self.screenshot_requests.push(path.clone());
                 watch = false;
