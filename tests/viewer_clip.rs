@@ -323,3 +323,50 @@ fn save_3d_view_writes_the_volume_alone_at_the_size_asked() {
         "{log}"
     );
 }
+
+#[test]
+fn the_frame_step_opens_another_frame_of_the_4d_file_on_screen() {
+    let dir = temp_dir("frame-step");
+    let input = two_frames(&dir);
+    let shot = |name: &str| dir.join(format!("{name}.png"));
+    let script = dir.join("frames.txt");
+    std::fs::write(
+        &script,
+        format!(
+            "wait 1\nscreenshot {f0}\nframe 1\nwait 2\nscreenshot {f1}\nframe 5\nwait 1\nclose\n",
+            f0 = shot("f0").display(),
+            f1 = shot("f1").display(),
+        ),
+    )
+    .unwrap();
+    let o = view_under_xvfb(&[
+        input.to_str().unwrap(),
+        "--size",
+        "640x480",
+        "--mode",
+        "mip",
+        "--projection",
+        "orthographic",
+        "--script",
+        script.to_str().unwrap(),
+    ]);
+    let log = String::from_utf8_lossy(&o.stdout).into_owned();
+    let first = log.find("frame 0 of 2").expect("frame 0 first");
+    let second = log.find("frame 1 of 2").expect("then frame 1");
+    assert!(first < second, "{log}");
+    assert!(log.contains("has no frame 5 (2 frame(s), from 0)"), "{log}");
+    // Anterior view: frame 0's blob (patient's right) on the image's left, frame 1's on its right.
+    let r = view_rect(&log);
+    let sides = |png: &Png| {
+        (
+            lit(&png.pixels([r[0], r[1], r[2] / 2, r[3]])),
+            lit(&png.pixels([r[0] + r[2] / 2, r[1], r[2] / 2, r[3]])),
+        )
+    };
+    let (l0, r0) = sides(&Png::read(&shot("f0")));
+    let (l1, r1) = sides(&Png::read(&shot("f1")));
+    assert!(
+        l0 > 10 * r0.max(1) && r1 > 10 * l1.max(1),
+        "frame 0 {l0}/{r0}, frame 1 {l1}/{r1}"
+    );
+}

@@ -41,6 +41,8 @@ pub struct LoadedVolume {
     pub source: VolumeSource,
     /// The series of a DICOM input and the one shown (None for other formats).
     pub series: Option<SeriesListing>,
+    /// The frame read and how many the file has (`(0, 1)` for a 3-D volume).
+    pub frame: (usize, usize),
     /// SHA-256 of the input (provenance of screenshots).
     pub sha256: String,
     /// Voxel spacing along the three index axes, millimetres.
@@ -360,6 +362,10 @@ impl Worker {
             label: read.label,
             source: input,
             series: read.series,
+            frame: (
+                options.read.frame,
+                read.header.as_ref().map_or(1, |h| h.frames.max(1)),
+            ),
             sha256: read.sha256.unwrap_or_default(),
             spacing_mm,
             twin: opened.twin,

@@ -86,6 +86,8 @@ pub enum Action {
     Colormap(Option<crate::scene::Colormap>),
     /// Save the whole window as PNG.
     Screenshot(PathBuf),
+    /// Open the 4-D file on screen again at this frame (0-based): `frame 3`.
+    Frame(usize),
     /// Save the 3D view alone at a size (`save-view PATH 2048x2048`; default the view's size
     /// in pixels is not known to a script, so 1024x1024).
     SaveView(PathBuf, [u32; 2]),
@@ -397,6 +399,13 @@ fn parse_line(line: &str) -> Result<Action, String> {
             None => return Err("expected a colour map name or off".into()),
         },
         "screenshot" => Action::Screenshot(PathBuf::from(next().ok_or("expected a PNG path")?)),
+        "frame" => {
+            let n = number(next(), "a frame index (0-based)")?;
+            if n < 0.0 || n.fract() != 0.0 {
+                return Err(format!("frame {n} must be a whole number from 0"));
+            }
+            Action::Frame(n as usize)
+        }
         "save-view" => {
             let path = PathBuf::from(next().ok_or("expected a PNG path")?);
             let size = match next() {

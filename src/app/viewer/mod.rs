@@ -236,6 +236,8 @@ pub struct Viewer {
     keep_scene: Option<u64>,
     /// The scene the bricked volume was last opened again for.
     reopened_for: Option<SceneRecipe>,
+    /// The frame of 4-D files opened now (`--frame`, then the frame slider's).
+    frame: usize,
 }
 
 /// What the last raymarch rendered.
@@ -319,6 +321,7 @@ impl Viewer {
             render_blocked: None,
             keep_scene: None,
             reopened_for: None,
+            frame: config.frame,
             config,
         })
     }
@@ -531,10 +534,15 @@ impl Viewer {
         }
         for request in outcome.requests.clone() {
             match request {
-                Request::Open(source) => self.open(source, None, None),
+                Request::Open(source) => {
+                    // Another file starts at the command line's frame, not the slider's.
+                    self.frame = self.config.frame;
+                    self.open(source, None, None)
+                }
                 Request::Series(index) => self.open_series(index, None),
                 Request::Screenshot(path) => self.screenshot_requests.push(path),
                 Request::SaveView(path, size) => self.save_view(&path, size),
+                Request::Frame(index) => self.open_frame(index, None),
             }
         }
         self.request_derived();

@@ -35,6 +35,7 @@ impl Viewer {
         self.render_blocked = None;
         self.status.file = loaded.label.clone();
         self.controls.files.series = loaded.series.clone();
+        self.controls.files.frame = loaded.frame;
         self.status.dims = prepared.dims;
         self.status.spacing_mm = loaded.spacing_mm;
         self.status.ttfp_ms = None;
@@ -44,12 +45,18 @@ impl Viewer {
         }
         self.arrived
             .push((format!("load {}", loaded.label), loaded.passes.clone()));
+        let (frame, frames) = loaded.frame;
         self.log.say(&format!(
-            "loaded {} ({}x{}x{}); peaks CSF {} GM {} WM {}",
+            "loaded {} ({}x{}x{}){}; peaks CSF {} GM {} WM {}",
             loaded.label,
             prepared.dims[0],
             prepared.dims[1],
             prepared.dims[2],
+            if frames > 1 {
+                format!(" frame {frame} of {frames}")
+            } else {
+                String::new()
+            },
             peak_text(loaded.report.peaks.csf),
             peak_text(loaded.report.peaks.gm),
             peak_text(loaded.report.peaks.wm)
@@ -188,6 +195,28 @@ impl Viewer {
         self.open(source, Some(SeriesChoice::Index(index)), label_for_log);
     }
 
+    /// Opens the 4-D file on screen again at `index` (the frame slider, the script's `frame`);
+    /// later files open at that frame too, as `view --frame` does. An index the file does not
+    /// have is an error in the status line.
+    pub(super) fn open_frame(&mut self, index: usize, label_for_log: Option<String>) {
+        let Some(current) = &self.current else {
+            self.status.error = Some("No volume is open: there is no frame to choose".into());
+            return;
+        };
+        let (_, count) = current.loaded.frame;
+        if index >= count {
+            self.status.error = Some(format!(
+                "{} has no frame {index} ({count} frame(s), from 0)",
+                current.loaded.label
+            ));
+            return;
+        }
+        let source = current.loaded.source.clone();
+        let series = shown_series(&current.loaded);
+        self.frame = index;
+        self.open(source, series, label_for_log);
+    }
+
     /// Queues opening `source` with `recipe` (its effects planned for); returns the request's
     /// id.
     pub(super) fn open_recipe(
@@ -210,7 +239,7 @@ impl Viewer {
             id,
             source,
             now,
-            open_options(recipe, self.size, series, self.config.frame),
+            open_options(recipe, self.size, series, self.frame),
         );
         self.pending_load = Some((id, label));
         if let Some(text) = label_for_log {

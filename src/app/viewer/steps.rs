@@ -142,11 +142,16 @@ impl Viewer {
             Action::Clip(plane) => c.scene.clip.planes[0] = *plane,
             Action::Colormap(map) => c.scene.colormap = *map,
             Action::Open(source) => {
+                self.frame = self.config.frame;
                 self.open(source.clone(), None, Some(step.text.clone()));
                 watch = false;
             }
             Action::Series(index) => {
                 self.open_series(*index, Some(step.text.clone()));
+                watch = false;
+            }
+            Action::Frame(index) => {
+                self.open_frame(*index, Some(step.text.clone()));
                 watch = false;
             }
             Action::SaveView(path, size) => {
