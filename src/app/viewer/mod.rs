@@ -650,37 +650,6 @@ impl Viewer {
     pub fn error(&self) -> Option<&str> {
         self.status.error.as_deref()
     }
-
-    /// Layout facts for the scripted log: the view and histogram rectangles in pixels, and the
-    /// orientation letters with their positions.
-    pub fn layout_line(&self) -> String {
-        let ppp = self.ctx.pixels_per_point();
-        let view = px_rect(self.view_rect_points(), ppp, self.size);
-        let hist = self
-            .ctx
-            .memory(|m| {
-                m.data
-                    .get_temp::<egui::Rect>(egui::Id::new("morphray histogram rect"))
-            })
-            .map(|r| px_rect(r, ppp, self.size))
-            .unwrap_or([0; 4]);
-        let letters = super::camera_control::edge_labels(&self.controls.scene.camera);
-        format!(
-            "layout: view {},{},{},{} histogram {},{},{},{} letters left {} right {} top {} bottom {}",
-            view[0],
-            view[1],
-            view[2],
-            view[3],
-            hist[0],
-            hist[1],
-            hist[2],
-            hist[3],
-            letters.left,
-            letters.right,
-            letters.top,
-            letters.bottom
-        ) + &self.slices_layout(ppp)
-    }
 }
 
 /// Why a frame failed.

@@ -1,5 +1,5 @@
 //! Words and numbers the viewer shows: what a set of derived volumes is, a peak, a file's
-//! label, and the 3D view's rectangle in pixels.
+//! label, the 3D view's rectangle in pixels, and the scripted log's layout line.
 
 use crate::passes::derivatives::DerivativeOutputs;
 
@@ -33,6 +33,39 @@ pub fn px_rect(rect: egui::Rect, ppp: f32, size: [u32; 2]) -> [u32; 4] {
     let x1 = (rect.right() * ppp).round().clamp(0.0, size[0] as f32) as u32;
     let y1 = (rect.bottom() * ppp).round().clamp(0.0, size[1] as f32) as u32;
     [x0, y0, x1.saturating_sub(x0), y1.saturating_sub(y0)]
+}
+
+impl super::Viewer {
+    /// Layout facts for the scripted log: the view and histogram rectangles in pixels, and the
+    /// orientation letters with their positions.
+    pub fn layout_line(&self) -> String {
+        let ppp = self.ctx.pixels_per_point();
+        let view = px_rect(self.view_rect_points(), ppp, self.size);
+        let hist = self
+            .ctx
+            .memory(|m| {
+                m.data
+                    .get_temp::<egui::Rect>(egui::Id::new("morphray histogram rect"))
+            })
+            .map(|r| px_rect(r, ppp, self.size))
+            .unwrap_or([0; 4]);
+        let letters = crate::app::camera_control::edge_labels(&self.controls.scene.camera);
+        format!(
+            "layout: view {},{},{},{} histogram {},{},{},{} letters left {} right {} top {} bottom {}",
+            view[0],
+            view[1],
+            view[2],
+            view[3],
+            hist[0],
+            hist[1],
+            hist[2],
+            hist[3],
+            letters.left,
+            letters.right,
+            letters.top,
+            letters.bottom
+        ) + &self.slices_layout(ppp)
+    }
 }
 
 #[cfg(test)]
