@@ -21,6 +21,10 @@
 // only resident bricks (with halos) in atlases, and every fetch goes through the brick table
 // (sampling.glsl).
 //
+// Labels (LABELS): a label overlay's samples are composited after the tissue's at the same
+// position, nearest voxel, colour and opacity per mm from a lookup table (labels.glsl); bricks
+// holding a label are occupied for skipping, so skipping stays lossless.
+//
 // Geometry: rays start in world space (mm) and are marched in index space with the parameter
 // in mm (geometry.glsl); the interval is cut to the crop box and clip planes (clip.glsl) before
 // any sample is placed; ray starts are jittered per pixel against wood-grain banding.
@@ -43,6 +47,7 @@ layout(constant_id = 5) const uint INTERPOLATION = 1u;    // 0 nearest, 1 trilin
 layout(constant_id = 6) const bool NAIVE_OPACITY = false; // 1-(1-a)^r in f32 (accuracy study only)
 layout(constant_id = 7) const bool SKIP_EMPTY = false;    // empty-space skipping over 8^3 bricks
 layout(constant_id = 8) const bool BRICKED = false;       // textures are brick atlases (sampling.glsl)
+layout(constant_id = 9) const bool LABELS = false;        // a label overlay drawn in 3D (labels.glsl)
 
 layout(set = 0, binding = 0) uniform sampler3D volume;          // I_norm, trilinear
 layout(set = 0, binding = 1) uniform sampler3D gradient_volume; // .r |g|, .g k (scaled, see derived_scale)
@@ -88,6 +93,11 @@ layout(set = 0, binding = 6, std430) readonly buffer Occupancy { uint bits[]; } 
 // Slot + 1 of each storage brick in the atlases, 0 when not resident (BRICKED only).
 layout(set = 0, binding = 7, std430) readonly buffer BrickTable { uint slots[]; } brick_table;
 
+// Labels of the volume's voxels, two u16 per word, and each label's RGBA8 colour and opacity
+// per mm (LABELS only; labels.glsl).
+layout(set = 0, binding = 8, std430) readonly buffer LabelValues { uint words[]; } label_values;
+layout(set = 0, binding = 9, std430) readonly buffer LabelColours { uint rgba[]; } label_colours;
+
 #include "geometry.glsl"
 #include "clip.glsl"
 #include "colormap.glsl"
@@ -96,6 +106,7 @@ layout(set = 0, binding = 7, std430) readonly buffer BrickTable { uint slots[]; 
 #include "compositing.glsl"
 #include "sampling.glsl"
 #include "gradients.glsl"
+#include "labels.glsl"
 
 const uint MODE_DVR = 0u;
 const uint MODE_MIP = 1u;
@@ -141,6 +152,48 @@ float empty_brick_exit(vec3 p, vec3 origin, vec3 direction) {
         }
     }
     return t_exit;
+}
+
+// One classified tissue sample's colour (rgb, shaded with SHADING) and step-corrected opacity
+// (a): the gradient-magnitude term, the curvature weight and the colour of eqs. 4-6.
+vec4 tissue_sample(vec3 p, float v, vec4 cls, vec3 direction_world) {
+    float magnitude;
+    float k = 0.0;
+    vec3 normal = vec3(0.0);
+    vec3 g = vec3(0.0);
+    if (GRADIENT_MODE == 0u) {
+        vec2 gk = fetch_volume(gradient_volume, p).rg * params.derived_scale.xy;
+        magnitude = gk.x;
+        if (CURVATURE_MODE == 1u) {
+            k = gk.y;
+        }
+        if (SHADING) {
+            normal = fetch_volume(normal_volume, p).xyz;
+        }
+    } else {
+        g = GRADIENT_MODE == 1u ? gradient_central(p) : gradient_sobel(p);
+        magnitude = length(g);
+        if (SHADING) {
+            normal = magnitude > params.curvature.z ? g / magnitude : vec3(0.0);
+        }
+    }
+    if (CURVATURE_MODE == 2u) {
+        vec3 g_central = GRADIENT_MODE == 1u ? g : gradient_central(p);
+        k = curvature_on_the_fly(p, v, g_central);
+    }
+    float a = clamp(cls.a * magnitude * params.march.w, 0.0, 1.0);
+    if (CURVATURE_MODE != 0u) {
+        a = min(a * curvature_weight(k), 1.0);
+    }
+    a = NAIVE_OPACITY ? opacity_correct_naive(a, params.march.x) : opacity_correct(a, params.march.x);
+    vec3 colour = cls.rgb;
+    if (params.crop_hi.w > 0.5) {
+        colour = colormap_lookup(display_position(v));
+    }
+    if (SHADING) {
+        colour = shade(colour, normal, direction_world);
+    }
+    return vec4(colour, a);
 }
 
 void main() {
@@ -191,47 +244,28 @@ void main() {
             float v = sample_volume(p);
             marched++;
             vec4 cls = classify(v);
-            if (cls.a <= 0.0) {
+            uint label = 0u;
+            vec4 label_colour = vec4(0.0);
+            if (LABELS) {
+                label = label_at(nearest_voxel(p));
+                label_colour = label_style(label);
+            }
+            if (cls.a <= 0.0 && label_colour.a <= 0.0) {
                 continue;
             }
-            classified++;
-            float magnitude;
-            float k = 0.0;
-            vec3 normal = vec3(0.0);
-            vec3 g = vec3(0.0);
-            if (GRADIENT_MODE == 0u) {
-                vec2 gk = fetch_volume(gradient_volume, p).rg * params.derived_scale.xy;
-                magnitude = gk.x;
-                if (CURVATURE_MODE == 1u) {
-                    k = gk.y;
-                }
+            if (cls.a > 0.0) {
+                classified++;
+                vec4 tissue = tissue_sample(p, v, cls, direction_world);
+                composite(acc, tissue.rgb, tissue.a);
+            }
+            if (LABELS && label_colour.a > 0.0) {
+                // The label's medium, after the tissue at the same position (labels.glsl).
+                vec3 lc = label_colour.rgb;
                 if (SHADING) {
-                    normal = fetch_volume(normal_volume, p).xyz;
+                    lc = shade(lc, label_normal(nearest_voxel(p), label), direction_world);
                 }
-            } else {
-                g = GRADIENT_MODE == 1u ? gradient_central(p) : gradient_sobel(p);
-                magnitude = length(g);
-                if (SHADING) {
-                    normal = magnitude > params.curvature.z ? g / magnitude : vec3(0.0);
-                }
+                composite(acc, lc, opacity_correct(label_colour.a, params.march.x));
             }
-            if (CURVATURE_MODE == 2u) {
-                vec3 g_central = GRADIENT_MODE == 1u ? g : gradient_central(p);
-                k = curvature_on_the_fly(p, v, g_central);
-            }
-            float a = clamp(cls.a * magnitude * params.march.w, 0.0, 1.0);
-            if (CURVATURE_MODE != 0u) {
-                a = min(a * curvature_weight(k), 1.0);
-            }
-            a = NAIVE_OPACITY ? opacity_correct_naive(a, params.march.x) : opacity_correct(a, params.march.x);
-            vec3 colour = cls.rgb;
-            if (params.crop_hi.w > 0.5) {
-                colour = colormap_lookup(display_position(v));
-            }
-            if (SHADING) {
-                colour = shade(colour, normal, direction_world);
-            }
-            composite(acc, colour, a);
             if (acc.a > params.march.y) {
                 break;
             }

@@ -350,6 +350,9 @@ pub struct RenderArgs {
     /// Scene.
     #[command(flatten)]
     pub scene: SceneArgs,
+    /// Label overlay, drawn in 3D (DVR).
+    #[command(flatten)]
+    pub overlay: super::overlay::OverlayArgs,
 }
 
 /// Options of `view`.

@@ -1,9 +1,16 @@
-//! The overlay options shared by `slice` and `view`: `--overlay LABELS`, `--overlay-lut FILE`,
-//! `--overlay-opacity A`, and reading them into a `scene::overlay::Overlay` (label map as read,
-//! colours, opacity; each client resamples it onto its volume's grid).
+//! The overlay options shared by `render`, `slice` and `view`: `--overlay LABELS`,
+//! `--overlay-lut FILE`, `--overlay-opacity A`, and reading them into a
+//! `scene::overlay::Overlay` (label map as read, colours, opacity; each client resamples it onto
+//! its volume's grid). `render` draws it in the 3D raymarch ([`attach_to_render`]).
+//!
+//! Decision: one opacity for both uses, read as a blend factor over a slice's grey and as an
+//! opacity per millimetre in 3D (like the tissues'), so 0.5 shows a structure as a solid
+//! coloured surface that the tissue in front of it can still veil.
 
+use crate::engine::{Engine, PreparedVolume, RenderTarget, label_colours};
 use crate::error::Error;
-use crate::scene::overlay::{LabelTable, Overlay};
+use crate::scene::overlay::{LabelTable, Overlay, resample};
+use crate::volume::Volume;
 use crate::volume::source::VolumeSource;
 use clap::Args;
 use std::path::PathBuf;
@@ -12,14 +19,15 @@ use std::path::PathBuf;
 #[derive(Debug, Args, serde::Serialize)]
 pub struct OverlayArgs {
     /// Integer label map (NIfTI; same or another grid, resampled onto the volume's by the
-    /// affines, nearest neighbour) drawn in colour over the slices; label 0 is not drawn.
+    /// affines, nearest neighbour) drawn in colour over the slices and, in DVR, in the 3D
+    /// view; label 0 is not drawn.
     #[arg(long, value_name = "LABELS")]
     pub overlay: Option<PathBuf>,
     /// FreeSurfer-style lookup table for the labels (`index name R G B A` per line); labels
     /// not in it, or all without it, take a default palette.
     #[arg(long, value_name = "FILE", requires = "overlay")]
     pub overlay_lut: Option<PathBuf>,
-    /// Opacity of the label colours over the grey, 0..1.
+    /// Opacity of the label colours: over a slice's grey, and per mm in 3D, 0..1.
     #[arg(long, default_value_t = 0.5, requires = "overlay")]
     pub overlay_opacity: f64,
 }
@@ -71,4 +79,29 @@ impl OverlayArgs {
             opacity: self.overlay_opacity,
         }))
     }
+}
+
+/// Resamples `overlay` onto `volume` (prepared as `prepared`), uploads it and draws it in
+/// `target`'s DVR frames; returns the number of distinct labels drawn.
+pub fn attach_to_render(
+    overlay: &Overlay,
+    volume: &Volume,
+    engine: &mut Engine,
+    prepared: &PreparedVolume,
+    target: &mut RenderTarget,
+) -> Result<usize, Error> {
+    let labels = resample(&overlay.labels, volume).map_err(|e| Error::Usage(e.to_string()))?;
+    if let crate::engine::VolumeLayout::Bricked(_) = prepared.layout {
+        return Err(Error::Usage(
+            "--overlay is drawn in 3D on whole volumes only, and this one was bricked (--bricked, \
+             or a --memory-budget too small for it): drop --bricked or raise --memory-budget"
+                .into(),
+        ));
+    }
+    let uploaded = std::sync::Arc::new(engine.upload_labels(prepared, &labels)?);
+    let hidden = Default::default();
+    let colours = label_colours(&overlay.table, &uploaded.present, overlay.opacity, &hidden);
+    let count = uploaded.present.len();
+    target.set_labels(Some((uploaded, colours)));
+    Ok(count)
 }

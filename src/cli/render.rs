@@ -169,7 +169,10 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
         Some(_) => (0..frames).map(|i| frame_path(&args.output, i)).collect(),
         None => vec![args.output.clone()],
     };
-    let inputs: Vec<&Path> = args.file.iter().map(|p| p.as_path()).collect();
+    let mut inputs: Vec<&Path> = args.file.iter().map(|p| p.as_path()).collect();
+    inputs.extend(args.overlay.inputs());
+    // The label map and its table before any GPU work: a bad one fails at once.
+    let overlay = args.overlay.load()?;
     // A turntable's -o names no file of its own, but `-o orbit.jpg` would still be a mistake.
     if args.turntable.is_some() && !OutputKind::Png.accepts(&args.output) {
         check_output(&args.output, OutputKind::Png, &inputs, false)?;
@@ -207,6 +210,24 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
     let mut target = opened
         .engine
         .render_target(width, height, vk::Format::R8G8B8A8_UNORM)?;
+    if let Some(overlay) = &overlay {
+        let volume = &opened.source.volume;
+        let prepared = opened.twin.prepared.clone();
+        let count = super::overlay::attach_to_render(
+            overlay,
+            volume,
+            &mut opened.engine,
+            &prepared,
+            &mut target,
+        )?;
+        if classified {
+            print_line(&format!("overlay: {count} labels drawn in 3D"));
+        } else {
+            eprintln!(
+                "morphray: note: --overlay is drawn in DVR only; MIP and MinIP show intensities"
+            );
+        }
+    }
     let command = std::env::args().collect::<Vec<_>>().join(" ");
     let mut said_empty = false;
     let mut movie = super::movie::Movie::default();
@@ -239,6 +260,7 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
             "normalization": opened.report.table1(),
             "contrast": opened.report.contrast,
             "degradations": opened.plan.degradations,
+            "overlay": args.overlay,
         });
         let provenance = Provenance {
             input: opened.source.label.clone(),

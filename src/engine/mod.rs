@@ -17,6 +17,7 @@ mod bricked;
 mod denoise;
 mod derive;
 pub mod kernels;
+mod labels;
 mod maps;
 mod occupancy;
 mod open;
@@ -35,6 +36,7 @@ mod vessels;
 
 pub use bricked::HostPrepared;
 pub use derive::Derived;
+pub use labels::{LabelVolume, label_brick_bits, label_colours};
 pub use maps::{DerivedMaps, MapRequest};
 pub use open::{OpenError, OpenTimings, OpenedVolume};
 pub use pipelines::PipelineTimes;

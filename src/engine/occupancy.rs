@@ -88,6 +88,7 @@ impl Engine {
 pub(super) struct OccupancyCache {
     pub(super) ranges: Arc<BrickRanges>,
     pub(super) classification: Classification,
+    pub(super) labels: Option<Arc<Vec<u32>>>,
     pub(super) bits: Vec<u32>,
     pub(super) occupied: f64,
     // Starts at 1 and grows with every recomputation (0: a slot holds nothing yet).
@@ -100,18 +101,32 @@ impl OccupancyCache {
         slot: &'a mut Option<OccupancyCache>,
         ranges: &Arc<BrickRanges>,
         scene: &Scene,
+        labels: Option<Arc<Vec<u32>>>,
     ) -> Option<&'a OccupancyCache> {
         let fresh = slot.as_ref().is_some_and(|c| {
-            Arc::ptr_eq(&c.ranges, ranges) && c.classification == scene.classification
+            Arc::ptr_eq(&c.ranges, ranges)
+                && c.classification == scene.classification
+                && match (&c.labels, &labels) {
+                    (None, None) => true,
+                    (Some(a), Some(b)) => Arc::ptr_eq(a, b),
+                    _ => false,
+                }
         });
         if !fresh {
-            let bits = ranges.occupancy_bits(&scene.classification);
+            let mut bits = ranges.occupancy_bits(&scene.classification);
+            // Bricks holding a drawn label are never skipped (labels.rs).
+            if let Some(label_bits) = &labels {
+                for (word, extra) in bits.iter_mut().zip(label_bits.iter()) {
+                    *word |= extra;
+                }
+            }
             let occupied = bits.iter().map(|w| w.count_ones() as u64).sum::<u64>() as f64
                 / ranges.ranges.len().max(1) as f64;
             let generation = slot.as_ref().map_or(1, |c| c.generation + 1);
             *slot = Some(OccupancyCache {
                 ranges: ranges.clone(),
                 classification: scene.classification,
+                labels,
                 bits,
                 occupied,
                 generation,

@@ -61,6 +61,11 @@ pub struct RenderTarget {
     // The last classified bits, and which of them each frame slot's buffer holds.
     occupancy_cache: Option<OccupancyCache>,
     occupancy_written: [u64; FRAMES_IN_FLIGHT],
+    // A label overlay drawn in 3D, its colour table per frame slot and which table each holds
+    // (labels.rs).
+    pub(super) labels: Option<super::labels::AttachedLabels>,
+    pub(super) label_colour_buffers: Vec<Option<Arc<Buffer>>>,
+    pub(super) label_colours_written: [u64; FRAMES_IN_FLIGHT],
     /// Compile in and read the benchmark counters (samples marched / classified) each frame.
     pub count_samples: bool,
     /// Copy each frame back to the host (off for frame-rate measurements: `Frame` is then
@@ -201,6 +206,9 @@ impl Engine {
             occupancy: vec![None; FRAMES_IN_FLIGHT],
             occupancy_cache: None,
             occupancy_written: [0; FRAMES_IN_FLIGHT],
+            labels: None,
+            label_colour_buffers: vec![None; FRAMES_IN_FLIGHT],
+            label_colours_written: [0; FRAMES_IN_FLIGHT],
             count_samples: false,
             read_back: true,
         })
@@ -343,12 +351,16 @@ impl Engine {
         };
         let mut variant = RaymarchVariant::of_layout(&effects, count, atlas.brick > 0);
         let frame_slot = target.next_uniforms;
+        let (label_values, label_colours, label_bits) =
+            self.label_inputs(target, prepared, scene, frame_slot)?;
+        variant.labels = label_bits.is_some();
         target.next_uniforms = (target.next_uniforms + 1) % FRAMES_IN_FLIGHT;
         let mut bricks = [1, 1, 1, BRICK_SIDE];
         let occupancy = if variant.skip_empty {
             let ranges = self.brick_ranges(prepared)?;
-            let cache = OccupancyCache::update(&mut target.occupancy_cache, &ranges, scene)
-                .ok_or_else(|| GpuError::Internal("the occupancy cache is empty".into()))?;
+            let cache =
+                OccupancyCache::update(&mut target.occupancy_cache, &ranges, scene, label_bits)
+                    .ok_or_else(|| GpuError::Internal("the occupancy cache is empty".into()))?;
             let (generation, occupied) = (cache.generation, cache.occupied);
             // Nothing to skip: the lookups would only cost (lossless either way).
             variant.skip_empty = occupied <= MAX_OCCUPANCY_FOR_SKIPPING;
@@ -407,6 +419,8 @@ impl Engine {
             normal: &normal,
             occupancy: &occupancy,
             brick_table: &brick_table,
+            label_values: &label_values,
+            label_colours: &label_colours,
             sampler: &linear,
         };
         if count {

@@ -40,6 +40,8 @@ pub struct RaymarchVariant {
     pub count_samples: bool,
     /// Textures are brick atlases read through a brick table.
     pub bricked: bool,
+    /// A label overlay is drawn (labels.glsl).
+    pub labels: bool,
 }
 
 impl RaymarchVariant {
@@ -67,6 +69,7 @@ impl RaymarchVariant {
             ("SKIP_EMPTY", self.skip_empty),
             ("COUNT_SAMPLES", self.count_samples),
             ("BRICKED", self.bricked),
+            ("LABELS", self.labels),
         ] {
             text.push_str(&format!(", {name}={}", on(value)));
         }
@@ -109,6 +112,10 @@ pub struct RaymarchInputs<'a> {
     pub occupancy: &'a Arc<Buffer>,
     /// Brick table of a bricked volume, or a placeholder.
     pub brick_table: &'a Arc<Buffer>,
+    /// The labels of a label overlay (two u16 per word), or a placeholder.
+    pub label_values: &'a Arc<Buffer>,
+    /// The overlay's RGBA8 colour per label, or a placeholder.
+    pub label_colours: &'a Arc<Buffer>,
     /// Clamp-to-edge sampler with the filter the interpolation needs.
     pub sampler: &'a Arc<Sampler>,
 }
@@ -143,6 +150,7 @@ impl RaymarchPass {
                 ("NAIVE_OPACITY", SpecValue::Bool(variant.naive_opacity)),
                 ("SKIP_EMPTY", SpecValue::Bool(variant.skip_empty)),
                 ("BRICKED", SpecValue::Bool(variant.bricked)),
+                ("LABELS", SpecValue::Bool(variant.labels)),
             ],
             cache,
         )?;
@@ -182,6 +190,14 @@ impl RaymarchPass {
                 ("counters", Resource::Buffer(counters.clone())),
                 ("occupancy", Resource::Buffer(inputs.occupancy.clone())),
                 ("brick_table", Resource::Buffer(inputs.brick_table.clone())),
+                (
+                    "label_values",
+                    Resource::Buffer(inputs.label_values.clone()),
+                ),
+                (
+                    "label_colours",
+                    Resource::Buffer(inputs.label_colours.clone()),
+                ),
             ],
         )?;
         // Moves the target to GENERAL for storage writes; the last frame's pixels are not needed.

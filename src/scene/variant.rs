@@ -48,6 +48,8 @@ impl RaymarchVariant {
             skip_empty: dvr && q.empty_space_skipping,
             count_samples,
             bricked,
+            // Set by the engine where a label overlay is attached to the render target.
+            labels: false,
         }
     }
 }

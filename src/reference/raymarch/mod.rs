@@ -58,12 +58,14 @@
 
 mod formulas;
 mod inputs;
+mod labels;
 mod sampling;
 #[cfg(test)]
 mod tests;
 
 pub use formulas::*;
 pub use inputs::{ReferenceDerived, ReferenceError, ReferenceVolume};
+pub use labels::ReferenceLabels;
 pub use sampling::{fetch, trilinear};
 
 use crate::scene::camera::CameraRays;
@@ -172,6 +174,7 @@ pub struct ReferenceRaymarch<'a> {
     height: u32,
     clip: IndexClip,
     colormap: Option<Colormap>,
+    labels: Option<ReferenceLabels<'a>>,
 }
 
 impl<'a> ReferenceRaymarch<'a> {
@@ -336,7 +339,16 @@ impl<'a> ReferenceRaymarch<'a> {
             height,
             clip: scene.clip.to_index(geometry),
             colormap: scene.colormap,
+            labels: None,
         })
+    }
+
+    /// Draws a label overlay in DVR, as a render target with labels attached does
+    /// (`labels.rs`); the labels must be on the volume's grid.
+    pub fn with_labels(mut self, labels: ReferenceLabels<'a>) -> Result<Self, ReferenceError> {
+        check_values("labels", self.volume.dims, labels.values, |_| true)?;
+        self.labels = Some(labels);
+        Ok(self)
     }
 
     /// The resolved camera.
@@ -520,10 +532,29 @@ impl<'a> ReferenceRaymarch<'a> {
     fn dvr(&self, plan: &RayPlan) -> [f64; 4] {
         let mut acc = [0.0; 4];
         for i in 0..plan.count {
-            let Some(sample) = self.dvr_sample(plan.position(i), plan.view_direction) else {
+            let p = plan.position(i);
+            let tissue = self.dvr_sample(p, plan.view_direction);
+            let label = self.labels.and_then(|labels| {
+                let shading = self.shading.then_some(plan.view_direction);
+                let m = self.geometry.gradient_to_world;
+                labels.sample(
+                    self.volume.dims.map(|d| d as usize),
+                    p,
+                    m,
+                    shading,
+                    self.opacity_exponent,
+                )
+            });
+            if tissue.is_none() && label.is_none() {
                 continue;
-            };
-            composite(&mut acc, sample.shaded, sample.corrected);
+            }
+            if let Some(sample) = tissue {
+                composite(&mut acc, sample.shaded, sample.corrected);
+            }
+            // The label's medium after the tissue at the same position, as in the shader.
+            if let Some((colour, opacity)) = label {
+                composite(&mut acc, colour, opacity);
+            }
             // After compositing, like the shader: the sample that crosses the threshold counts.
             if acc[3] > self.early_termination {
                 break;
