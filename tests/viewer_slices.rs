@@ -348,3 +348,34 @@ fn the_overlay_colours_the_blob_on_the_slices_and_its_switch_hides_it() {
     let (_, n) = Png::read(&shot).mean_x(rect(&layout_line(&o), "axial"), red);
     assert_eq!(n, 0, "label 7 switched off");
 }
+
+#[test]
+fn the_overlay_shows_in_the_3d_view_and_its_switches_hide_it_there_too() {
+    let dir = temp_dir("overlay-3d");
+    let volume = head(&dir);
+    let labels = labels(&dir);
+    let lut = dir.join("lut.txt");
+    std::fs::write(&lut, "7 Blob 0 255 0 0\n").unwrap();
+    let extra = [
+        "--overlay",
+        labels.to_str().unwrap(),
+        "--overlay-lut",
+        lut.to_str().unwrap(),
+        "--overlay-opacity",
+        "1",
+    ];
+    let green = |p: [u8; 3]| p[1] > 80 && u32::from(p[1]) > 2 * u32::from(p[0].max(p[2]));
+    // The default 3D layout, anterior view: the label around the left blob is drawn on the
+    // image's right (the patient faces the viewer).
+    let shot = dir.join("3d-on.png");
+    let o = view_with(&volume, "wait 2\n", &shot, false, &extra);
+    let view = rect(&layout_line(&o), "view");
+    let (x, n) = Png::read(&shot).mean_x(view, green);
+    assert!(n > 30, "the label is drawn in 3D ({n} px)");
+    assert!(x > 0.5, "on the image's right: {x:.2}");
+    // Its switch hides it in 3D as on the slices.
+    let shot = dir.join("3d-off.png");
+    let o = view_with(&volume, "label 7 off\nwait 2\n", &shot, false, &extra);
+    let (_, n) = Png::read(&shot).mean_x(rect(&layout_line(&o), "view"), green);
+    assert_eq!(n, 0, "label 7 switched off in 3D");
+}

@@ -114,6 +114,11 @@ pub struct SliceControls {
     /// What the slices show changed without their grids changing (a label toggle, the overlay
     /// opacity): render them again.
     pub dirty: bool,
+    /// Leave the label overlay out of the 3D view (it is drawn there by default).
+    pub labels_not_in_3d: bool,
+    /// Grows with every change of the labels' switches or opacity, so the 3D view renders
+    /// again (its scene is unchanged).
+    pub overlay_revision: u64,
 }
 
 /// A label overlay resampled onto the volume's grid, with its colours.
@@ -137,6 +142,18 @@ fn slot(plane: Plane) -> usize {
 }
 
 impl SliceControls {
+    /// The 3D view's label colour table (`engine::label_colours`), or None when no overlay is
+    /// drawn in 3D.
+    pub fn label_colours_3d(&self) -> Option<Vec<u32>> {
+        let overlay = self.overlay.as_ref().filter(|_| !self.labels_not_in_3d)?;
+        Some(crate::engine::label_colours(
+            &overlay.table,
+            &overlay.present,
+            overlay.opacity,
+            &self.hidden,
+        ))
+    }
+
     /// Starts a new volume: its geometry, the crosshair at its centre, the full window.
     pub fn set_volume(&mut self, id: u64, geometry: VolumeGeometry) {
         self.volume = id;
@@ -250,7 +267,6 @@ fn slice_column(ui: &mut Ui, slices: &mut SliceControls) {
         .small()
         .weak(),
     );
-    label_toggles(ui, slices);
     let planes = slices.layout.planes();
     let area = ui.available_rect_before_wrap();
     let each = area.height() / planes.len().max(1) as f32;
@@ -266,12 +282,18 @@ fn slice_column(ui: &mut Ui, slices: &mut SliceControls) {
     ui.allocate_rect(area, egui::Sense::hover());
 }
 
-/// One switch per label present (the first 32), in the label's colour, and the opacity.
-fn label_toggles(ui: &mut Ui, slices: &mut SliceControls) {
+/// The label overlay's section of the tools panel (nothing without `--overlay`): whether it is
+/// drawn in the 3D view, one switch per label present (the first 32) in the label's colour, and
+/// the opacity; the switches apply to the slices and the 3D view alike.
+pub fn label_panel(ui: &mut Ui, slices: &mut SliceControls) {
     let Some(overlay) = &mut slices.overlay else {
         return;
     };
-    let mut changed = false;
+    ui.separator();
+    ui.heading("Labels");
+    let mut in_3d = !slices.labels_not_in_3d;
+    let mut changed = ui.checkbox(&mut in_3d, "in 3D").changed();
+    slices.labels_not_in_3d = !in_3d;
     ui.horizontal_wrapped(|ui| {
         for &label in overlay.present.iter().take(32) {
             let style = overlay.table.style(label);
@@ -296,6 +318,7 @@ fn label_toggles(ui: &mut Ui, slices: &mut SliceControls) {
     let slider = egui::Slider::new(&mut overlay.opacity, 0.0..=1.0).text("label opacity");
     changed |= ui.add(slider).changed();
     slices.dirty |= changed;
+    slices.overlay_revision += u64::from(changed);
 }
 
 fn slice_cell(ui: &mut Ui, slices: &mut SliceControls, plane: Plane, cell: Rect) {

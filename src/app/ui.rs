@@ -243,6 +243,7 @@ pub fn draw(ui: &mut Ui, controls: &mut Controls, shown: &Shown) -> Outcome {
                 ui.separator();
                 rendering_panel(ui, controls);
                 super::clip_panel::clip_panel(ui, &mut controls.scene, controls.extent_mm);
+                super::slices_panel::label_panel(ui, &mut controls.slices);
                 ui.separator();
                 camera_panel(ui, controls);
                 ui.separator();

@@ -204,6 +204,19 @@ impl RenderTarget {
         }
     }
 
+    /// Draws `labels` with `colours`, or nothing (None): [`RenderTarget::set_labels`] for other
+    /// labels, [`RenderTarget::set_label_colours`] for the attached ones, so a client may call it
+    /// every frame and the table is written only when it changes.
+    pub fn show_labels(&mut self, labels: Option<(&Arc<LabelVolume>, Vec<u32>)>) {
+        match (labels, &self.labels) {
+            (Some((volume, colours)), Some(attached)) if Arc::ptr_eq(volume, &attached.volume) => {
+                self.set_label_colours(colours)
+            }
+            (Some((volume, colours)), _) => self.set_labels(Some((volume.clone(), colours))),
+            (None, _) => self.labels = None,
+        }
+    }
+
     /// Whether a label overlay is attached.
     pub fn has_labels(&self) -> bool {
         self.labels.is_some()

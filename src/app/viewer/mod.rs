@@ -111,6 +111,8 @@ struct Gpu {
     engine: Engine,
     /// The slice panels' pipeline, created when a slice is first shown.
     slicer: Option<crate::engine::slice::Slicer>,
+    /// The label overlay on the current volume's grid, for the 3D view.
+    labels_3d: Option<Arc<crate::engine::LabelVolume>>,
     swapchain: Option<Swapchain>,
     surface: Option<Arc<Surface>>,
     device: Device,
@@ -157,6 +159,7 @@ impl Gpu {
             targets: std::array::from_fn(|_| None),
             engine,
             slicer: None,
+            labels_3d: None,
             swapchain,
             surface,
             device,
@@ -247,6 +250,7 @@ struct Rendered {
     rect: [u32; 4],
     target: usize,
     volume: u64,
+    overlay: u64,
 }
 
 impl Viewer {

@@ -41,7 +41,10 @@ impl Viewer {
             && view_rect[3] > 0
         {
             let unchanged = self.last.is_some_and(|l| {
-                l.scene == scene && l.rect == view_rect && l.volume == current.loaded.id
+                l.scene == scene
+                    && l.rect == view_rect
+                    && l.volume == current.loaded.id
+                    && l.overlay == self.controls.slices.overlay_revision
             });
             let blocked = self.render_blocked == Some((scene, view_rect));
             if (!unchanged || continuous) && !blocked {
@@ -72,6 +75,7 @@ impl Viewer {
                 let Some(target) = gpu.targets[index].as_mut() else {
                     return Ok(());
                 };
+                super::slices::attach_labels(gpu.labels_3d.as_ref(), &self.controls.slices, target);
                 let twin = &current.loaded.twin;
                 let mut rec = Recording::new(&gpu.device, "frame").map_err(FrameError::Gpu)?;
                 match gpu.engine.record_render(
@@ -103,6 +107,7 @@ impl Viewer {
                     rect: view_rect,
                     target: index,
                     volume: current.loaded.id,
+                    overlay: self.controls.slices.overlay_revision,
                 });
             }
         }

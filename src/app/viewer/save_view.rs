@@ -56,6 +56,7 @@ impl Viewer {
             .render_target(size[0], size[1], vk::Format::R8G8B8A8_UNORM)
             .map_err(|e| e.to_string())?;
         target.read_back = true;
+        super::slices::attach_labels(gpu.labels_3d.as_ref(), &self.controls.slices, &mut target);
         let frame = gpu
             .engine
             .render(&mut target, &twin.prepared, twin.derived(), &scene)

@@ -5,12 +5,26 @@
 //! slices are small: a 256^2 slice is 256 KiB), rather than a composition pass of their own;
 //! an unchanged crosshair costs nothing per frame. A failure is the status line's error, the
 //! session goes on. A label overlay (`view --overlay`) is resampled onto each volume's grid
-//! when it arrives and blended over the slices on the host, as `morphray slice` does.
+//! when it arrives and blended over the slices on the host, as `morphray slice` does; it is
+//! also uploaded for the 3D view (`engine::LabelVolume`), where the same switches apply.
 
 use super::Viewer;
 use crate::app::slices_panel::SliceOverlay;
+use crate::engine::RenderTarget;
 use crate::engine::slice::{Slicer, geometry_of};
 use crate::scene::overlay::{blend_slice, resample_onto};
+use std::sync::Arc;
+
+/// Draws the label overlay in `target` as the controls say (every frame: the target rewrites
+/// its colour table only when it changed).
+pub(super) fn attach_labels(
+    labels: Option<&Arc<crate::engine::LabelVolume>>,
+    slices: &crate::app::slices_panel::SliceControls,
+    target: &mut RenderTarget,
+) {
+    let shown = labels.zip(slices.label_colours_3d());
+    target.show_labels(shown);
+}
 
 impl Viewer {
     /// Brings the slice textures up to date with the controls (called before the interface).
@@ -29,10 +43,17 @@ impl Viewer {
                 }
             }
             slices.overlay = None;
+            gpu.labels_3d = None;
             if let Some(overlay) = &self.config.overlay {
                 let dims = prepared.dims.map(|d| d as usize);
                 match resample_onto(&overlay.labels, dims, &prepared.affine) {
                     Ok(labels) => {
+                        // The same labels in the 3D view (whole volumes only: a bricked one
+                        // shows them on the slices and says why not in 3D).
+                        match gpu.engine.upload_labels(prepared, &labels) {
+                            Ok(uploaded) => gpu.labels_3d = Some(Arc::new(uploaded)),
+                            Err(e) => self.status.error = Some(format!("overlay in 3D: {e}")),
+                        }
                         slices.overlay = Some(SliceOverlay {
                             present: labels.present(),
                             labels,

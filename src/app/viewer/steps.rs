@@ -200,6 +200,7 @@ impl Viewer {
                     c.slices.hidden.insert(*label);
                 }
                 c.slices.dirty = true;
+                c.slices.overlay_revision += 1;
                 watch = false;
             }
             Action::SliceWindow(lo, hi) => {
