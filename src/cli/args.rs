@@ -334,9 +334,9 @@ pub struct RenderArgs {
     /// Output PNG (with --turntable N: frames are written as NAME-000.png, NAME-001.png, ...).
     #[arg(short, long, value_name = "PNG")]
     pub output: PathBuf,
-    /// Render N frames of a full orbit (azimuth advancing 360/N degrees per frame), N from 1
-    /// to 10000 (every frame's file name is checked before the render starts).
+    /// Render N frames (1 to 10000) of a full orbit, azimuth advancing 360/N degrees a frame
     ///
+    /// Every frame's file name is checked before the render starts.
     /// Progress shows on stderr when it is a terminal (MORPHRAY_PROGRESS=always: also in logs,
     /// as plain lines; =never: not at all).
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=10_000))]

@@ -12,15 +12,14 @@ use clap::Args;
 #[derive(Debug, Clone, Default, Args, serde::Serialize)]
 #[command(next_help_heading = "Scene")]
 pub struct ClipArgs {
-    /// Keep only part of the volume: X0:X1,Y0:Y1,Z0:Z1 as fractions 0..1 along the voxel axes
-    /// i, j, k (`--crop 0:1,0:1,0.5:1` keeps the upper half of k).
+    /// Keep part of the volume: fractions 0..1 along the voxel axes i, j, k
     ///
-    /// Rays start and end exactly on the box.
+    /// `--crop 0:1,0:1,0.5:1` keeps the upper half of k. Rays start and end exactly on the box.
     #[arg(long, value_name = "X0:X1,Y0:Y1,Z0:Z1", value_parser = parse_crop)]
     pub crop: Option<[[f64; 2]; 3]>,
-    /// Cut the volume with a plane in world mm, keeping the side where NX*x + NY*y + NZ*z + D >= 0
-    /// (the side the normal points to); repeatable, up to 4.
+    /// Cut with a plane in world mm, keeping NX*x + NY*y + NZ*z + D >= 0; repeatable, up to 4
     ///
+    /// The kept side is the one the normal points to.
     /// `--clip-plane -1,0,0,0` keeps x <= 0: the patient's left half in RAS+ (+x = right).
     #[arg(long = "clip-plane", value_name = "NX,NY,NZ,D", value_parser = parse_plane, allow_hyphen_values = true)]
     pub clip_plane: Vec<ClipPlane>,

@@ -18,17 +18,20 @@ use std::path::PathBuf;
 /// Overlay options.
 #[derive(Debug, Args, serde::Serialize)]
 pub struct OverlayArgs {
-    /// Integer label map (NIfTI; same or another grid, resampled onto the volume's by the
-    /// affines, nearest neighbour) drawn in colour over the slices and, in DVR, in the 3D
-    /// view; label 0 is not drawn.
+    /// Integer label map drawn in colour on slices and in 3D (label 0 is not drawn)
+    ///
+    /// NIfTI, on the same or another grid: resampled onto the volume's by the affines (nearest
+    /// neighbour). In 3D (DVR) each sample takes its nearest voxel's label.
     #[arg(long, value_name = "LABELS")]
     pub overlay: Option<PathBuf>,
-    /// FreeSurfer-style lookup table for the labels (`index name R G B A` per line); labels
-    /// not in it, or all without it, take a default palette.
+    /// FreeSurfer-style colour table for the labels (`index name R G B A` lines)
+    ///
+    /// Labels not in it, or all without it, take a default palette. A is a transparency, as
+    /// FreeSurfer writes it (0 = opaque).
     #[arg(long, value_name = "FILE", requires = "overlay")]
     pub overlay_lut: Option<PathBuf>,
-    /// Opacity of the label colours: over a slice's grey, and per mm in 3D, 0..1.
-    #[arg(long, default_value_t = 0.5, requires = "overlay")]
+    /// Label opacity 0..1: over a slice's grey, per mm in 3D
+    #[arg(long, value_name = "A", default_value_t = 0.5, requires = "overlay")]
     pub overlay_opacity: f64,
 }
 

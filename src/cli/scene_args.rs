@@ -155,7 +155,8 @@ pub struct SceneArgs {
     #[arg(long = "opacity", visible_alias = "tissue-opacity", value_name = "TISSUE=X", value_parser = parse_opacity)]
     pub opacity: Vec<(TissueClass, f32)>,
     /// A tissue's colour: TISSUE=#RRGGBB or TISSUE=R,G,B (0..255), repeatable
-    /// (`--color wm=#f0f0e0`).
+    ///
+    /// `--color wm=#f0f0e0` gives white matter an off-white.
     #[arg(long = "color", visible_alias = "tissue-color", value_name = "TISSUE=#RRGGBB", value_parser = parse_tissue_colour)]
     pub color: Vec<(TissueClass, [f32; 3])>,
     /// Crop, clip planes and colour map (src/cli/clip.rs).
