@@ -149,3 +149,44 @@ fn the_lesion_label_is_drawn_in_3d_on_the_lesions_side_and_bricking_is_refused()
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("--overlay-opacity 1.5"));
 }
+
+#[test]
+fn an_overlay_that_does_not_fit_the_memory_budget_is_refused_with_the_numbers() {
+    let dir = temp_dir("budget");
+    let (volume, labels, lut) = phantom(&dir);
+    // The plan's own peak for this render, then a budget 1000 bytes above it: the scene fits,
+    // the labels' 2 bytes a voxel (2 x 64 x 72 x 56) do not.
+    let scene = ["--size", "96x96", "--shading", "on"];
+    let o = morphray(&[&["plan", volume.to_str().unwrap(), "--json"], &scene[..]].concat());
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let plan: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let peak = plan["peak_bytes"].as_u64().unwrap();
+    let budget = (peak + 1000).to_string();
+    let out = dir.join("x.png");
+    let o = morphray(
+        &[
+            &[
+                "render",
+                volume.to_str().unwrap(),
+                "-o",
+                out.to_str().unwrap(),
+            ],
+            &scene[..],
+            &[
+                "--memory-budget",
+                &budget,
+                "--overlay",
+                labels.to_str().unwrap(),
+            ],
+            &["--overlay-lut", lut.to_str().unwrap()],
+        ]
+        .concat(),
+    );
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("--overlay needs 0.5 MiB") && stderr.contains("raise --memory-budget"),
+        "{stderr}"
+    );
+    assert!(!out.exists());
+}

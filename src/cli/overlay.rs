@@ -7,6 +7,7 @@
 //! opacity per millimetre in 3D (like the tissues'), so 0.5 shows a structure as a solid
 //! coloured surface that the tissue in front of it can still veil.
 
+use crate::engine::plan::Plan;
 use crate::engine::{Engine, PreparedVolume, RenderTarget, label_colours};
 use crate::error::Error;
 use crate::scene::overlay::{LabelTable, Overlay, resample};
@@ -84,16 +85,28 @@ impl OverlayArgs {
     }
 }
 
-/// Resamples `overlay` onto `volume` (prepared as `prepared`), uploads it and draws it in
-/// `target`'s DVR frames; returns the number of distinct labels drawn.
+/// Resamples `overlay` onto `volume` (prepared as `prepared` under `plan`), uploads it and
+/// draws it in `target`'s DVR frames; returns the number of distinct labels drawn. The labels'
+/// 2 bytes a voxel must fit in what the plan leaves of the memory budget.
 pub fn attach_to_render(
     overlay: &Overlay,
     volume: &Volume,
     engine: &mut Engine,
-    prepared: &PreparedVolume,
+    (prepared, plan): (&PreparedVolume, &Plan),
     target: &mut RenderTarget,
 ) -> Result<usize, Error> {
     let labels = resample(&overlay.labels, volume).map_err(|e| Error::Usage(e.to_string()))?;
+    let label_bytes = 2 * labels.values.len() as u64;
+    if plan.peak_bytes.saturating_add(label_bytes) > plan.budget {
+        let mib = |b: u64| b as f64 / (1u64 << 20) as f64;
+        return Err(Error::Usage(format!(
+            "--overlay needs {:.1} MiB of GPU memory for its labels, and the plan already uses \
+             {:.1} of the {:.1} MiB budget: raise --memory-budget",
+            mib(label_bytes),
+            mib(plan.peak_bytes),
+            mib(plan.budget)
+        )));
+    }
     if let crate::engine::VolumeLayout::Bricked(_) = prepared.layout {
         return Err(Error::Usage(
             "--overlay is drawn in 3D on whole volumes only, and this one was bricked (--bricked, \

@@ -217,7 +217,7 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
             overlay,
             volume,
             &mut opened.engine,
-            &prepared,
+            (&prepared, &opened.plan),
             &mut target,
         )?;
         if classified {
