@@ -21,6 +21,10 @@
 // only resident bricks (with halos) in atlases, and every fetch goes through the brick table
 // (sampling.glsl).
 //
+// Vessels (VESSELS): the vessel channel is one more classification term, its window on the
+// multi-scale vesselness sampled like the derived volumes (classification.glsl); the f64 twin
+// takes the same vesselness volume (ReferenceRaymarch::with_vesselness).
+//
 // Labels (LABELS): a label overlay's samples are composited after the tissue's at the same
 // position, nearest voxel, colour and opacity per mm from a lookup table (labels.glsl); bricks
 // holding a label are occupied for skipping, so skipping stays lossless.
@@ -48,11 +52,13 @@ layout(constant_id = 6) const bool NAIVE_OPACITY = false; // 1-(1-a)^r in f32 (a
 layout(constant_id = 7) const bool SKIP_EMPTY = false;    // empty-space skipping over 8^3 bricks
 layout(constant_id = 8) const bool BRICKED = false;       // textures are brick atlases (sampling.glsl)
 layout(constant_id = 9) const bool LABELS = false;        // a label overlay drawn in 3D (labels.glsl)
+layout(constant_id = 10) const bool VESSELS = false;      // the vessel channel (classification.glsl)
 
 layout(set = 0, binding = 0) uniform sampler3D volume;          // I_norm, trilinear
 layout(set = 0, binding = 1) uniform sampler3D gradient_volume; // .r |g|, .g k (scaled, see derived_scale)
 layout(set = 0, binding = 2) uniform sampler3D normal_volume;   // .xyz unit world gradient
 layout(set = 0, binding = 3) uniform writeonly image2D target;  // RGBA8 (or RGBA32F for studies)
+layout(set = 0, binding = 10) uniform sampler3D vesselness_volume; // VESSELS: multi-scale vesselness
 
 layout(set = 0, binding = 4, std140) uniform Params {
     mat4 world_to_index;
@@ -79,6 +85,9 @@ layout(set = 0, binding = 4, std140) uniform Params {
     vec4 crop_hi;           // xyz the opposite corner; w: 1 = colours from the colour map
     vec4 clip_planes[4];    // index space: unit normal xyz, w offset; keeps dot(n, p) + w >= 0
     vec4 colormap[16];      // rgb control points at i / 15
+    // Vessel channel (issue 15 item 3).
+    vec4 vessel_window;     // lo, hi, edge on the vesselness, 1
+    vec4 vessel_colour;     // rgb, opacity
 } params;
 
 // Benchmark counters (COUNT_SAMPLES only): samples marched and samples that passed
@@ -243,7 +252,7 @@ void main() {
             }
             float v = sample_volume(p);
             marched++;
-            vec4 cls = classify(v);
+            vec4 cls = VESSELS ? classify_with_vessels(v, fetch_volume(vesselness_volume, p).r) : classify(v);
             uint label = 0u;
             vec4 label_colour = vec4(0.0);
             if (LABELS) {

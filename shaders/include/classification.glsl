@@ -9,10 +9,10 @@ float window_weight(float v, vec4 window) {
                     * (1.0 - smoothstep(window.y - window.z, window.y + window.z, v));
 }
 
-// Returns f(v) in .a (clamped to 1) and the opacity-weighted mean colour in .rgb.
-vec4 classify(float v) {
-    float total = 0.0;
-    vec3 colour = vec3(0.0);
+// The tissues' and (when drawn) the vessel channel's opacity-weighted colour sums.
+vec4 classify_sums(float v, float vessel_weight) {
+    float total = vessel_weight;
+    vec3 colour = vessel_weight * params.vessel_colour.rgb;
     for (int t = 0; t < 4; t++) {
         float w = window_weight(v, params.windows[t]) * params.colours[t].a;
         total += w;
@@ -22,6 +22,17 @@ vec4 classify(float v) {
         return vec4(0.0);
     }
     return vec4(colour / total, min(total, 1.0));
+}
+
+// Returns f(v) in .a (clamped to 1) and the opacity-weighted mean colour in .rgb.
+vec4 classify(float v) {
+    return classify_sums(v, 0.0);
+}
+
+// classify() with the vessel channel: one more term, its window on the vesselness (issue 15
+// item 3; twin: Classification::classify_with_vessels).
+vec4 classify_with_vessels(float v, float vesselness) {
+    return classify_sums(v, window_weight(vesselness, params.vessel_window) * params.vessel_colour.a);
 }
 
 // Curvature weight w(k) = 1 + s * tanh(|k| / k_ref): thin, sharply bent structures (the cortical

@@ -34,13 +34,18 @@ use std::path::{Path, PathBuf};
 /// volume's analysis). Fails on an unknown tissue name and on what `SceneRecipe::check` refuses.
 pub fn recipe_from_args(args: &SceneArgs) -> Result<SceneRecipe, Error> {
     let mut visible = Vec::new();
+    let mut vessels = false;
     for name in &args.tissues {
         if name.trim().is_empty() {
             continue;
         }
+        if name.trim().eq_ignore_ascii_case("vessels") {
+            vessels = true;
+            continue;
+        }
         let tissue = TissueClass::parse(name).ok_or_else(|| {
             Error::Usage(format!(
-                "unknown tissue `{name}` in --tissues; use csf, gm, wm, pathology"
+                "unknown tissue `{name}` in --tissues; use csf, gm, wm, pathology, vessels"
             ))
         })?;
         visible.push(tissue);
@@ -57,6 +62,7 @@ pub fn recipe_from_args(args: &SceneArgs) -> Result<SceneRecipe, Error> {
             GradientArg::Precomputed => GradientSource::Precomputed,
             GradientArg::OnTheFly => GradientSource::OnTheFly,
         },
+        vessels: vessels && args.mode == ModeArg::Dvr,
         ..Default::default()
     };
     effects.quality.derived_precision = match args.derived_precision {

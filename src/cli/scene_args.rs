@@ -107,10 +107,12 @@ pub struct SceneArgs {
     /// What each ray computes.
     #[arg(long, value_enum, default_value_t = ModeArg::Dvr)]
     pub mode: ModeArg,
-    /// Visible tissue classes, comma-separated, from csf, gm, wm, pathology (`--tissues pathology`
-    /// alone "unmasks" lesions and vessels).
+    /// Visible tissue classes, comma-separated, from csf, gm, wm, pathology, vessels
     ///
-    /// Default: all but pathology.
+    /// `--tissues pathology` alone "unmasks" lesions and vessels; `vessels` is the vessel
+    /// channel, classified on the multi-scale vesselness instead of intensity (computed only when
+    /// shown), so `--tissues vessels,pathology` shows the vessels with the brain tissue
+    /// suppressed (the paper's Fig. 2). Default: all but pathology and vessels.
     #[arg(long, default_value = "csf,gm,wm", value_delimiter = ',')]
     pub tissues: Vec<String>,
     /// Tissue windows: adaptive (from this volume's histogram peaks) or the paper's constants.

@@ -2,10 +2,11 @@
 
 use super::Engine;
 use super::prepare::{PreparedVolume, VolumeLayout};
-use crate::gpu::{Access, Buffer, BufferDesc, GpuResult, PassTiming, Recording};
+use crate::gpu::{Access, Buffer, BufferDesc, GpuResult, Image, PassTiming, Recording};
 use crate::passes::derivatives::{DEFAULT_TAU, DerivativeOutputs, DerivedVolumes, STAT_BYTES};
 use crate::scene::DerivedPrecision;
 use crate::scene::uniforms::GradientStats;
+use std::sync::Arc;
 
 /// Derived volumes and the GPU time they took.
 pub struct Derived {
@@ -13,8 +14,11 @@ pub struct Derived {
     pub volumes: DerivedVolumes,
     /// max |g| and the zero-gradient threshold.
     pub stats: GradientStats,
-    /// GPU time of the derivative pass.
+    /// GPU time of the derivative pass (and of the vesselness passes).
     pub gpu_timings: Vec<PassTiming>,
+    /// The multi-scale vesselness (R32F, `Access::ComputeSampled`) when
+    /// `DerivativeOutputs::vesselness` asked for it.
+    pub vesselness: Option<Arc<Image>>,
 }
 
 /// The derivative pass's max |g| slots and their host copy (as [`Engine::derive`] creates them,
@@ -34,6 +38,28 @@ impl Engine {
         prepared: &PreparedVolume,
         outputs: DerivativeOutputs,
     ) -> GpuResult<Derived> {
+        let mut derived = self.derive_gradients(prepared, outputs)?;
+        if outputs.vesselness {
+            // The default scales (0.6-3 mm, 4 of them: `VesselnessParams::default`).
+            let params = crate::passes::vesselness::VesselnessParams::default();
+            let vessels = self.vesselness(prepared, &params)?;
+            derived.gpu_timings.extend(vessels.gpu_timings);
+            derived.vesselness = Some(vessels.image);
+            derived.volumes.outputs.vesselness = true;
+        }
+        Ok(derived)
+    }
+
+    fn derive_gradients(
+        &mut self,
+        prepared: &PreparedVolume,
+        outputs: DerivativeOutputs,
+    ) -> GpuResult<Derived> {
+        // The vesselness is no output of the derivative shader: its pipelines ignore the flag.
+        let outputs = DerivativeOutputs {
+            vesselness: false,
+            ..outputs
+        };
         let _span = crate::files::trace::span("derived volumes", "prepare");
         let stores = outputs.magnitude || outputs.curvature;
         let voxel_mm = finest_spacing(prepared.linear_part);
@@ -132,6 +158,7 @@ impl Engine {
             volumes,
             stats,
             gpu_timings,
+            vesselness: None,
         })
     }
 }
@@ -143,12 +170,17 @@ fn max_only_pass(outputs: DerivativeOutputs) -> DerivativeOutputs {
         curvature: false,
         normal: false,
         precision: outputs.precision,
+        vesselness: false,
     }
 }
 
 /// The derivative pipeline variants computing `outputs` runs, in order (two for 8-bit storage:
 /// the maximum, then the stores).
 pub(crate) fn derivative_variants(outputs: DerivativeOutputs) -> Vec<DerivativeOutputs> {
+    let outputs = DerivativeOutputs {
+        vesselness: false,
+        ..outputs
+    };
     let stores = outputs.magnitude || outputs.curvature;
     if outputs.precision == DerivedPrecision::Snorm8 && stores {
         vec![max_only_pass(outputs), outputs]

@@ -97,6 +97,9 @@ fn every_effects() -> Vec<Effects> {
                         shading,
                         gradient_source,
                         quality,
+                        // The vessel channel adds one texture fetch per sample; the sweep
+                        // keeps to the tissue variants it was made for.
+                        vessels: false,
                     });
                 }
             }

@@ -74,6 +74,7 @@ impl Engine {
                 curvature: request.curvature,
                 normal: false,
                 precision: DerivedPrecision::F32,
+                vesselness: false,
             };
             let derived = self.derive(source, outputs)?;
             let image = derived.volumes.gradient.as_ref().ok_or_else(|| {

@@ -412,11 +412,21 @@ impl Engine {
         let linear = self.linear.clone();
         let gradient = gradient.unwrap_or_else(|| self.placeholders.gradient.clone());
         let normal = normal.unwrap_or_else(|| self.placeholders.normal.clone());
+        let vesselness = match (variant.vessels, derived.and_then(|d| d.vesselness.clone())) {
+            (false, _) => self.placeholders.gradient.clone(),
+            (true, Some(v)) => v,
+            (true, None) => {
+                return Err(GpuError::InvalidRequest(
+                    "the scene shows vessels, but no vesselness was computed".into(),
+                ));
+            }
+        };
         let pass = self.raymarch_pass(variant)?;
         let inputs = RaymarchInputs {
             volume: &prepared.normalized,
             gradient: &gradient,
             normal: &normal,
+            vesselness: &vesselness,
             occupancy: &occupancy,
             brick_table: &brick_table,
             label_values: &label_values,

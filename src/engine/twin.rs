@@ -92,6 +92,7 @@ fn only_normals_dropped(held: DerivativeOutputs, wanted: DerivativeOutputs) -> b
         && held.magnitude == wanted.magnitude
         && held.curvature == wanted.curvature
         && held.precision == wanted.precision
+        && held.vesselness == wanted.vesselness
 }
 
 impl Twin {
@@ -139,6 +140,7 @@ impl Twin {
                 && (have.magnitude || !need.magnitude)
                 && (have.curvature || !need.curvature)
                 && (have.normal || !need.normal)
+                && (have.vesselness || !need.vesselness)
         })
     }
 }
@@ -198,6 +200,7 @@ mod tests {
             curvature,
             normal,
             precision: DerivedPrecision::Snorm8,
+            vesselness: false,
         }
     }
 

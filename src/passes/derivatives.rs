@@ -56,6 +56,9 @@ pub struct DerivativeOutputs {
     pub normal: bool,
     /// Storage precision of |g| and k.
     pub precision: DerivedPrecision,
+    /// The multi-scale vesselness volume (`passes::vesselness`), computed with the derivatives
+    /// for the vessel channel; not an output of this pass's shader.
+    pub vesselness: bool,
 }
 
 /// Push constants of `derivatives.comp`.

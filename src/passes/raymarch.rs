@@ -42,6 +42,8 @@ pub struct RaymarchVariant {
     pub bricked: bool,
     /// A label overlay is drawn (labels.glsl).
     pub labels: bool,
+    /// The vessel channel is drawn (classification.glsl).
+    pub vessels: bool,
 }
 
 impl RaymarchVariant {
@@ -70,6 +72,7 @@ impl RaymarchVariant {
             ("COUNT_SAMPLES", self.count_samples),
             ("BRICKED", self.bricked),
             ("LABELS", self.labels),
+            ("VESSELS", self.vessels),
         ] {
             text.push_str(&format!(", {name}={}", on(value)));
         }
@@ -86,6 +89,8 @@ impl RaymarchVariant {
         if self.mode != 0 {
             return (per_fetch, 0.0);
         }
+        // The vessel channel reads the vesselness at every marched sample.
+        let marched = per_fetch * (1.0 + self.vessels as u32 as f64);
         let gradient = match self.gradient_mode {
             0 => 1.0 + self.shading as u32 as f64,
             1 => 6.0,
@@ -96,7 +101,7 @@ impl RaymarchVariant {
         } else {
             0.0
         };
-        (per_fetch, per_fetch * (gradient + curvature))
+        (marched, per_fetch * (gradient + curvature))
     }
 }
 
@@ -108,6 +113,8 @@ pub struct RaymarchInputs<'a> {
     pub gradient: &'a Arc<Image>,
     /// Normals, or a placeholder.
     pub normal: &'a Arc<Image>,
+    /// The vesselness, or a placeholder.
+    pub vesselness: &'a Arc<Image>,
     /// Occupancy bits, or a placeholder.
     pub occupancy: &'a Arc<Buffer>,
     /// Brick table of a bricked volume, or a placeholder.
@@ -151,6 +158,7 @@ impl RaymarchPass {
                 ("SKIP_EMPTY", SpecValue::Bool(variant.skip_empty)),
                 ("BRICKED", SpecValue::Bool(variant.bricked)),
                 ("LABELS", SpecValue::Bool(variant.labels)),
+                ("VESSELS", SpecValue::Bool(variant.vessels)),
             ],
             cache,
         )?;
@@ -184,6 +192,10 @@ impl RaymarchPass {
                 (
                     "normal_volume",
                     Resource::CombinedImageSampler(inputs.normal.clone(), s.clone()),
+                ),
+                (
+                    "vesselness_volume",
+                    Resource::CombinedImageSampler(inputs.vesselness.clone(), s.clone()),
                 ),
                 ("target", Resource::StorageImage(target.clone())),
                 ("params", Resource::Buffer(uniforms.clone())),

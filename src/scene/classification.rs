@@ -90,11 +90,45 @@ pub struct TissueStyle {
     pub visible: bool,
 }
 
-/// The four tissue styles, indexed by [`TissueClass`].
+/// How the vessel channel is drawn (issue 15 item 3): like a tissue, but its window is on the
+/// vesselness (0..1, `passes::vesselness`) instead of I_norm. Whether it is drawn is
+/// `Effects::vessels` (it decides a derived volume and a shader variant).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct VesselStyle {
+    /// Window on the vesselness.
+    pub window: Window,
+    /// Display colour, RGB in [0, 1].
+    pub colour: [f32; 3],
+    /// Opacity per millimetre of ray at full window weight and maximal gradient, in [0, 1].
+    pub opacity: f32,
+}
+
+impl Default for VesselStyle {
+    /// Vesselness from 0.4 up (the window's top beyond 1 keeps the strongest tubes), crimson,
+    /// opaque. Measured on the phantom (`morphray phantom --dims 96x112x96 --labels`, then
+    /// `morphray derive`; this machine, lavapipe): vessel voxels have a median vesselness of
+    /// 0.54, while the 99th percentile of white matter is 0.42 and of grey matter 0.29 (gyral
+    /// crowns are ridges too), so 0.4 keeps the vessels and drops nearly all parenchyma.
+    fn default() -> Self {
+        VesselStyle {
+            window: Window {
+                lo: 0.4,
+                hi: 2.0,
+                edge: 0.05,
+            },
+            colour: [0.90, 0.10, 0.25],
+            opacity: 1.0,
+        }
+    }
+}
+
+/// The four tissue styles, indexed by [`TissueClass`], and the vessel channel's.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct Classification {
     /// Styles in [`TissueClass::ALL`] order.
     pub tissues: [TissueStyle; 4],
+    /// The vessel channel's style.
+    pub vessels: VesselStyle,
 }
 
 impl Classification {
@@ -121,7 +155,10 @@ impl Classification {
                 visible,
             };
         }
-        Classification { tissues }
+        Classification {
+            tissues,
+            vessels: VesselStyle::default(),
+        }
     }
 
     /// The style of one tissue.
@@ -156,8 +193,23 @@ impl Classification {
 
     /// f(v) and C_s(v) of the module docs.
     pub fn classify(&self, v: f64) -> (f64, [f64; 3]) {
+        self.classify_with_vessels(v, None)
+    }
+
+    /// [`Classification::classify`] with the vessel channel's term when `vesselness` is given
+    /// (the vessel channel drawn): one more window-weighted, opacity-weighted colour in the
+    /// same sums, so vessels mix with the tissues as the tissues mix with each other.
+    pub fn classify_with_vessels(&self, v: f64, vesselness: Option<f64>) -> (f64, [f64; 3]) {
         let mut total = 0.0;
         let mut colour = [0.0; 3];
+        if let Some(vesselness) = vesselness {
+            let style = &self.vessels;
+            let w = render_weight(&style.window, vesselness) * style.opacity.clamp(0.0, 1.0) as f64;
+            total += w;
+            for (c, s) in colour.iter_mut().zip(style.colour) {
+                *c += w * s as f64;
+            }
+        }
         for style in &self.tissues {
             let Some(window) = style.window else { continue };
             if !style.visible {

@@ -20,7 +20,7 @@ pub mod views;
 pub mod visibility;
 
 pub use camera::{Camera, Projection};
-pub use classification::{Classification, TissueClass, TissueStyle, Window};
+pub use classification::{Classification, TissueClass, TissueStyle, VesselStyle, Window};
 pub use clip::{Clip, ClipPlane};
 pub use colormap::Colormap;
 pub use geometry::VolumeGeometry;
@@ -145,6 +145,9 @@ pub struct Effects {
     pub gradient_source: GradientSource,
     /// Quality knobs.
     pub quality: Quality,
+    /// Draw the vessel channel (DVR): computes the multi-scale vesselness volume and classifies
+    /// it with `Classification::vessels` (issue 15 item 3).
+    pub vessels: bool,
 }
 
 impl Effects {
@@ -161,6 +164,7 @@ impl Effects {
             curvature: stored && self.curvature_mode() == CurvatureMode::Stored,
             normal: stored && self.shading,
             precision: self.quality.derived_precision,
+            vesselness: self.vessels,
         })
     }
 
@@ -198,6 +202,7 @@ impl Default for Effects {
             shading: false,
             gradient_source: GradientSource::Precomputed,
             quality: Quality::default(),
+            vessels: false,
         }
     }
 }

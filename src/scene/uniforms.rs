@@ -67,6 +67,10 @@ pub struct RaymarchUniforms {
     pub clip_planes: [[f32; 4]; MAX_CLIP_PLANES],
     /// Colour map control points (rgb, w unused) at positions i / 15.
     pub colormap: [[f32; 4]; COLORMAP_POINTS],
+    /// Vessel channel (issue 15 item 3): window on the vesselness (lo, hi, edge, 1).
+    pub vessel_window: [f32; 4],
+    /// Vessel channel: rgb, opacity.
+    pub vessel_colour: [f32; 4],
 }
 
 /// Where a bricked volume's bricks are (zeros for a whole volume).
@@ -161,7 +165,16 @@ impl RaymarchUniforms {
             .unwrap_or(super::Colormap::Gray)
             .points()
             .map(|[r, g, b]| [r, g, b, 0.0]);
+        let vessels = &scene.classification.vessels;
+        let [vr, vg, vb] = vessels.colour;
         RaymarchUniforms {
+            vessel_window: [
+                vessels.window.lo as f32,
+                vessels.window.hi as f32,
+                vessels.window.edge.max(MIN_EDGE) as f32,
+                1.0,
+            ],
+            vessel_colour: [vr, vg, vb, vessels.opacity.clamp(0.0, 1.0)],
             crop_lo: vec4(clip.lo, clip.count as f64),
             crop_hi: vec4(clip.hi, scene.colormap.is_some() as u32 as f64),
             clip_planes: clip.planes.map(|p| p.to_array().map(|v| v as f32)),

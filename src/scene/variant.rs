@@ -45,11 +45,14 @@ impl RaymarchVariant {
                 Interpolation::Tricubic => 2,
             },
             naive_opacity: dvr && q.opacity_correction == OpacityCorrection::Naive,
-            skip_empty: dvr && q.empty_space_skipping,
+            // The occupancy bits know the tissue windows on I_norm, not the vesselness, so
+            // skipping would drop vessels: lossless only without the vessel channel.
+            skip_empty: dvr && q.empty_space_skipping && !effects.vessels,
             count_samples,
             bricked,
             // Set by the engine where a label overlay is attached to the render target.
             labels: false,
+            vessels: dvr && effects.vessels,
         }
     }
 }

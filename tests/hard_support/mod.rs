@@ -23,6 +23,7 @@ pub const ALL_OUTPUTS: DerivativeOutputs = DerivativeOutputs {
     curvature: true,
     normal: true,
     precision: morphray::scene::DerivedPrecision::F16,
+    vesselness: false,
 };
 
 /// A volume on a diagonal affine with the given spacing (mm) and origin at voxel (0, 0, 0).

@@ -79,6 +79,7 @@ mod tests {
             curvature,
             normal,
             precision: Default::default(),
+            vesselness: false,
         };
         assert_eq!(
             describe(o(true, true, false)),

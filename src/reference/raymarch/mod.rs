@@ -175,6 +175,8 @@ pub struct ReferenceRaymarch<'a> {
     clip: IndexClip,
     colormap: Option<Colormap>,
     labels: Option<ReferenceLabels<'a>>,
+    vesselness: Option<Grid<'a, f64>>,
+    vessels_on: bool,
 }
 
 impl<'a> ReferenceRaymarch<'a> {
@@ -340,7 +342,22 @@ impl<'a> ReferenceRaymarch<'a> {
             clip: scene.clip.to_index(geometry),
             colormap: scene.colormap,
             labels: None,
+            vesselness: None,
+            vessels_on: dvr && effects.vessels,
         })
+    }
+
+    /// The vessel channel (`Effects::vessels`, DVR): `vesselness` is the volume the GPU's
+    /// vesselness pass computed (the raymarch's input, as the derived volumes are), sampled
+    /// like them and classified by `Classification::classify_with_vessels`.
+    pub fn with_vesselness(mut self, vesselness: &'a [f64]) -> Result<Self, ReferenceError> {
+        let dims = self.volume.dims;
+        check_values("vesselness", dims, vesselness, |v| v.is_finite())?;
+        self.vesselness = Some(Grid {
+            dims,
+            data: vesselness,
+        });
+        Ok(self)
     }
 
     /// Draws a label overlay in DVR, as a render target with labels attached does
@@ -493,7 +510,11 @@ impl<'a> ReferenceRaymarch<'a> {
     /// GPU pixel differs: every intermediate of the shader's loop body.
     pub fn dvr_sample(&self, p: DVec3, view_direction: DVec3) -> Option<DvrSample> {
         let value = self.value(p);
-        let (f, mut colour) = self.classification.classify(value);
+        let vessels = self
+            .vesselness
+            .filter(|_| self.vessels_on)
+            .map(|grid| grid.fetch(p, |v| [v], self.interpolation)[0]);
+        let (f, mut colour) = self.classification.classify_with_vessels(value, vessels);
         if f <= 0.0 {
             return None;
         }
