@@ -75,6 +75,9 @@ pub(super) fn build(
     });
     if let Some(outputs) = ctx.effects.derivative_outputs() {
         all.extend(derivatives(&ctx, &outputs));
+        if outputs.vesselness && !ctx.bricked {
+            all.extend(vesselness(&ctx));
+        }
     }
     if ctx.effects.mode == RenderMode::Dvr && ctx.effects.quality.empty_space_skipping {
         all.extend(empty_space_skipping(&ctx));
@@ -261,6 +264,49 @@ fn derivatives(ctx: &PlanContext, outputs: &DerivativeOutputs) -> PassDeclaratio
             image(normal, outputs.normal),
             Declared::transient(maximum),
             Declared::transient(maximum_host),
+        ],
+    }
+}
+
+/// The vessel channel's multi-scale vesselness (`passes::vesselness`): the response is held,
+/// the two scratch volumes live for the pass. Cost per scale: three separable Gaussian passes
+/// (2r + 1 loads per texel, r = 3 sigma, sigma's mm counted as voxels: exact at 1 mm) and the
+/// Hessian/Frangi pass (19 loads).
+fn vesselness(ctx: &PlanContext) -> PassDeclaration {
+    use crate::passes::vesselness::{VesselnessParams, vesselness_descs};
+    let [response, scratch_a, scratch_b] = vesselness_descs(ctx.extent);
+    let params = VesselnessParams::default();
+    let n = ctx.voxels() as f64;
+    let loads_per_texel: f64 = params
+        .scales_mm
+        .iter()
+        .map(|&sigma| 3.0 * (2.0 * (3.0 * sigma as f64).ceil() + 1.0) + 19.0)
+        .sum();
+    let scales = params.scales_mm.len() as f64;
+    let cost = PassCost {
+        bytes_read: scales * 4.0 * n * 4.0,
+        bytes_written: scales * 4.0 * n * 4.0,
+        texel_loads: n * loads_per_texel,
+        ..Default::default()
+    };
+    PassDeclaration {
+        passes: vec![pass(
+            "vesselness",
+            "per volume (when vessels are shown)",
+            "vesselness".into(),
+            cost,
+        )],
+        variants: vec!["vesselness".into()],
+        allocations: vec![
+            Declared::held_image(response),
+            Declared {
+                transient: true,
+                ..Declared::held_image(scratch_a)
+            },
+            Declared {
+                transient: true,
+                ..Declared::held_image(scratch_b)
+            },
         ],
     }
 }

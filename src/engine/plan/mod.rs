@@ -162,6 +162,7 @@ pub fn measured_cost(setting: &str) -> &'static str {
              step 0.125 70 dB against f16's 84 dB (lavapipe)"
         }
         "I_norm R8" => "46.42 dB vs the f64 reference (default 46.42 dB): no measurable change",
+        "vessels off" => "the vessel channel is not drawn (the tissues are unchanged)",
         "gradient on the fly" => {
             "35.57 dB vs the f64 reference (default 46.42 dB): -10.9 dB (a gradient of the \
              interpolated field, not of the voxels; see ACCURACY.md)"
@@ -343,12 +344,22 @@ pub fn plan(
     let too_large = input.dims.iter().any(|&d| d > input.max_image_dimension_3d);
     let sample_bytes = voxels(input.dims) * input.sample_kind.size_bytes() as u64;
     let samples_too_large = sample_bytes > input.max_storage_buffer_range;
-    let choices = Choices {
+    let mut choices = Choices {
         effects,
         normalized_bytes: 2,
         bricked: too_large || samples_too_large || input.force_bricking,
     };
     let mut degradations = Vec::new();
+    if choices.bricked && choices.effects.vessels {
+        // The vesselness needs the whole volume (`Engine::vesselness`).
+        choices.effects.vessels = false;
+        degradations.push(Degradation {
+            what: "vessel channel off: a bricked volume has no vesselness".to_string(),
+            saved_bytes: 0,
+            accuracy_setting: "vessels off",
+            accuracy_cost: measured_cost("vessels off"),
+        });
+    }
     if choices.bricked {
         degradations.push(Degradation {
             what: if !too_large && !samples_too_large {
@@ -367,7 +378,7 @@ pub fn plan(
         p.peak_bytes <= input.budget
             && (p.layout == Layout::Whole || p.peak_bytes <= bricking_limit(input.dims))
     };
-    let ladder: [LadderStep; 4] = [
+    let ladder: [LadderStep; 5] = [
         (
             "derived volumes stored as 8-bit SNORM",
             "default (8-bit derived volumes)",
@@ -393,9 +404,20 @@ pub fn plan(
             }
         }),
         (
+            "vessel channel off (its vesselness volume and scratch are not held)",
+            "vessels off",
+            |c| {
+                let on = c.effects.vessels;
+                c.effects.vessels = false;
+                on
+            },
+        ),
+        (
             "bricked: only bricks a visible tissue can occupy are held",
             "default (bricking is lossless for the visible tissues)",
             |c| {
+                // A bricked volume has no vesselness (see above).
+                c.effects.vessels = false;
                 if c.bricked {
                     false
                 } else {

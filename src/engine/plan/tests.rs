@@ -362,3 +362,53 @@ fn a_volume_thinner_than_a_brick_is_refused_before_bricking_takes_thousands_of_t
     assert!(matches!(p.layout, Layout::Bricked { .. }));
     assert!(p.peak_bytes <= bricking_limit(i.dims));
 }
+
+#[test]
+fn the_vessel_channel_plans_its_vesselness_and_is_the_rung_before_bricking() {
+    let vessels = Effects {
+        vessels: true,
+        ..Effects::default()
+    };
+    let p = plan(vessels, &input(), &TexelSizes).unwrap();
+    assert!(p.passes.iter().any(|pass| pass.name == "vesselness"));
+    let held = |p: &Plan, name: &str| {
+        p.allocations
+            .iter()
+            .find(|a| a.name == name)
+            .map(|a| (a.bytes, a.transient))
+    };
+    let voxels = 256 * 256 * 192;
+    assert_eq!(held(&p, "vesselness"), Some((4 * voxels, false)));
+    assert_eq!(held(&p, "vesselness scratch A"), Some((4 * voxels, true)));
+    // Without vessels: none of it.
+    let plain = plan(Effects::default(), &input(), &TexelSizes).unwrap();
+    assert!(held(&plain, "vesselness").is_none());
+    // A budget between the two peaks drops the channel (the rung before bricking), not the
+    // whole-volume layout.
+    let tight = PlanInput {
+        budget: plain.peak_bytes + 1,
+        ..input()
+    };
+    let p = plan(vessels, &tight, &TexelSizes).unwrap();
+    assert!(!p.effects.vessels && p.layout == Layout::Whole, "{p:?}");
+    assert!(
+        p.degradations
+            .iter()
+            .any(|d| d.what.starts_with("vessel channel off")),
+        "{:?}",
+        p.degradations
+    );
+    // --bricked: no vesselness on a bricked volume, said as a degradation.
+    let bricked = PlanInput {
+        force_bricking: true,
+        ..input()
+    };
+    let p = plan(vessels, &bricked, &TexelSizes).unwrap();
+    assert!(!p.effects.vessels);
+    assert!(held(&p, "vesselness").is_none());
+    assert!(
+        p.degradations
+            .iter()
+            .any(|d| d.what.contains("no vesselness"))
+    );
+}

@@ -268,6 +268,7 @@ fn inconsistent_inputs_are_typed_errors() {
         shading: true,
         gradient_source: GradientSource::Precomputed,
         quality: Default::default(),
+        vessels: true,
     };
     assert!(run(&scene, &none).is_ok());
     // A given derived volume is validated even when unused.

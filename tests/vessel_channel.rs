@@ -1,0 +1,140 @@
+//! The vessel channel (issue 15 item 3) on the GPU: classified on the multi-scale vesselness
+//! like a tissue on I_norm, matching the f64 reference raymarch given the same vesselness
+//! volume, showing the vessel phantom's tubes with every tissue hidden, and computed only when
+//! the scene shows vessels.
+
+mod common;
+
+use ash::vk;
+use morphray::engine::readback::read_image;
+use morphray::engine::{Derived, Engine, PreparedVolume, Twin};
+use morphray::gpu::Access;
+use morphray::reference::raymarch::{ReferenceDerived, ReferenceRaymarch, ReferenceVolume};
+use morphray::scene::{Classification, RenderMode, Scene, VolumeGeometry};
+use morphray::volume::vessel_phantom::tubes;
+
+fn gpu_render(
+    engine: &mut Engine,
+    prepared: &PreparedVolume,
+    derived: &Derived,
+    scene: &Scene,
+) -> Vec<[f64; 4]> {
+    let mut target = engine
+        .render_target(64, 48, vk::Format::R32G32B32A32_SFLOAT)
+        .unwrap();
+    let frame = engine
+        .render(&mut target, prepared, Some(derived), scene)
+        .unwrap();
+    frame
+        .values
+        .chunks_exact(4)
+        .map(|c| [c[0] as f64, c[1] as f64, c[2] as f64, c[3] as f64])
+        .collect()
+}
+
+fn read(engine: &Engine, image: &std::sync::Arc<morphray::gpu::Image>) -> (Vec<f32>, usize) {
+    let data = read_image(engine.device(), image, Access::ComputeSampled).unwrap();
+    (data.values, data.channels)
+}
+
+fn reference(
+    engine: &Engine,
+    prepared: &PreparedVolume,
+    derived: &Derived,
+    scene: &Scene,
+) -> Vec<[f64; 4]> {
+    let norm: Vec<f64> = read(engine, &prepared.normalized)
+        .0
+        .iter()
+        .map(|&v| v as f64)
+        .collect();
+    let (g, channels) = read(engine, derived.volumes.gradient.as_ref().unwrap());
+    let sg = derived.volumes.store_scale[0] as f64;
+    let magnitude: Vec<f64> = g.chunks_exact(channels).map(|t| t[0] as f64 / sg).collect();
+    let vesselness: Vec<f64> = read(engine, derived.vesselness.as_ref().unwrap())
+        .0
+        .iter()
+        .map(|&v| v as f64)
+        .collect();
+    let geometry = VolumeGeometry::new(prepared.dims, prepared.affine).unwrap();
+    let volume = ReferenceVolume::new(prepared.dims, &norm).unwrap();
+    let d = ReferenceDerived {
+        gradient_magnitude: Some(&magnitude),
+        curvature: None,
+        normals: None,
+    };
+    ReferenceRaymarch::new(scene, &geometry, &derived.stats, &volume, &d, 64, 48)
+        .unwrap()
+        .with_vesselness(&vesselness)
+        .unwrap()
+        .render()
+}
+
+fn psnr(a: &[[f64; 4]], b: &[[f64; 4]]) -> f64 {
+    let mse = a
+        .iter()
+        .zip(b)
+        .flat_map(|(x, y)| (0..3).map(move |c| (x[c] - y[c].min(1.0)).powi(2)))
+        .sum::<f64>()
+        / (3 * a.len()) as f64;
+    10.0 * (1.0 / mse.max(1e-20)).log10()
+}
+
+#[test]
+fn vessels_alone_show_the_tubes_and_match_the_reference() {
+    let mut engine = common::engine();
+    let shapes = tubes();
+    let prepared = engine.prepare(&shapes.volume).unwrap();
+    // No tissue window at all: whatever is drawn comes from the vessel channel.
+    let mut scene = Scene::new(Classification::with_windows([None; 4]));
+    scene.camera.azimuth_deg = 30.0;
+    scene.camera.elevation_deg = 20.0;
+    scene.effects.vessels = true;
+    let outputs = scene.effects.derivative_outputs().unwrap();
+    assert!(outputs.vesselness);
+    let derived = engine.derive(&prepared, outputs).unwrap();
+    assert!(derived.vesselness.is_some());
+    let gpu = gpu_render(&mut engine, &prepared, &derived, &scene);
+    let cpu = reference(&engine, &prepared, &derived, &scene);
+    let db = psnr(&gpu, &cpu);
+    eprintln!("vessel channel: PSNR {db:.1} dB against the reference");
+    assert!(db >= 40.0, "PSNR {db:.1} dB");
+    let lit = gpu.iter().filter(|p| p[0] > 0.1).count();
+    assert!(lit > 150, "the tubes are drawn ({lit} px)");
+    // In the vessel colour (crimson: red well above green and blue).
+    let red = gpu
+        .iter()
+        .filter(|p| p[0] > 0.1 && p[0] > 2.0 * p[1].max(p[2]))
+        .count();
+    assert!(red * 10 >= lit * 9, "{red} of {lit} lit pixels are crimson");
+    // The channel switched off: nothing is drawn.
+    scene.effects.vessels = false;
+    let off = gpu_render(&mut engine, &prepared, &derived, &scene);
+    assert!(
+        off.iter().all(|p| p[0] + p[1] + p[2] == 0.0),
+        "nothing without the channel"
+    );
+    common::assert_no_validation_errors(&engine);
+}
+
+#[test]
+fn the_vesselness_is_computed_only_while_vessels_are_shown() {
+    let mut engine = common::engine();
+    let prepared = engine.prepare(&tubes().volume).unwrap();
+    let mut twin = Twin::new(prepared);
+    let mut effects = Scene::new(Classification::with_windows([None; 4])).effects;
+    engine.update_twin(&mut twin, &effects).unwrap();
+    assert!(
+        twin.derived().unwrap().vesselness.is_none(),
+        "not shown: not computed"
+    );
+    effects.vessels = true;
+    let update = engine.update_twin(&mut twin, &effects).unwrap();
+    assert!(update.recomputed && twin.derived().unwrap().vesselness.is_some());
+    assert!(twin.serves(&effects));
+    // MIP needs no derived volume: everything is freed, the vesselness too.
+    effects.mode = RenderMode::Mip;
+    engine.update_twin(&mut twin, &effects).unwrap();
+    assert!(twin.derived().is_none());
+    common::assert_no_validation_errors(&engine);
+}
