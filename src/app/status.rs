@@ -81,6 +81,9 @@ pub struct Status {
     pub deriving: Option<String>,
     /// The current volume's memory plan: layout and degradations (one line).
     pub plan: Option<String>,
+    /// The adaptive quality level while the image is coarser than requested
+    /// (`interactive: step x2, scale 0.75`).
+    pub quality: Option<String>,
 }
 
 impl Status {
@@ -110,6 +113,9 @@ impl Status {
         let gpu: f64 = self.passes.iter().map(|(_, ms)| ms).sum();
         if !self.passes.is_empty() {
             parts.push(format!("GPU {gpu:.2} ms/frame"));
+        }
+        if let Some(quality) = &self.quality {
+            parts.push(quality.clone());
         }
         parts.join("  |  ")
     }

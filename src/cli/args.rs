@@ -385,6 +385,13 @@ pub struct ViewArgs {
     /// Frame of a 4-D file to show (0-based), as `render --frame`.
     #[arg(long, default_value_t = 0)]
     pub frame: usize,
+    /// Raymarch time budget while you drag, scroll or move a slider, in ms of GPU time (default:
+    /// one frame at 60 Hz). A scene that would miss it is drawn with a coarser step (then a
+    /// smaller image) until 0.25 s after the last input, then once at full quality; 0 keeps
+    /// full quality always. Screenshots are always full quality.
+    // The literal is app::adaptive::DEFAULT_BUDGET_MS (app exists only with the viewer feature).
+    #[arg(long, value_name = "MS", default_value_t = 16.7)]
+    pub frame_budget: f64,
     /// Initial scene (--size is the window size, default 1280x800).
     #[command(flatten)]
     pub scene: SceneArgs,

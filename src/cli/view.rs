@@ -19,6 +19,13 @@ pub fn run(args: &ViewArgs, global: &super::GlobalOptions) -> Result<(), super::
         )
         .into());
     }
+    if !(args.frame_budget.is_finite() && args.frame_budget >= 0.0) {
+        return Err(Error::Usage(format!(
+            "--frame-budget {} is not a time: give milliseconds >= 0 (0 switches adaptive quality off)",
+            args.frame_budget
+        ))
+        .into());
+    }
     if args.frames == Some(0) {
         return Err(Error::Usage("--frames needs at least 1 frame".into()).into());
     }
@@ -54,6 +61,7 @@ pub fn run(args: &ViewArgs, global: &super::GlobalOptions) -> Result<(), super::
         started,
         overlay,
         frame: args.frame,
+        frame_budget_ms: args.frame_budget,
     };
     crate::app::run(config, args.offscreen, fail_on_validation)?;
     Ok(())
