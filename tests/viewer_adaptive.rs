@@ -128,20 +128,22 @@ fn with_a_budget_of_zero_nothing_coarsens() {
 
 #[test]
 fn a_budget_that_is_not_a_time_is_a_usage_error() {
-    let o = Command::new(env!("CARGO_BIN_EXE_morphray"))
-        .args([
-            "view",
-            "--offscreen",
-            "--frames",
-            "1",
-            "--frame-budget",
-            "-2",
-        ])
-        .output()
-        .unwrap();
-    let stderr = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{stderr}");
-    assert!(stderr.contains("--frame-budget"), "{stderr}");
+    for budget in [
+        "--frame-budget=-2",
+        "--frame-budget=inf",
+        "--frame-budget=nan",
+    ] {
+        let o = Command::new(env!("CARGO_BIN_EXE_morphray"))
+            .args(["view", "--offscreen", "--frames", "1", budget])
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{budget}: {stderr}");
+        assert!(
+            stderr.contains("--frame-budget") && stderr.contains("milliseconds >= 0"),
+            "{budget}: {stderr}"
+        );
+    }
 }
 
 /// Mean RGB (premultiplied over black) of a render of the phantom at `step` voxels.
@@ -173,7 +175,13 @@ fn mean_brightness(engine: &mut Engine, step: f64) -> f64 {
     let mut target = engine
         .render_target(96, 96, vk::Format::R32G32B32A32_SFLOAT)
         .unwrap();
-    let frame = engine.render(&mut target, &prepared, None, &scene).unwrap();
+    let derived = scene
+        .effects
+        .derivative_outputs()
+        .map(|o| engine.derive(&prepared, o).unwrap());
+    let frame = engine
+        .render(&mut target, &prepared, derived.as_ref(), &scene)
+        .unwrap();
     let rgb: f64 = frame
         .values
         .chunks_exact(4)

@@ -390,7 +390,7 @@ pub struct ViewArgs {
     /// smaller image) until 0.25 s after the last input, then once at full quality; 0 keeps
     /// full quality always. Screenshots are always full quality.
     // The literal is app::adaptive::DEFAULT_BUDGET_MS (app exists only with the viewer feature).
-    #[arg(long, value_name = "MS", default_value_t = 16.7)]
+    #[arg(long, value_name = "MS", default_value_t = 16.7, value_parser = parse_budget)]
     pub frame_budget: f64,
     /// Initial scene (--size is the window size, default 1280x800).
     #[command(flatten)]
@@ -434,6 +434,13 @@ pub struct ConvertArgs {
     /// Frame of a 4-D NIfTI input (0-based).
     #[arg(long, default_value_t = 0)]
     pub frame: usize,
+}
+
+fn parse_budget(text: &str) -> Result<f64, String> {
+    text.parse::<f64>()
+        .ok()
+        .filter(|ms| ms.is_finite() && *ms >= 0.0)
+        .ok_or_else(|| "give milliseconds >= 0 (0 switches adaptive quality off)".into())
 }
 
 fn parse_series(text: &str) -> Result<crate::volume::source::dicom::SeriesChoice, String> {
