@@ -111,6 +111,74 @@ fn a_drag_over_budget_coarsens_then_one_frame_brings_full_quality_back() {
     );
 }
 
+/// The RGB pixels of a PNG inside the 3D view's rectangle (from the log's layout line), less the
+/// orientation letters' margins: the rest of the window holds the status bar, whose timings
+/// differ from run to run, and the letters' antialiasing differs by a level or two.
+fn view_pixels(path: &Path, log: &str) -> Vec<u8> {
+    let line = log.lines().find(|l| l.starts_with("layout:")).unwrap();
+    let words: Vec<&str> = line.split_whitespace().collect();
+    let i = words.iter().position(|w| *w == "view").unwrap();
+    let r: Vec<usize> = words[i + 1]
+        .split(',')
+        .map(|n| n.parse().unwrap())
+        .collect();
+    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(path).unwrap()));
+    let mut reader = decoder.read_info().unwrap();
+    let mut rgba = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut rgba).unwrap();
+    let width = info.width as usize;
+    let mut out = Vec::new();
+    for y in r[1] + 24..r[1] + r[3] - 24 {
+        for x in r[0] + 24..r[0] + r[2] - 24 {
+            out.extend_from_slice(&rgba[(y * width + x) * 4..][..3]);
+        }
+    }
+    out
+}
+
+#[test]
+fn a_screenshot_taken_while_coarse_is_the_full_quality_picture() {
+    let dir = temp_dir("shot");
+    let (volume, _) = session(&dir);
+    let shot = |budget: &str| {
+        let png = dir.join(format!("shot-{budget}.png"));
+        let script = dir.join(format!("shot-{budget}.txt"));
+        std::fs::write(
+            &script,
+            format!(
+                "wait 3\ndrag left 0.3 0.5 0.7 0.5\nscreenshot {}\nwait 1\n",
+                png.display()
+            ),
+        )
+        .unwrap();
+        let log = view(&volume, &script, budget);
+        let pixels = view_pixels(&png, &log);
+        (log, pixels)
+    };
+    let (log, coarse_run) = shot("0.01");
+    // The screenshot step came right after the drag's coarse frames (within the idle delay).
+    assert!(
+        qualities(&log).iter().any(|q| q == "step x4, scale 0.5"),
+        "{log}"
+    );
+    let (_, full_run) = shot("0");
+    assert!(
+        coarse_run.iter().filter(|&&c| c > 24).count() > 1000,
+        "the volume is on screen"
+    );
+    // Same drag, same camera: the screenshot equals the one of a run that never coarsens.
+    assert!(
+        coarse_run == full_run,
+        "the screenshot is rendered at full quality ({} of {} bytes differ)",
+        coarse_run
+            .iter()
+            .zip(&full_run)
+            .filter(|(a, b)| a != b)
+            .count(),
+        coarse_run.len()
+    );
+}
+
 #[test]
 fn with_a_budget_of_zero_nothing_coarsens() {
     let dir = temp_dir("off");

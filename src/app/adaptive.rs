@@ -80,6 +80,12 @@ impl Level {
         text
     }
 
+    /// The status bar's words while coarse (`interactive: step x2, scale 0.75`); None at full
+    /// quality.
+    pub fn status_words(&self) -> Option<String> {
+        (!self.is_full()).then(|| format!("interactive: {}", self.describe()))
+    }
+
     /// The scene to raymarch at this level: the requested step times the multiplier.
     pub fn apply(&self, scene: &Scene) -> Scene {
         let mut coarse = *scene;

@@ -201,4 +201,22 @@ mod tests {
         assert_eq!(shares[0].2, 0.75);
         assert_eq!(shares[1].2, 0.25);
     }
+
+    #[test]
+    fn a_coarse_image_is_named_after_the_gpu_time() {
+        use crate::app::adaptive::{LADDER, Level};
+        let status = Status {
+            passes: vec![("raymarch".into(), 3.0)],
+            quality: LADDER[5].status_words(),
+            ..Status::default()
+        };
+        assert!(
+            status
+                .timing_text()
+                .ends_with("GPU 3.00 ms/frame  |  interactive: step x4, scale 0.75"),
+            "{}",
+            status.timing_text()
+        );
+        assert_eq!(Level::FULL.status_words(), None);
+    }
 }

@@ -179,7 +179,7 @@ impl Viewer {
         }
 
         // Bookkeeping: log record, first pixel, action latencies.
-        self.status.quality = shown.and_then(|l| super::quality::status_words(l.level));
+        self.status.quality = shown.and_then(|l| l.level.status_words());
         if let (Some(current), Some(shown)) = (&mut self.current, shown) {
             self.volume_frames += 1;
             let compute = std::mem::take(&mut self.arrived);

@@ -45,8 +45,3 @@ impl Viewer {
         }
     }
 }
-
-/// The status bar's words for the level of the image on screen (None at full quality).
-pub(super) fn status_words(level: Level) -> Option<String> {
-    (!level.is_full()).then(|| format!("interactive: {}", level.describe()))
-}
