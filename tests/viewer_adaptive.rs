@@ -109,6 +109,21 @@ fn a_drag_over_budget_coarsens_then_one_frame_brings_full_quality_back() {
         runs[2].1 >= 4,
         "full quality returns before the script ends (not only for the last frame): {runs:?}"
     );
+    // During the `sleep` frames run as in an idle window, raymarching only on change: the coarse
+    // image is shown again (no raymarch) until the delay ends, then one frame raymarches at full
+    // quality although the scene did not change.
+    let frames: Vec<&str> = log.lines().filter(|l| l.starts_with("frame ")).collect();
+    let first_full = runs[0].1 + runs[1].1;
+    assert!(
+        frames[first_full - 1].contains("compute: none"),
+        "the last coarse frame reused the image: {}",
+        frames[first_full - 1]
+    );
+    assert!(
+        frames[first_full].contains("compute: raymarch"),
+        "the refinement frame raymarched: {}",
+        frames[first_full]
+    );
 }
 
 /// The RGB pixels of a PNG inside the 3D view's rectangle (from the log's layout line), less the

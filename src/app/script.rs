@@ -93,8 +93,9 @@ pub enum Action {
     SaveView(PathBuf, [u32; 2]),
     /// Let this many frames pass.
     Wait(u32),
-    /// Let this many milliseconds of wall time pass, frames going on (`sleep 300`: a hand that
-    /// stops, for adaptive quality's return to full quality).
+    /// Let this many milliseconds of wall time pass, frames going on as in an interactive
+    /// window (the raymarch runs only if the picture changes): `sleep 300`, a hand that stops,
+    /// for adaptive quality's return to full quality.
     Sleep(u32),
     /// Let this many frames pass as an interactive window would: the raymarch runs only if
     /// the scene changed (scripted runs otherwise raymarch every frame, to measure).
@@ -521,6 +522,11 @@ impl Runner {
         Some(step)
     }
 
+    /// True during a `sleep`.
+    pub fn sleeping(&self) -> bool {
+        self.until.is_some_and(|t| std::time::Instant::now() < t)
+    }
+
     /// True when every step has been handed out and the last wait has elapsed.
     pub fn finished(&self) -> bool {
         self.next >= self.steps.len()
@@ -615,8 +621,9 @@ toggle wm
         );
         assert_eq!(runner.next_step(false).unwrap().action, Action::Sleep(40));
         assert!(runner.next_step(false).is_none(), "still sleeping");
-        assert!(!runner.finished());
+        assert!(runner.sleeping() && !runner.finished());
         std::thread::sleep(std::time::Duration::from_millis(45));
+        assert!(!runner.sleeping());
         assert_eq!(runner.next_step(false).unwrap().line, 2);
         assert!(runner.finished());
     }

@@ -354,10 +354,12 @@ impl Viewer {
     /// True when every frame runs the raymarch even if nothing changed: scripted runs and
     /// --no-vsync measure frames; otherwise an unchanged scene reuses the last image (a load
     /// in progress keeps the window redrawing its spinner without re-raymarching, which on a
-    /// CPU device would take cores from the loader).
+    /// CPU device would take cores from the loader). A script's `idle` and `sleep` frames
+    /// behave as an interactive window's.
     fn always_raymarch(&self) -> bool {
         (self.config.frames.is_some() || !self.config.vsync || !self.config.script.is_empty())
             && self.idle_frames == 0
+            && !self.runner.sleeping()
     }
 
     fn busy(&self) -> bool {
