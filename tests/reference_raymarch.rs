@@ -106,6 +106,7 @@ fn all_effect_combinations() -> Vec<Effects> {
                     shading,
                     gradient_source,
                     quality: Default::default(),
+                    vessels: false,
                 });
             }
         }
@@ -478,6 +479,7 @@ fn camera_inside_the_volume_gives_finite_non_background_pixels() {
         shading: true,
         gradient_source: GradientSource::OnTheFly,
         quality: Default::default(),
+        vessels: false,
     };
     // Zoom 8 puts the eye at 3.86 / 8 = 0.48 bounding radii from the centre, inside the cube
     // (half side = 0.577 radii). Check that, then that every ray starts at t = 0.
@@ -611,6 +613,7 @@ fn grazing_rays_are_finite() {
             shading: true,
             gradient_source: source,
             quality: Default::default(),
+            vessels: false,
         };
         for (az, el) in [
             (90.0, 0.0),
@@ -703,6 +706,7 @@ fn object_scene() -> Scene {
         shading: true,
         gradient_source: GradientSource::OnTheFly,
         quality: Default::default(),
+        vessels: false,
     };
     scene.camera = Camera {
         azimuth_deg: 30.0,
@@ -874,6 +878,7 @@ fn hiding_a_tissue_removes_exactly_its_contribution() {
         shading: true,
         gradient_source: GradientSource::OnTheFly,
         quality: Default::default(),
+        vessels: false,
     };
     let size = 48;
     let draw = |scene: &Scene| {
@@ -1246,6 +1251,7 @@ proptest! {
             shading: flags[1],
             gradient_source: if flags[2] { GradientSource::OnTheFly } else { GradientSource::Precomputed },
             quality: Default::default(),
+            vessels: false,
         };
         scene.jitter = flags[3];
         scene.frame = seed as u32;

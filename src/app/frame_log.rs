@@ -64,6 +64,9 @@ pub struct FrameRecord {
     pub cpu_ms: f64,
     /// Its composition finished.
     pub complete: bool,
+    /// The adaptive quality level of the image shown (`full`, `step x4, scale 0.5`; empty:
+    /// not recorded).
+    pub quality: String,
 }
 
 impl FrameRecord {
@@ -94,8 +97,13 @@ impl FrameRecord {
             .iter()
             .map(|p| format!("{} {:.2}", p.name, p.gpu_ms))
             .collect();
+        let quality = if self.quality.is_empty() {
+            String::new()
+        } else {
+            format!("  |  quality {}", self.quality)
+        };
         format!(
-            "frame {:>4}  compute: {}  |  compose: {}  |  cpu {:.1} ms",
+            "frame {:>4}  compute: {}  |  compose: {}  |  cpu {:.1} ms{quality}",
             self.number,
             if compute.is_empty() {
                 "none".to_string()

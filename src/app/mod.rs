@@ -13,6 +13,7 @@
 //!                    analyse, derive), derives later effects (never the UI thread)
 //! script.rs          scripted actions for tests and demos
 //! frame_log.rs       per-frame passes and action -> first-frame latencies
+//! adaptive.rs        adaptive quality: coarser step/scale while interacting (--frame-budget)
 //! status.rs          status line: file, dims, spacing, device, first pixel, volume FPS, GPU,
 //!                    the memory plan (layout, degradations)
 //! viewer/mod.rs      the frame loop tying these together, window or offscreen
@@ -31,6 +32,7 @@
 //! - `--offscreen` runs the same frames without a window (no surface or swapchain): the frame
 //!   is composed in the same image the window would show, so screenshots match.
 
+pub mod adaptive;
 pub mod camera_control;
 pub mod clip_panel;
 pub mod crosshair_3d;

@@ -93,6 +93,10 @@ pub enum Action {
     SaveView(PathBuf, [u32; 2]),
     /// Let this many frames pass.
     Wait(u32),
+    /// Let this many milliseconds of wall time pass, frames going on as in an interactive
+    /// window (the raymarch runs only if the picture changes): `sleep 300`, a hand that stops,
+    /// for adaptive quality's return to full quality.
+    Sleep(u32),
     /// Let this many frames pass as an interactive window would: the raymarch runs only if
     /// the scene changed (scripted runs otherwise raymarch every frame, to measure).
     Idle(u32),
@@ -446,6 +450,13 @@ fn parse_line(line: &str) -> Result<Action, String> {
             }
             Action::Resize(w as u32, h as u32)
         }
+        "sleep" => {
+            let ms = number(next(), "milliseconds")?;
+            if !(0.0..=60_000.0).contains(&ms) || ms.fract() != 0.0 {
+                return Err(format!("sleep {ms}: expected whole milliseconds, 0..60000"));
+            }
+            Action::Sleep(ms as u32)
+        }
         "close" => Action::Close,
         "simulate-device-lost" => Action::SimulateDeviceLost,
         other => return Err(format!("unknown action `{other}`")),
@@ -462,6 +473,8 @@ pub struct Runner {
     steps: Vec<Step>,
     next: usize,
     waiting: u32,
+    /// The end of a `sleep`.
+    until: Option<std::time::Instant>,
 }
 
 impl Runner {
@@ -471,6 +484,7 @@ impl Runner {
             steps,
             next: 0,
             waiting: 0,
+            until: None,
         }
     }
 
@@ -481,6 +495,12 @@ impl Runner {
         if self.waiting > 0 {
             self.waiting -= 1;
             return None;
+        }
+        if let Some(until) = self.until {
+            if std::time::Instant::now() < until {
+                return None;
+            }
+            self.until = None;
         }
         // `close` is what a person may do at any time, also while a load runs.
         let closing = matches!(
@@ -495,12 +515,23 @@ impl Runner {
         if let Action::Wait(n) | Action::Idle(n) = step.action {
             self.waiting = n;
         }
+        if let Action::Sleep(ms) = step.action {
+            self.until =
+                Some(std::time::Instant::now() + std::time::Duration::from_millis(ms.into()));
+        }
         Some(step)
+    }
+
+    /// True during a `sleep`.
+    pub fn sleeping(&self) -> bool {
+        self.until.is_some_and(|t| std::time::Instant::now() < t)
     }
 
     /// True when every step has been handed out and the last wait has elapsed.
     pub fn finished(&self) -> bool {
-        self.next >= self.steps.len() && self.waiting == 0
+        self.next >= self.steps.len()
+            && self.waiting == 0
+            && self.until.is_none_or(|t| std::time::Instant::now() >= t)
     }
 }
 
@@ -573,5 +604,27 @@ mod tests {
             Action::Close,
             "close does not wait for the load"
         );
+    }
+
+    #[test]
+    fn a_sleep_holds_the_next_step_for_wall_time_while_frames_go_on() {
+        assert!(parse("sleep -5", "a").is_err());
+        assert!(parse("sleep 0.5", "a").is_err());
+        let mut runner = Runner::new(
+            parse(
+                "sleep 40
+toggle wm
+",
+                "s",
+            )
+            .unwrap(),
+        );
+        assert_eq!(runner.next_step(false).unwrap().action, Action::Sleep(40));
+        assert!(runner.next_step(false).is_none(), "still sleeping");
+        assert!(runner.sleeping() && !runner.finished());
+        std::thread::sleep(std::time::Duration::from_millis(45));
+        assert!(!runner.sleeping());
+        assert_eq!(runner.next_step(false).unwrap().line, 2);
+        assert!(runner.finished());
     }
 }

@@ -81,6 +81,9 @@ pub struct Status {
     pub deriving: Option<String>,
     /// The current volume's memory plan: layout and degradations (one line).
     pub plan: Option<String>,
+    /// The adaptive quality level while the image is coarser than requested
+    /// (`interactive: step x2, scale 0.75`).
+    pub quality: Option<String>,
 }
 
 impl Status {
@@ -110,6 +113,9 @@ impl Status {
         let gpu: f64 = self.passes.iter().map(|(_, ms)| ms).sum();
         if !self.passes.is_empty() {
             parts.push(format!("GPU {gpu:.2} ms/frame"));
+        }
+        if let Some(quality) = &self.quality {
+            parts.push(quality.clone());
         }
         parts.join("  |  ")
     }
@@ -194,5 +200,23 @@ mod tests {
         let shares = status.pass_shares();
         assert_eq!(shares[0].2, 0.75);
         assert_eq!(shares[1].2, 0.25);
+    }
+
+    #[test]
+    fn a_coarse_image_is_named_after_the_gpu_time() {
+        use crate::app::adaptive::{LADDER, Level};
+        let status = Status {
+            passes: vec![("raymarch".into(), 3.0)],
+            quality: LADDER[5].status_words(),
+            ..Status::default()
+        };
+        assert!(
+            status
+                .timing_text()
+                .ends_with("GPU 3.00 ms/frame  |  interactive: step x4, scale 0.75"),
+            "{}",
+            status.timing_text()
+        );
+        assert_eq!(Level::FULL.status_words(), None);
     }
 }

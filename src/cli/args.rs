@@ -388,6 +388,13 @@ pub struct ViewArgs {
     /// Frame of a 4-D file to show (0-based), as `render --frame`.
     #[arg(long, default_value_t = 0)]
     pub frame: usize,
+    /// Raymarch time budget while you drag, scroll or move a slider, in ms of GPU time (default:
+    /// one frame at 60 Hz). A scene that would miss it is drawn with a coarser step (then a
+    /// smaller image) until 0.25 s after the last input, then once at full quality; 0 keeps
+    /// full quality always. Screenshots are always full quality.
+    // The literal is app::adaptive::DEFAULT_BUDGET_MS (app exists only with the viewer feature).
+    #[arg(long, value_name = "MS", default_value_t = 16.7, value_parser = parse_budget)]
+    pub frame_budget: f64,
     /// Initial scene (--size is the window size, default 1280x800).
     #[command(flatten)]
     pub scene: SceneArgs,
@@ -430,6 +437,13 @@ pub struct ConvertArgs {
     /// Frame of a 4-D NIfTI input (0-based).
     #[arg(long, default_value_t = 0)]
     pub frame: usize,
+}
+
+fn parse_budget(text: &str) -> Result<f64, String> {
+    text.parse::<f64>()
+        .ok()
+        .filter(|ms| ms.is_finite() && *ms >= 0.0)
+        .ok_or_else(|| "give milliseconds >= 0 (0 switches adaptive quality off)".into())
 }
 
 fn parse_series(text: &str) -> Result<crate::volume::source::dicom::SeriesChoice, String> {

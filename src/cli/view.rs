@@ -54,6 +54,7 @@ pub fn run(args: &ViewArgs, global: &super::GlobalOptions) -> Result<(), super::
         started,
         overlay,
         frame: args.frame,
+        frame_budget_ms: args.frame_budget,
     };
     crate::app::run(config, args.offscreen, fail_on_validation)?;
     Ok(())

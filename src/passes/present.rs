@@ -34,6 +34,37 @@ use std::sync::{Arc, Mutex};
 /// Format of the composed frame (and of the raymarch target).
 pub const COMPOSITE_FORMAT: vk::Format = vk::Format::R8G8B8A8_UNORM;
 
+/// The blit of a raymarch target of `extent` into `rect` (x, y, w, h) of a `frame`-sized image:
+/// (source rectangle, destination rectangle, filter). A target of the rectangle's size is
+/// copied pixel for pixel; a smaller one (adaptive quality's image scale) is stretched over it
+/// with linear filtering, so a coarse frame is softer rather than blocky. Either is clipped to
+/// the frame, the source in proportion.
+fn blit_rects(
+    extent: [u32; 2],
+    rect: [u32; 4],
+    frame: [u32; 2],
+) -> ([u32; 4], [u32; 4], vk::Filter) {
+    let w = rect[2].min(frame[0].saturating_sub(rect[0]));
+    let h = rect[3].min(frame[1].saturating_sub(rect[1]));
+    if extent[0] >= rect[2] && extent[1] >= rect[3] {
+        let (w, h) = (w.min(extent[0]), h.min(extent[1]));
+        return ([0, 0, w, h], [rect[0], rect[1], w, h], vk::Filter::NEAREST);
+    }
+    let part = |n: u32, of: u32, side: u32| {
+        ((n as u64 * side as u64).div_ceil(of.max(1) as u64) as u32).min(side)
+    };
+    (
+        [
+            0,
+            0,
+            part(w, rect[2], extent[0]),
+            part(h, rect[3], extent[1]),
+        ],
+        [rect[0], rect[1], w, h],
+        vk::Filter::LINEAR,
+    )
+}
+
 /// A finished frame's GPU times.
 #[derive(Clone, Debug)]
 pub struct Completed {
@@ -301,17 +332,13 @@ impl Painter {
                     (&composite, Access::TransferWrite, Access::TransferWrite),
                 ],
             );
-            let extent = target.extent();
-            let w = rect[2].min(width.saturating_sub(rect[0])).min(extent[0]);
-            let h = rect[3].min(height.saturating_sub(rect[1])).min(extent[1]);
-            if w > 0 && h > 0 {
-                rec.blit(
-                    target,
-                    [0, 0, w, h],
-                    composite.raw,
-                    [rect[0], rect[1], w, h],
-                    vk::Filter::NEAREST,
-                );
+            let (src, dst, filter) = blit_rects(
+                [target.extent()[0], target.extent()[1]],
+                rect,
+                [width, height],
+            );
+            if dst[2] > 0 && dst[3] > 0 && src[2] > 0 && src[3] > 0 {
+                rec.blit(target, src, composite.raw, dst, filter);
             }
         }
         // Orders the clear and copy before egui blends over them (attachment reads and writes).
@@ -497,5 +524,29 @@ fn renderer_error(during: &str, e: egui_ash_renderer::RendererError) -> GpuError
             detail: "the interface's vertex or texture memory".into(),
         },
         other => GpuError::InvalidRequest(format!("{during}: {other}")),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_smaller_target_is_stretched_over_the_view_and_clipped_in_proportion() {
+        // Full size: a copy (nearest), clipped to the frame.
+        let (src, dst, filter) = blit_rects([200, 100], [10, 20, 200, 100], [150, 400]);
+        assert_eq!(
+            (src, dst, filter),
+            ([0, 0, 140, 100], [10, 20, 140, 100], vk::Filter::NEAREST)
+        );
+        // Half size: stretched (linear) over the whole rectangle.
+        let (src, dst, filter) = blit_rects([100, 50], [10, 20, 200, 100], [640, 480]);
+        assert_eq!(
+            (src, dst, filter),
+            ([0, 0, 100, 50], [10, 20, 200, 100], vk::Filter::LINEAR)
+        );
+        // Half size, the frame cuts the rectangle at 140 of 200 pixels: 70 source pixels.
+        let (src, dst, _) = blit_rects([100, 50], [10, 20, 200, 100], [150, 400]);
+        assert_eq!((src, dst), ([0, 0, 70, 50], [10, 20, 140, 100]));
     }
 }

@@ -36,10 +36,12 @@
 //!   creates a new device (and surface, swapchain) and reloads the current file, with a message.
 //!
 //! Files: this one (state, the frame loop), `steps.rs` (loader replies, script steps),
-//! `paint.rs` (the frame's GPU side, screenshots, device loss), `opening.rs` (opening files).
+//! `paint.rs` (the frame's GPU side, screenshots, device loss), `opening.rs` (opening files),
+//! `quality.rs` (adaptive quality while interacting: `app/adaptive.rs`).
 
 mod opening;
 mod paint;
+mod quality;
 mod save_view;
 mod slices;
 mod steps;
@@ -100,6 +102,8 @@ pub struct ViewerConfig {
     pub overlay: Option<crate::scene::overlay::Overlay>,
     /// Which frame of a 4-D file to show (0-based), for every file this session opens.
     pub frame: usize,
+    /// Raymarch time budget while interacting, ms (`--frame-budget`; 0: always full quality).
+    pub frame_budget_ms: f64,
 }
 
 /// One device's GPU objects; dropped and rebuilt after a device loss.
@@ -241,13 +245,19 @@ pub struct Viewer {
     reopened_for: Option<SceneRecipe>,
     /// The frame of 4-D files opened now (`--frame`, then the frame slider's).
     frame: usize,
+    /// Adaptive quality: the level of each frame's raymarch (`quality.rs`).
+    adaptive: super::adaptive::Controller,
 }
 
 /// What the last raymarch rendered.
 #[derive(Clone, Copy, Debug)]
 struct Rendered {
+    /// The scene as requested (the level's coarser step is not part of it).
     scene: Scene,
     rect: [u32; 4],
+    /// The quality level it was rendered at, and the raymarch target's size at that level.
+    level: super::adaptive::Level,
+    size: [u32; 2],
     target: usize,
     volume: u64,
     overlay: u64,
@@ -326,6 +336,7 @@ impl Viewer {
             keep_scene: None,
             reopened_for: None,
             frame: config.frame,
+            adaptive: super::adaptive::Controller::new(config.frame_budget_ms),
             config,
         })
     }
@@ -347,10 +358,12 @@ impl Viewer {
     /// True when every frame runs the raymarch even if nothing changed: scripted runs and
     /// --no-vsync measure frames; otherwise an unchanged scene reuses the last image (a load
     /// in progress keeps the window redrawing its spinner without re-raymarching, which on a
-    /// CPU device would take cores from the loader).
+    /// CPU device would take cores from the loader). A script's `idle` and `sleep` frames
+    /// behave as an interactive window's.
     fn always_raymarch(&self) -> bool {
         (self.config.frames.is_some() || !self.config.vsync || !self.config.script.is_empty())
             && self.idle_frames == 0
+            && !self.runner.sleeping()
     }
 
     fn busy(&self) -> bool {
@@ -527,6 +540,7 @@ impl Viewer {
                     .insert_temp(egui::Id::new("morphray histogram rect"), h);
             }
         });
+        self.note_input(before_ui, frame_start);
         if self.controls.dragging
             && let (Some(label), Some(before)) = (self.watch_drag.take(), before_ui)
         {
@@ -631,6 +645,7 @@ impl Viewer {
             self.log.say(&format!("error shown: {error}"));
         }
         self.flush_completed();
+        self.refine_later(&mut result);
         self.idle_frames = self.idle_frames.saturating_sub(1);
         result.platform = Some(full.platform_output);
         if last {

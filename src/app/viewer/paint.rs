@@ -1,6 +1,9 @@
 //! One frame's GPU side: the raymarch recorded into the frame's one submission (when the scene
 //! or the view changed), the composition and presentation by the painter, the frame log's
 //! bookkeeping, screenshots with provenance, and recovery from a lost device.
+//!
+//! The raymarch runs at the frame's quality level (`quality.rs`): the level's step, into a
+//! target of the level's size, which the composition stretches over the view's rectangle.
 
 use super::*;
 
@@ -19,6 +22,7 @@ impl Viewer {
         let _span = crate::files::trace::span("viewer frame (record, compose, present)", "render");
         let scene = self.rendered_scene();
         let continuous = self.always_raymarch();
+        let level = self.frame_level(screenshot);
         let Some(gpu) = &mut self.gpu else {
             return Ok(());
         };
@@ -40,9 +44,11 @@ impl Viewer {
             && view_rect[2] > 0
             && view_rect[3] > 0
         {
+            let size = level.target_size(view_rect[2], view_rect[3]);
             let unchanged = self.last.is_some_and(|l| {
                 l.scene == scene
                     && l.rect == view_rect
+                    && l.level == level
                     && l.volume == current.loaded.id
                     && l.overlay == self.controls.slices.overlay_revision
             });
@@ -55,14 +61,11 @@ impl Viewer {
                 gpu.painter.release_target(index)?;
                 let fits = gpu.targets[index]
                     .as_ref()
-                    .is_some_and(|t| t.width == view_rect[2] && t.height == view_rect[3]);
+                    .is_some_and(|t| t.width == size[0] && t.height == size[1]);
                 if !fits {
                     gpu.targets[index] = None;
                     let mut target =
-                        match gpu
-                            .engine
-                            .render_target(view_rect[2], view_rect[3], COMPOSITE_FORMAT)
-                        {
+                        match gpu.engine.render_target(size[0], size[1], COMPOSITE_FORMAT) {
                             Ok(t) => t,
                             Err(e) => {
                                 self.render_blocked = Some((scene, view_rect));
@@ -83,7 +86,7 @@ impl Viewer {
                     target,
                     &twin.prepared,
                     twin.derived(),
-                    &scene,
+                    &level.apply(&scene),
                 ) {
                     // Nothing to read after the wait: the viewer keeps no pixels or counts, and
                     // the pass times come back with the composition's.
@@ -105,6 +108,8 @@ impl Viewer {
                 self.last = Some(Rendered {
                     scene,
                     rect: view_rect,
+                    level,
+                    size,
                     target: index,
                     volume: current.loaded.id,
                     overlay: self.controls.slices.overlay_revision,
@@ -119,7 +124,7 @@ impl Viewer {
         let target = shown.and_then(|l| {
             gpu.targets[l.target]
                 .as_ref()
-                .filter(|t| t.width == l.rect[2] && t.height == l.rect[3])
+                .filter(|t| t.width == l.size[0] && t.height == l.size[1])
                 .map(|t| (t.image().clone(), l.rect, l.target))
         });
 
@@ -167,6 +172,9 @@ impl Viewer {
         };
         gpu.painter.paint(spec, frame_recording)?;
         self.serial = serial;
+        if fresh {
+            self.adaptive.submitted(serial, level);
+        }
         if let (Some(swapchain), Some(a)) = (gpu.swapchain.as_mut(), acquired)
             && swapchain.present(&a)?
         {
@@ -174,6 +182,7 @@ impl Viewer {
         }
 
         // Bookkeeping: log record, first pixel, action latencies.
+        self.status.quality = shown.and_then(|l| l.level.status_words());
         if let (Some(current), Some(shown)) = (&mut self.current, shown) {
             self.volume_frames += 1;
             let compute = std::mem::take(&mut self.arrived);
@@ -185,6 +194,7 @@ impl Viewer {
                     compose: Vec::new(),
                     cpu_ms: frame_start.elapsed().as_secs_f64() * 1e3,
                     complete: false,
+                    quality: shown.level.describe(),
                 },
             );
             let first = !current.shown;
@@ -218,7 +228,10 @@ impl Viewer {
         for done in gpu.painter.take_completed() {
             // A frame that raymarched reports its own raymarch; one that only recomposed keeps
             // the last raymarch's time on show.
-            let raymarched = done.passes.iter().any(|p| p.name == "raymarch");
+            let raymarch = done.passes.iter().find(|p| p.name == "raymarch");
+            self.adaptive
+                .completed(done.serial, raymarch.map(|p| p.gpu_ms));
+            let raymarched = raymarch.is_some();
             if raymarched {
                 // The status bar's rate counts volume frames, not interface frames.
                 self.status.rate.frame(std::time::Instant::now());
@@ -310,6 +323,7 @@ impl Viewer {
         self.unapplied.clear();
         self.unapplied = self.mirror.full_upload();
         self.log.abandon_in_flight();
+        self.adaptive.abandon_in_flight();
         self.last = None;
         self.pending_derive = None;
         self.status.deriving = None;

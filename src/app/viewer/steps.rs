@@ -162,7 +162,7 @@ impl Viewer {
                 self.screenshot_requests.push(path.clone());
                 watch = false;
             }
-            Action::Wait(_) => watch = false,
+            Action::Wait(_) | Action::Sleep(_) => watch = false,
             Action::Idle(n) => {
                 // This frame and the n after it.
                 self.idle_frames = n + 1;
