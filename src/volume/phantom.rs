@@ -27,11 +27,8 @@
 //!   midline fissure (CSF) down to the corpus callosum in the middle and through the whole brain
 //!   at the front and back; a lesion sphere in the left hemisphere's WM (world x < 0, RAS);
 //!   vessels: the superior sagittal sinus along the top of the fissure in the CSF layer, a
-//!   pericallosal artery at the fissure bottom, and one Sylvian (MCA-like) artery on each side;
-//!   four vessels of known radii 3, 2, 1, 0.5 mm (no voxel floor) along x, y, z and one oblique
-//!   in the WM (src/volume/phantom_vessels.rs); an edema shell around the lesion, nominal 720
-//!   (T1-hypointense to WM, above GM), max(4 mm, 2 voxels) thick, label 7
-//!   (src/volume/phantom_edema.rs).
+//!   pericallosal artery at the fissure bottom, one Sylvian (MCA-like) artery on each side, and
+//!   vessels of radii 3, 2, 1, 0.5 mm in the WM (phantom_vessels.rs). Edema: phantom_edema.rs.
 //! - Partial volume: each structure has a signed distance in voxels; its weight is a linear ramp
 //!   over one voxel centred on the boundary, and structures are blended in nesting order
 //!   (head, CSF, GM, WM, ventricles, edema, lesion, vessels). The label is the last structure whose
@@ -503,14 +500,13 @@ impl Geometry {
         let ventricles = self.ventricle(q, -1.0).max(self.ventricle(q, 1.0));
         layer(&mut signal, &mut label, ventricles, Tissue::Csf);
 
-        let dl: [f64; 3] = std::array::from_fn(|a| v[a] - self.lesion_centre[a]);
-        let edema =
-            super::phantom_edema::inside(norm3(dl), self.lesion_radius, self.edema_thickness);
+        let dl = norm3(std::array::from_fn(|a| v[a] - self.lesion_centre[a]));
+        let edema = super::phantom_edema::inside(dl, self.lesion_radius, self.edema_thickness);
         layer(&mut signal, &mut label, edema, Tissue::Edema);
         layer(
             &mut signal,
             &mut label,
-            self.lesion_radius - norm3(dl),
+            self.lesion_radius - dl,
             Tissue::Lesion,
         );
 
