@@ -131,6 +131,28 @@ fn render_with_denoise_median_changes_the_picture_towards_the_noise_free_one() {
 }
 
 #[test]
+fn plan_lists_the_denoise_pass_and_its_transient_image() {
+    let (_, noisy) = phantoms();
+    let o = morphray(&[
+        "plan",
+        noisy.to_str().unwrap(),
+        "--json",
+        "--denoise",
+        "median",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let plan: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let passes = plan["passes"].as_array().unwrap();
+    assert!(passes.iter().any(|p| p["name"] == "denoise"), "{plan}");
+    let allocations = plan["allocations"].as_array().unwrap();
+    let denoised = allocations
+        .iter()
+        .find(|a| a["name"] == "denoised I_norm")
+        .unwrap_or_else(|| panic!("{plan}"));
+    assert_eq!(denoised["transient"], true);
+}
+
+#[test]
 fn a_bad_denoise_value_is_a_usage_error_naming_the_accepted_forms() {
     let out = temp("bogus.png");
     for bad in ["bogus", "gaussian:-1", "bilateral:1"] {
@@ -155,6 +177,11 @@ fn a_bad_denoise_value_is_a_usage_error_naming_the_accepted_forms() {
         }
     }
     assert!(!out.exists());
+    // accuracy compares with an f64 twin of the unfiltered volume: refused before any work.
+    let o = morphray(&["accuracy", "--denoise", "median"]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert_eq!(stderr(&o).trim_end().lines().count(), 1, "{}", stderr(&o));
+    assert!(stderr(&o).contains("without --denoise"), "{}", stderr(&o));
 }
 
 #[test]
@@ -185,4 +212,38 @@ fn denoise_of_a_bricked_volume_is_one_line_naming_the_flag() {
         "{err}"
     );
     assert!(!out.exists());
+}
+
+/// `morphray view ARGS` offscreen (no window), validation required.
+fn view_offscreen(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_morphray"))
+        .args(args)
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .env("MORPHRAY_VALIDATION", "required")
+        .output()
+        .expect("the morphray binary runs")
+}
+
+#[test]
+fn the_viewer_takes_denoise_and_refuses_it_for_a_bricked_volume() {
+    let (_, noisy) = phantoms();
+    let file = noisy.to_str().unwrap();
+    let common = ["--size", "160x120", "--offscreen", "--frames", "2"];
+    let ok = view_offscreen(&[&["view", file, "--denoise", "median"][..], &common].concat());
+    assert!(ok.status.success(), "{}", stderr(&ok));
+    // The flag reaches the viewer's open path: a bricked volume fails with the flag named.
+    let bricked = view_offscreen(
+        &[
+            &["--bricked", "view", file, "--denoise", "median"][..],
+            &common,
+        ]
+        .concat(),
+    );
+    assert_eq!(bricked.status.code(), Some(1), "{}", stderr(&bricked));
+    let err = stderr(&bricked);
+    assert!(
+        err.contains("cannot open the volume") && err.contains("--denoise none"),
+        "{err}"
+    );
 }

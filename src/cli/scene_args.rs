@@ -165,7 +165,7 @@ pub struct SceneArgs {
     #[command(flatten)]
     pub view: super::view_preset::ViewPresetArgs,
     /// Denoise I_norm before the derivatives and the raymarch: none, gaussian:SIGMA_MM, median
-    /// or bilateral:SIGMA_MM,RANGE (whole volumes only, not with --bricked).
+    /// or bilateral:SIGMA_MM,RANGE (whole volumes only: a bricked one is refused).
     #[arg(long, default_value = "none", value_parser = parse_denoise)]
     pub denoise: crate::passes::denoise::Denoise,
 }

@@ -205,16 +205,11 @@ fn gpu_analysis(ctx: &PlanContext) -> PassDeclaration {
 /// transient for the plan (held bytes unchanged, the peak higher).
 fn denoising(ctx: &PlanContext) -> PassDeclaration {
     let descs = denoise_descs(&ctx.input.denoise, ctx.extent, ctx.normalized_format);
-    let bytes = ctx.voxels() as f64 * ctx.normalized_bytes() as f64;
     let passes = vec![pass(
         "denoise",
         "per volume",
         format!("denoise ({:?})", ctx.input.denoise),
-        PassCost {
-            bytes_read: bytes,
-            bytes_written: bytes,
-            ..Default::default()
-        },
+        cost::denoise(ctx.voxels() as f64, ctx.normalized_bytes() as f64),
     )];
     PassDeclaration {
         variants: passes.iter().map(|p| p.variant.clone()).collect(),
