@@ -150,6 +150,15 @@ fn plan_lists_the_denoise_pass_and_its_transient_image() {
         .find(|a| a["name"] == "denoised I_norm")
         .unwrap_or_else(|| panic!("{plan}"));
     assert_eq!(denoised["transient"], true);
+    // Measured, not only planned: the memory ledger after set-up holds the same bytes with and
+    // without the filter (the original I_norm is freed once the denoised one exists), and the
+    // planned peak is higher by the filter's image.
+    let o = morphray(&["plan", noisy.to_str().unwrap(), "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let plain: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(plan["held_bytes"], plain["held_bytes"]);
+    assert_eq!(plan["total_bytes"], plain["total_bytes"]);
+    assert!(plan["peak_bytes"].as_u64().unwrap() > plain["peak_bytes"].as_u64().unwrap());
 }
 
 #[test]
