@@ -469,3 +469,56 @@ fn bad_specs_are_typed_errors() {
     // A 1-voxel phantom is valid.
     assert_eq!(generate(&PhantomSpec::cube(1)).unwrap().labels.len(), 1);
 }
+
+#[test]
+fn the_known_vessels_have_their_radii() {
+    use morphray::volume::phantom_vessels::KNOWN_VESSELS;
+    // At 128^3 the phantom's mm is 0.583 voxel (smallest brain semi-axis 0.56 * 64 = 35.84
+    // voxels, over 61.44 at cohort A): the 3 and 2 mm vessels are 1.75 and 1.17 voxels in
+    // radius; the 1 and 0.5 mm ones are sub-voxel (module doc of phantom_vessels.rs).
+    let n = 128usize;
+    let p = generate(&PhantomSpec::cube(n)).unwrap();
+    let brain = [0.56, 0.68, 0.64].map(|f| f * n as f64 / 2.0);
+    let centre = (n as f64 - 1.0) / 2.0;
+    let voxels_per_mm = 0.56 * 64.0 / 61.44;
+    let mut areas = Vec::new();
+    for k in KNOWN_VESSELS.iter().filter(|k| k.radius_mm >= 2.0) {
+        let axis = match k.axis {
+            "x" => 0,
+            "y" => 1,
+            _ => 2,
+        };
+        let mid: [f64; 3] =
+            std::array::from_fn(|a| centre + (k.from[a] + k.to[a]) / 2.0 * brain[a]);
+        // Vessel voxels in the cross-section through the middle, within 6 voxels of the line.
+        let mut area = 0usize;
+        for du in -6i64..=6 {
+            for dv in -6i64..=6 {
+                let mut ijk = mid.map(|m| m.round() as i64);
+                let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+                ijk[u] += du;
+                ijk[v] += dv;
+                let index = ijk[0] as usize + n * (ijk[1] as usize + n * ijk[2] as usize);
+                area += usize::from(p.labels[index] == Tissue::Vessel as u8);
+            }
+        }
+        let r = k.radius_mm * voxels_per_mm;
+        let expected = std::f64::consts::PI * r * r;
+        eprintln!(
+            "{} vessel, {} mm: {area} voxels, pi r^2 = {expected:.1}",
+            k.axis, k.radius_mm
+        );
+        assert!(
+            (0.5 * expected..=1.8 * expected).contains(&(area as f64)),
+            "{} vessel of {} mm: {area} voxels in its cross-section, pi r^2 = {expected:.1}",
+            k.axis,
+            k.radius_mm
+        );
+        areas.push(area);
+    }
+    assert_eq!(areas.len(), 2);
+    assert!(
+        areas[0] > areas[1],
+        "3 mm vessel not wider than the 2 mm one: {areas:?}"
+    );
+}
