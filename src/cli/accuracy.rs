@@ -176,7 +176,8 @@ pub fn run(args: &AccuracyArgs, global: &super::GlobalOptions) -> Result<(), Err
     if args.scene.denoise != crate::passes::denoise::Denoise::None {
         // The f64 reference renders the volume as read: the error would be the filter's.
         return Err(Error::Usage(
-            "accuracy measures the pipeline against its f64 twin on the volume as read: run it              without --denoise (the filters' own accuracy: accuracy --vessels)"
+            "accuracy measures the pipeline against its f64 twin on the volume as read: run it \
+             without --denoise (the filters' own accuracy: accuracy --vessels)"
                 .into(),
         ));
     }
