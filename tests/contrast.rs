@@ -30,6 +30,8 @@ fn t2_value(tissue: Tissue) -> f64 {
         Tissue::Wm => 300.0,
         Tissue::Lesion => 800.0,
         Tissue::Vessel => 80.0,
+        // Vasogenic edema: extra water, bright on T2 (between GM and the lesion).
+        Tissue::Edema => 600.0,
     }
 }
 

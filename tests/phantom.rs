@@ -143,6 +143,12 @@ fn every_tissue_is_present_with_a_sensible_count() {
             "lesion {}",
             count(Tissue::Lesion)
         );
+        // The edema shell (at least 2 voxels thick) outnumbers the lesion it wraps.
+        assert!(
+            count(Tissue::Edema) > 2 * count(Tissue::Lesion),
+            "edema {}",
+            count(Tissue::Edema)
+        );
         assert!(
             (100..2000).contains(&count(Tissue::Vessel)),
             "vessels {}",
@@ -173,6 +179,7 @@ fn intensities_follow_the_documented_nominal_values() {
         near(Tissue::Gm, 0.06);
         near(Tissue::Wm, 0.04);
         near(Tissue::Lesion, 0.10);
+        near(Tissue::Edema, 0.06);
         assert!(mean(Tissue::Background) < 40.0, "Rayleigh noise floor ~25");
         // T1 order, with the dark shell below CSF and pathology above WM.
         assert!(mean(Tissue::Background) < mean(Tissue::SkullFat));
@@ -180,6 +187,8 @@ fn intensities_follow_the_documented_nominal_values() {
         assert!(mean(Tissue::Csf) < mean(Tissue::Gm));
         assert!(mean(Tissue::Gm) < mean(Tissue::Wm));
         assert!(mean(Tissue::Wm) < mean(Tissue::Lesion));
+        // Edema: T1-hypointense to WM, above GM (src/volume/phantom_edema.rs).
+        assert!(mean(Tissue::Gm) < mean(Tissue::Edema) && mean(Tissue::Edema) < mean(Tissue::Wm));
         assert!(mean(Tissue::Wm) < mean(Tissue::Vessel));
         // Nothing but lesion and vessels reaches the pathology band; both do reach it.
         let v = values(&p);
@@ -210,31 +219,42 @@ fn intensities_follow_the_documented_nominal_values() {
     }
 }
 
+/// Per label, how many face neighbours of `tissue`'s voxels (outside it) carry that label.
+fn outside_neighbours(p: &Phantom, dims: [usize; 3], tissue: Tissue) -> Vec<usize> {
+    let [nx, ny, _] = dims;
+    let mut neighbours = vec![0usize; Tissue::ALL.len()];
+    for (index, &l) in p.labels.iter().enumerate() {
+        if l != tissue as u8 {
+            continue;
+        }
+        let ijk = [index % nx, (index / nx) % ny, index / (nx * ny)];
+        for (a, stride) in [1, nx, nx * ny].into_iter().enumerate() {
+            for step in [-1i64, 1] {
+                let c = ijk[a] as i64 + step;
+                if c >= 0 && (c as usize) < dims[a] {
+                    let j = (index as i64 + step * stride as i64) as usize;
+                    neighbours[p.labels[j] as usize] += 1;
+                }
+            }
+        }
+    }
+    neighbours[tissue as usize] = 0;
+    neighbours
+}
+
 #[test]
 fn lesion_is_in_the_left_hemisphere_white_matter() {
     for spec in small_specs() {
         let p = generate(&spec).unwrap();
         let [nx, ny, _] = spec.dims;
         let (mut sum, mut n) = ([0.0; 3], 0.0);
-        let mut neighbours = [0usize; 7];
         for (index, &l) in p.labels.iter().enumerate() {
-            if l != Tissue::Lesion as u8 {
-                continue;
-            }
-            let ijk = [index % nx, (index / nx) % ny, index / (nx * ny)];
-            for a in 0..3 {
-                sum[a] += ijk[a] as f64;
-            }
-            n += 1.0;
-            // What surrounds the lesion: the six face neighbours outside it.
-            for (a, stride) in [1, nx, nx * ny].into_iter().enumerate() {
-                for step in [-1i64, 1] {
-                    let c = ijk[a] as i64 + step;
-                    if c >= 0 && (c as usize) < spec.dims[a] {
-                        let j = (index as i64 + step * stride as i64) as usize;
-                        neighbours[p.labels[j] as usize] += 1;
-                    }
+            if l == Tissue::Lesion as u8 {
+                let ijk = [index % nx, (index / nx) % ny, index / (nx * ny)];
+                for a in 0..3 {
+                    sum[a] += ijk[a] as f64;
                 }
+                n += 1.0;
             }
         }
         let a = p.volume.orientation.affine;
@@ -243,13 +263,31 @@ fn lesion_is_in_the_left_hemisphere_white_matter() {
             world_x < -5.0,
             "lesion centroid at world x = {world_x} mm, must be left (x < 0)"
         );
-        let outside: usize = neighbours.iter().sum::<usize>() - neighbours[Tissue::Lesion as usize];
+        // The lesion is wrapped in its edema, and the edema lies in WM (and around the lesion).
+        let lesion = outside_neighbours(&p, spec.dims, Tissue::Lesion);
+        let outside: usize = lesion.iter().sum();
         assert_eq!(
             outside,
-            neighbours[Tissue::Wm as usize],
-            "lesion touches only WM: {neighbours:?}"
+            lesion[Tissue::Edema as usize],
+            "lesion touches only edema: {lesion:?}"
         );
     }
+    // The edema lies in WM once the lengths are not at their voxel floors: on the 64^3 and
+    // 72x60x48 grids the floored lesion (2 voxels) and shell (2 voxels) reach the floored GM
+    // ribbon and the ventricle, as the phantom's module doc says of its floors.
+    let dims = [128, 128, 128];
+    let p = generate(&PhantomSpec {
+        dims,
+        ..PhantomSpec::cube(1)
+    })
+    .unwrap();
+    let edema = outside_neighbours(&p, dims, Tissue::Edema);
+    let outside: usize = edema.iter().sum();
+    assert_eq!(
+        outside,
+        edema[Tissue::Wm as usize] + edema[Tissue::Lesion as usize],
+        "edema touches only WM and the lesion: {edema:?}"
+    );
 }
 
 #[test]
@@ -327,7 +365,8 @@ fn generation_is_deterministic_across_runs_and_thread_counts() {
     assert_ne!(other.volume.samples, reference.volume.samples);
 }
 
-const EXPECTED_CHECKSUM: u64 = 0x7ee2_0a11_0581_c0f3;
+// Changed with the known-radius vessels and the lesion's edema (issue 15 item 6).
+const EXPECTED_CHECKSUM: u64 = 0x83cc_1f40_9645_3476;
 
 #[test]
 fn histogram_has_csf_gm_and_wm_modes_near_their_nominal_values() {
@@ -429,4 +468,57 @@ fn bad_specs_are_typed_errors() {
     );
     // A 1-voxel phantom is valid.
     assert_eq!(generate(&PhantomSpec::cube(1)).unwrap().labels.len(), 1);
+}
+
+#[test]
+fn the_known_vessels_have_their_radii() {
+    use morphray::volume::phantom_vessels::KNOWN_VESSELS;
+    // At 128^3 the phantom's mm is 0.583 voxel (smallest brain semi-axis 0.56 * 64 = 35.84
+    // voxels, over 61.44 at cohort A): the 3 and 2 mm vessels are 1.75 and 1.17 voxels in
+    // radius; the 1 and 0.5 mm ones are sub-voxel (module doc of phantom_vessels.rs).
+    let n = 128usize;
+    let p = generate(&PhantomSpec::cube(n)).unwrap();
+    let brain = [0.56, 0.68, 0.64].map(|f| f * n as f64 / 2.0);
+    let centre = (n as f64 - 1.0) / 2.0;
+    let voxels_per_mm = 0.56 * 64.0 / 61.44;
+    let mut areas = Vec::new();
+    for k in KNOWN_VESSELS.iter().filter(|k| k.radius_mm >= 2.0) {
+        let axis = match k.axis {
+            "x" => 0,
+            "y" => 1,
+            _ => 2,
+        };
+        let mid: [f64; 3] =
+            std::array::from_fn(|a| centre + (k.from[a] + k.to[a]) / 2.0 * brain[a]);
+        // Vessel voxels in the cross-section through the middle, within 6 voxels of the line.
+        let mut area = 0usize;
+        for du in -6i64..=6 {
+            for dv in -6i64..=6 {
+                let mut ijk = mid.map(|m| m.round() as i64);
+                let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+                ijk[u] += du;
+                ijk[v] += dv;
+                let index = ijk[0] as usize + n * (ijk[1] as usize + n * ijk[2] as usize);
+                area += usize::from(p.labels[index] == Tissue::Vessel as u8);
+            }
+        }
+        let r = k.radius_mm * voxels_per_mm;
+        let expected = std::f64::consts::PI * r * r;
+        eprintln!(
+            "{} vessel, {} mm: {area} voxels, pi r^2 = {expected:.1}",
+            k.axis, k.radius_mm
+        );
+        assert!(
+            (0.5 * expected..=1.8 * expected).contains(&(area as f64)),
+            "{} vessel of {} mm: {area} voxels in its cross-section, pi r^2 = {expected:.1}",
+            k.axis,
+            k.radius_mm
+        );
+        areas.push(area);
+    }
+    assert_eq!(areas.len(), 2);
+    assert!(
+        areas[0] > areas[1],
+        "3 mm vessel not wider than the 2 mm one: {areas:?}"
+    );
 }

@@ -173,6 +173,14 @@ pub fn run(args: &AccuracyArgs, global: &super::GlobalOptions) -> Result<(), Err
     if args.vessels {
         return vessel_study(args, global);
     }
+    if args.scene.denoise != crate::passes::denoise::Denoise::None {
+        // The f64 reference renders the volume as read: the error would be the filter's.
+        return Err(Error::Usage(
+            "accuracy measures the pipeline against its f64 twin on the volume as read: run it \
+             without --denoise (the filters' own accuracy: accuracy --vessels)"
+                .into(),
+        ));
+    }
     let (width, height) = args.scene.size.unwrap_or((256, 256));
     let time_size = args.time_size.unwrap_or((width, height));
     let mut scene_args = args.scene.clone();

@@ -416,7 +416,7 @@ pub struct PhantomArgs {
     #[arg(long, default_value = "256x256x192", value_parser = parse_dims)]
     pub dims: [usize; 3],
     /// Also write the phantom's ground-truth tissue labels here (an integer label map for
-    /// `slice --overlay`: 1 skull, 2 CSF, 3 GM, 4 WM, 5 lesion, 6 vessels).
+    /// `slice --overlay`: 1 skull, 2 CSF, 3 GM, 4 WM, 5 lesion, 6 vessels, 7 edema).
     #[arg(long, value_name = "NII")]
     pub labels: Option<PathBuf>,
 }

@@ -351,6 +351,11 @@ pub fn run(args: &BenchArgs, global: &super::GlobalOptions) -> Result<(), Error>
             ),
         ]);
     }
+    // --denoise ran once, on the way to the first frame: that one measurement.
+    if let Some(ms) = times_of(&opened.twin.prepared.gpu_timings, "denoise") {
+        let c = cost::denoise(voxels, normalized_bytes);
+        passes.push(pass_report("denoise", &[ms], c, copy, documented));
+    }
 
     // Derivative variants, repeated.
     let all_variants = [

@@ -95,6 +95,7 @@ pub fn recipe_from_args(args: &SceneArgs) -> Result<SceneRecipe, Error> {
         background: args.background,
         clip: args.clip.clip().map_err(Error::Usage)?,
         colormap: args.clip.colormap,
+        denoise: args.denoise,
         ..SceneRecipe::default()
     };
     recipe.check().map_err(|e| Error::Usage(e.0))?;

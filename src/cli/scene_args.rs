@@ -167,6 +167,14 @@ pub struct SceneArgs {
     /// A standard view (src/cli/view_preset.rs).
     #[command(flatten)]
     pub view: super::view_preset::ViewPresetArgs,
+    /// Denoise I_norm before the derivatives and the raymarch: none, gaussian:SIGMA_MM, median
+    /// or bilateral:SIGMA_MM,RANGE (whole volumes only: a bricked one is refused).
+    #[arg(long, default_value = "none", value_parser = parse_denoise)]
+    pub denoise: crate::passes::denoise::Denoise,
+}
+
+fn parse_denoise(text: &str) -> Result<crate::passes::denoise::Denoise, String> {
+    text.parse()
 }
 
 /// `TISSUE=REST` split, with the tissue named as on the command line.

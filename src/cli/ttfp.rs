@@ -76,11 +76,12 @@ pub const SUB_PHASES: [&str; 4] = [
 ];
 
 /// Passes with GPU timestamps, in order.
-pub const GPU_PHASES: [&str; 7] = [
+pub const GPU_PHASES: [&str; 8] = [
     "upload",
     "minmax",
     "normalize",
     "histogram",
+    "denoise",
     "derivatives",
     "occupancy",
     "raymarch",

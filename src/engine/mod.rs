@@ -332,6 +332,7 @@ impl Engine {
             occupied_fraction,
             force_bricking: self.config.force_bricking,
             robust_range: self.config.normalize == crate::analysis::NormalizeMode::Robust,
+            denoise: crate::passes::denoise::Denoise::None,
         }
     }
 

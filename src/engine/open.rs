@@ -18,6 +18,7 @@
 
 use super::Engine;
 use super::bricked::HostPrepared;
+use super::denoise::check_denoise_whole;
 use super::prepare::{PrepareTimings, PreparedVolume};
 use super::twin::Twin;
 use crate::analysis::{TissueReport, analyze_with};
@@ -47,6 +48,8 @@ pub struct OpenTimings {
     /// Upload, min/max, normalization and histogram (or the host preparation and brick upload
     /// of a bricked volume), with their own breakdown.
     pub prepare: PrepareTimings,
+    /// Denoising I_norm (`recipe.denoise`; 0 without), pipeline creation and dispatch.
+    pub denoise_ms: f64,
     /// Histogram analysis: peaks, Table-1 row, tissue windows (CPU).
     pub peaks_ms: f64,
     /// The derived volumes the scene needs (pipeline creation, dispatches, the maximum's
@@ -115,6 +118,9 @@ impl Engine {
                 self.set_normalized_format(plan.normalized_format)?;
                 let prepared = self.prepare(volume)?;
                 timings.prepare = prepared.timings.clone();
+                let before_denoise = Instant::now();
+                let prepared = self.denoise_opened(prepared, recipe)?;
+                timings.denoise_ms = ms(before_denoise);
                 let before_peaks = Instant::now();
                 let report = self.analyze(&prepared);
                 let scene = recipe.scene_for(&report);
@@ -122,6 +128,8 @@ impl Engine {
                 (prepared, report, scene, plan)
             }
             first => {
+                // Before the host preparation: the filters need the whole volume.
+                check_denoise_whole(recipe)?;
                 if first.is_err() {
                     // Over the budget (or the bricking limit) with every brick resident: the host
                     // preparation is only worth it if some occupancy could fit. The best case

@@ -217,7 +217,13 @@ impl Engine {
         options: &OpenOptions,
     ) -> Result<OpenedVolume, OpenError> {
         let start = Instant::now();
-        let plan = self.plan(options.recipe.effects, volume, options.image, 1.0);
+        let mut input = self.plan_input(volume, options.image, 1.0);
+        input.denoise = options.recipe.denoise;
+        let plan = crate::engine::plan::plan(
+            options.recipe.effects,
+            &input,
+            &super::DeviceImageSizes(self.device()),
+        );
         let plan_ms = ms(start);
         let mut ahead_ms = 0.0;
         if options.first_frame {

@@ -91,6 +91,16 @@ pub fn derivatives(
     }
 }
 
+/// Denoising I_norm (any filter): read once, written once (the minimum traffic; the filters'
+/// neighbourhoods come from the cache).
+pub fn denoise(voxels: f64, normalized_texel_bytes: f64) -> PassCost {
+    PassCost {
+        bytes_read: voxels * normalized_texel_bytes,
+        bytes_written: voxels * normalized_texel_bytes,
+        ..Default::default()
+    }
+}
+
 /// Raymarch of one frame from counted samples: each marched sample fetches I_norm; each
 /// classified sample also fetches the derived volumes (1, or 2 with stored normals), or makes 6
 /// (19 with curvature) extra I_norm fetches on the fly. The image is written once (4 bytes a

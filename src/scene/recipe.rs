@@ -60,6 +60,9 @@ pub struct SceneRecipe {
     pub clip: Clip,
     /// Colour map (MIP/MinIP; DVR instead of tissue colours).
     pub colormap: Option<Colormap>,
+    /// Denoising of I_norm when the volume is opened (before the derivatives and the raymarch);
+    /// not part of [`Scene`]: a client opening a volume again keeps its own.
+    pub denoise: crate::passes::denoise::Denoise,
 }
 
 impl Default for SceneRecipe {
@@ -119,6 +122,7 @@ impl SceneRecipe {
             intensity_window: scene.intensity_window,
             clip: scene.clip,
             colormap: scene.colormap,
+            denoise: crate::passes::denoise::Denoise::None,
         }
     }
 

@@ -16,6 +16,8 @@
 pub mod host_memory;
 pub mod nifti;
 pub mod phantom;
+mod phantom_edema;
+pub mod phantom_vessels;
 pub mod samples;
 pub mod source;
 pub mod stats;

@@ -27,10 +27,11 @@
 //!   midline fissure (CSF) down to the corpus callosum in the middle and through the whole brain
 //!   at the front and back; a lesion sphere in the left hemisphere's WM (world x < 0, RAS);
 //!   vessels: the superior sagittal sinus along the top of the fissure in the CSF layer, a
-//!   pericallosal artery at the fissure bottom, and one Sylvian (MCA-like) artery on each side.
+//!   pericallosal artery at the fissure bottom, one Sylvian (MCA-like) artery on each side, and
+//!   vessels of radii 3, 2, 1, 0.5 mm in the WM (phantom_vessels.rs). Edema: phantom_edema.rs.
 //! - Partial volume: each structure has a signed distance in voxels; its weight is a linear ramp
 //!   over one voxel centred on the boundary, and structures are blended in nesting order
-//!   (head, CSF, GM, WM, ventricles, lesion, vessels). The label is the last structure whose
+//!   (head, CSF, GM, WM, ventricles, edema, lesion, vessels). The label is the last structure whose
 //!   weight at the voxel centre is >= 0.5, which is also the dominant one in the blend.
 //! - Bias: smooth multiplicative field 1 + 0.07 f(p), |f| <= 1 (about +-7 %), applied to the
 //!   tissue signal. Noise (when `noise`): Rician magnitude sqrt((s + sigma n1)^2 + (sigma n2)^2)
@@ -64,11 +65,13 @@ pub enum Tissue {
     Lesion = 5,
     /// Bright vessels (contrast-enhanced).
     Vessel = 6,
+    /// Perilesional edema: a low-contrast shell around the lesion (src/volume/phantom_edema.rs).
+    Edema = 7,
 }
 
 impl Tissue {
     /// Every class, in label order.
-    pub const ALL: [Tissue; 7] = [
+    pub const ALL: [Tissue; 8] = [
         Tissue::Background,
         Tissue::SkullFat,
         Tissue::Csf,
@@ -76,6 +79,7 @@ impl Tissue {
         Tissue::Wm,
         Tissue::Lesion,
         Tissue::Vessel,
+        Tissue::Edema,
     ];
 
     /// The class with label value `label`.
@@ -93,6 +97,7 @@ impl Tissue {
             Tissue::Wm => "wm",
             Tissue::Lesion => "lesion",
             Tissue::Vessel => "vessel",
+            Tissue::Edema => "edema",
         }
     }
 }
@@ -127,6 +132,7 @@ impl Nominal {
             Tissue::Wm => self.wm,
             Tissue::Lesion => self.lesion,
             Tissue::Vessel => self.vessel,
+            Tissue::Edema => super::phantom_edema::EDEMA_NOMINAL,
         }
     }
 }
@@ -329,6 +335,8 @@ struct Geometry {
     vessel_radius: f64,
     lesion_radius: f64,
     lesion_centre: [f64; 3],
+    edema_thickness: f64,
+    vessels: super::phantom_vessels::Vessels,
     waves: [([f64; 3], f64); 4],
     frequency: f64,
 }
@@ -359,6 +367,8 @@ impl Geometry {
             vessel_radius: len(1.25, 1.0),
             lesion_radius: len(4.5, 2.0),
             lesion_centre: [-0.42 * brain[0], -0.08 * brain[1], 0.30 * brain[2]],
+            edema_thickness: super::phantom_edema::thickness(s),
+            vessels: super::phantom_vessels::Vessels::new(brain, s),
             waves,
             frequency: (PI * bmin / 7.0).min(22.0),
         }
@@ -490,21 +500,20 @@ impl Geometry {
         let ventricles = self.ventricle(q, -1.0).max(self.ventricle(q, 1.0));
         layer(&mut signal, &mut label, ventricles, Tissue::Csf);
 
-        let dl: [f64; 3] = std::array::from_fn(|a| v[a] - self.lesion_centre[a]);
+        let dl = norm3(std::array::from_fn(|a| v[a] - self.lesion_centre[a]));
+        let edema = super::phantom_edema::inside(dl, self.lesion_radius, self.edema_thickness);
+        layer(&mut signal, &mut label, edema, Tissue::Edema);
         layer(
             &mut signal,
             &mut label,
-            self.lesion_radius - norm3(dl),
+            self.lesion_radius - dl,
             Tissue::Lesion,
         );
 
-        let vessel = self.vessel_distance(v, q, hull);
-        layer(
-            &mut signal,
-            &mut label,
-            self.vessel_radius - vessel,
-            Tissue::Vessel,
-        );
+        // The older vessels (radius floored) and the known radii, as one structure.
+        let vessel =
+            (self.vessel_radius - self.vessel_distance(v, q, hull)).max(self.vessels.inside(v));
+        layer(&mut signal, &mut label, vessel, Tissue::Vessel);
 
         (signal * Self::bias(self.normalised(v)), label)
     }

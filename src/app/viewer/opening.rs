@@ -272,7 +272,11 @@ impl Viewer {
             return;
         }
         // Compared as recipes: the frame counter (jitter seed) changes every scripted frame.
-        let recipe = SceneRecipe::from_scene(&scene);
+        // The denoising is the command line's (not part of a scene): kept on every reopen.
+        let recipe = SceneRecipe {
+            denoise: self.config.recipe.denoise,
+            ..SceneRecipe::from_scene(&scene)
+        };
         if self.reopened_for.as_ref() == Some(&recipe) {
             self.status.error = Some(one_line(message));
             return;

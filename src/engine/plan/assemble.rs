@@ -17,6 +17,7 @@ use super::{
 use crate::engine::{bricked, derive, occupancy, prepare, readback, render, robust, upload};
 use crate::gpu::{FRAMES_IN_FLIGHT, recycler};
 use crate::passes::cost::{self, PassCost};
+use crate::passes::denoise::{Denoise, denoise_descs};
 use crate::passes::derivatives::{DerivativeOutputs, output_descs};
 use crate::passes::fine_histogram::RESULT_BYTES;
 use crate::passes::histogram::BINS;
@@ -73,6 +74,9 @@ pub(super) fn build(
     } else {
         gpu_analysis(&ctx)
     });
+    if !ctx.bricked && input.denoise != Denoise::None {
+        all.extend(denoising(&ctx));
+    }
     if let Some(outputs) = ctx.effects.derivative_outputs() {
         all.extend(derivatives(&ctx, &outputs));
         if outputs.vesselness && !ctx.bricked {
@@ -196,6 +200,24 @@ fn gpu_analysis(ctx: &PlanContext) -> PassDeclaration {
         passes,
         variants,
         allocations,
+    }
+}
+
+/// Denoising the whole I_norm: the denoised image (and the Gaussian's scratch volumes) exist
+/// beside the original only while the pass runs; the original is then dropped, so all of it is
+/// transient for the plan (held bytes unchanged, the peak higher).
+fn denoising(ctx: &PlanContext) -> PassDeclaration {
+    let descs = denoise_descs(&ctx.input.denoise, ctx.extent, ctx.normalized_format);
+    let passes = vec![pass(
+        "denoise",
+        "per volume",
+        format!("denoise ({:?})", ctx.input.denoise),
+        cost::denoise(ctx.voxels() as f64, ctx.normalized_bytes() as f64),
+    )];
+    PassDeclaration {
+        variants: passes.iter().map(|p| p.variant.clone()).collect(),
+        passes,
+        allocations: descs.into_iter().map(Declared::transient_image).collect(),
     }
 }
 

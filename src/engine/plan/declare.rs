@@ -60,6 +60,14 @@ impl Declared {
         }
     }
 
+    /// An image freed before the first frame.
+    pub fn transient_image(desc: ImageDesc) -> Self {
+        Declared {
+            resource: Resource::Image(desc),
+            transient: true,
+        }
+    }
+
     /// What the plan shows: the device's bytes, the format, where it lives.
     pub fn planned(&self, sizes: &dyn ImageSizes, unified_memory: bool) -> PlannedAllocation {
         let (name, bytes, format, memory) = match &self.resource {

@@ -85,6 +85,9 @@ pub struct PlanInput {
     pub force_bricking: bool,
     /// The intensity range is the robust one (the fine-histogram pass runs).
     pub robust_range: bool,
+    /// Denoising of I_norm after the preparation (whole volumes only): its output replaces
+    /// I_norm, so it adds to the preparation's peak only (`engine::denoise`).
+    pub denoise: crate::passes::denoise::Denoise,
 }
 
 /// How the normalized volume is laid out on the GPU.

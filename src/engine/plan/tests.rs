@@ -41,7 +41,31 @@ fn input() -> PlanInput {
         occupied_fraction: 1.0,
         force_bricking: false,
         robust_range: true,
+        denoise: crate::passes::denoise::Denoise::None,
     }
+}
+
+#[test]
+fn denoising_raises_the_peak_by_its_images_and_holds_nothing_more() {
+    use crate::passes::denoise::Denoise;
+    let plain = plan(f16_effects(), &input(), &TexelSizes).unwrap();
+    let with = |denoise| {
+        plan(
+            f16_effects(),
+            &PlanInput { denoise, ..input() },
+            &TexelSizes,
+        )
+        .unwrap()
+    };
+    let voxels = 256 * 256 * 192u64;
+    let median = with(Denoise::Median);
+    // The denoised I_norm (R16) replaces the original: only the preparation's peak grows.
+    assert_eq!(median.total_bytes, plain.total_bytes);
+    assert_eq!(median.peak_bytes, plain.peak_bytes + 2 * voxels);
+    assert!(median.passes.iter().any(|p| p.name == "denoise"));
+    // The Gaussian adds its two R32F scratch volumes.
+    let gaussian = with(Denoise::Gaussian { sigma_mm: 1.0 });
+    assert_eq!(gaussian.peak_bytes, plain.peak_bytes + 10 * voxels);
 }
 
 /// Allocations every plan holds whatever the scene (stand-ins, target, uniforms, counters).
