@@ -37,7 +37,7 @@ fn phantom(dir: &Path) -> (PathBuf, PathBuf, PathBuf) {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     // The lesion (5) alone, green; every other label transparent.
     let lut = dir.join("lut.txt");
-    std::fs::write(&lut, "1 a 0 0 0 255\n2 b 0 0 0 255\n3 c 0 0 0 255\n4 d 0 0 0 255\n5 Lesion 0 255 0 0\n6 v 0 0 0 255\n").unwrap();
+    std::fs::write(&lut, "1 a 0 0 0 255\n2 b 0 0 0 255\n3 c 0 0 0 255\n4 d 0 0 0 255\n5 Lesion 0 255 0 0\n6 v 0 0 0 255\n7 e 0 0 0 255\n").unwrap();
     (volume, labels, lut)
 }
 
@@ -80,7 +80,7 @@ fn the_lesion_label_is_drawn_in_3d_on_the_lesions_side_and_bricking_is_refused()
         "{stdout}\n{}",
         String::from_utf8_lossy(&o.stderr)
     );
-    assert!(stdout.contains("overlay: 6 labels drawn in 3D"), "{stdout}");
+    assert!(stdout.contains("overlay: 7 labels drawn in 3D"), "{stdout}");
     // Anterior view: the patient faces the viewer, so the left-hemisphere lesion is drawn on
     // the image's right. Green pixels are the label's (no tissue colour is green).
     let (width, pixels) = rgb_pixels(&out);

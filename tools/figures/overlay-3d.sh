@@ -8,7 +8,8 @@ out=$(dirname "$0")
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 "$morphray" phantom -o "$tmp/phantom.nii.gz" --labels "$tmp/labels.nii.gz"
-# Only the lesion (5) and the vessels (6): the other labels fully transparent (A = 255).
+# The lesion (5), its edema (7, faint) and the vessels (6): the other labels fully transparent
+# (A = 255).
 cat > "$tmp/lut.txt" <<'LUT'
 1 Skull 0 0 0 255
 2 CSF 0 0 0 255
@@ -16,6 +17,7 @@ cat > "$tmp/lut.txt" <<'LUT'
 4 WM 0 0 0 255
 5 Lesion 255 220 0 0
 6 Vessel 230 30 40 0
+7 Edema 80 160 255 190
 LUT
 "$morphray" render "$tmp/phantom.nii.gz" -o "$out/phantom-overlay-3d.png" --size 512x512 \
     --view left --overlay "$tmp/labels.nii.gz" --overlay-lut "$tmp/lut.txt" --overlay-opacity 0.8 \
