@@ -10,7 +10,9 @@ use morphray::engine::readback::read_image;
 use morphray::engine::{Derived, Engine, PreparedVolume, Twin};
 use morphray::gpu::Access;
 use morphray::reference::raymarch::{ReferenceDerived, ReferenceRaymarch, ReferenceVolume};
+use morphray::scene::classification::render_weight;
 use morphray::scene::{Classification, RenderMode, Scene, VolumeGeometry};
+use morphray::volume::phantom::{PhantomSpec, Tissue, generate};
 use morphray::volume::vessel_phantom::tubes;
 
 fn gpu_render(
@@ -136,5 +138,36 @@ fn the_vesselness_is_computed_only_while_vessels_are_shown() {
     effects.mode = RenderMode::Mip;
     engine.update_twin(&mut twin, &effects).unwrap();
     assert!(twin.derived().is_none());
+    common::assert_no_validation_errors(&engine);
+}
+
+#[test]
+fn the_default_vessel_window_keeps_the_phantoms_vessels_and_drops_its_parenchyma() {
+    // The commands' default normalization (robust), so the numbers are those users get.
+    let mut engine = common::engine_normalizing(morphray::analysis::NormalizeMode::Robust);
+    let phantom = generate(&PhantomSpec {
+        dims: [96, 112, 96],
+        ..PhantomSpec::cohort_a()
+    })
+    .unwrap();
+    let prepared = engine.prepare(&phantom.volume).unwrap();
+    let params = morphray::passes::vesselness::VesselnessParams::default();
+    let vesselness = engine.vesselness(&prepared, &params).unwrap();
+    let (values, _) = read(&engine, &vesselness.image);
+    let window = Classification::with_windows([None; 4]).vessels.window;
+    let shown = |tissue: Tissue| {
+        let (mut n, mut kept) = (0usize, 0usize);
+        for (v, &label) in values.iter().zip(&phantom.labels) {
+            if label == tissue as u8 {
+                n += 1;
+                kept += usize::from(render_weight(&window, *v as f64) >= 0.5);
+            }
+        }
+        kept as f64 / n.max(1) as f64
+    };
+    let (vessels, wm, gm) = (shown(Tissue::Vessel), shown(Tissue::Wm), shown(Tissue::Gm));
+    eprintln!("shown by the default vessel window: vessels {vessels:.3}, WM {wm:.4}, GM {gm:.4}");
+    assert!(vessels >= 0.5, "vessels {vessels:.3}");
+    assert!(wm <= 0.02 && gm <= 0.01, "WM {wm:.4}, GM {gm:.4}");
     common::assert_no_validation_errors(&engine);
 }
