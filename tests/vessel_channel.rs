@@ -171,3 +171,154 @@ fn the_default_vessel_window_keeps_the_phantoms_vessels_and_drops_its_parenchyma
     assert!(wm <= 0.02 && gm <= 0.01, "WM {wm:.4}, GM {gm:.4}");
     common::assert_no_validation_errors(&engine);
 }
+
+/// Crimson pixels (the vessel colour) of a PNG inside the 3D view's rectangle `[x, y, w, h]`.
+fn crimson_pixels(path: &std::path::Path, view: [u32; 4]) -> usize {
+    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(path).unwrap()));
+    let mut reader = decoder.read_info().unwrap();
+    let mut rgba = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut rgba).unwrap();
+    let mut n = 0;
+    for y in view[1]..view[1] + view[3] {
+        for x in view[0]..view[0] + view[2] {
+            let i = 4 * (y * info.width + x) as usize;
+            let p = &rgba[i..i + 3];
+            n += usize::from(p[0] > 60 && u32::from(p[0]) > 2 * u32::from(p[1].max(p[2])));
+        }
+    }
+    n
+}
+
+/// The 3D view's rectangle from the session log's layout line (`view X,Y,W,H`).
+fn view_rect(log: &str) -> [u32; 4] {
+    let line = log
+        .lines()
+        .find(|l| l.starts_with("layout:"))
+        .expect("a layout line");
+    let words: Vec<&str> = line.split_whitespace().collect();
+    let i = words
+        .iter()
+        .position(|w| *w == "view")
+        .expect("view in the layout line");
+    let v: Vec<u32> = words[i + 1]
+        .split(',')
+        .map(|n| n.parse().unwrap())
+        .collect();
+    [v[0], v[1], v[2], v[3]]
+}
+
+#[test]
+fn the_viewer_shows_and_hides_the_vessel_channel_from_a_script() {
+    let dir = std::env::temp_dir().join(format!("morphray-vessel-view-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let volume = dir.join("ph.nii.gz");
+    let bin = env!("CARGO_BIN_EXE_morphray");
+    let o = std::process::Command::new(bin)
+        .args([
+            "phantom",
+            "-o",
+            volume.to_str().unwrap(),
+            "--dims",
+            "64x72x56",
+            "--force",
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success());
+    let run = |script: &str, shot: &std::path::Path| {
+        let path = shot.with_extension("txt");
+        std::fs::write(&path, script).unwrap();
+        let o = std::process::Command::new(bin)
+            .env_remove("DISPLAY")
+            .env_remove("WAYLAND_DISPLAY")
+            .env("MORPHRAY_VALIDATION", "required")
+            .args([
+                "view",
+                "--offscreen",
+                volume.to_str().unwrap(),
+                "--size",
+                "480x360",
+            ])
+            .args(["--frames", "3", "--script", path.to_str().unwrap()])
+            .args(["--screenshot", shot.to_str().unwrap()])
+            .output()
+            .unwrap();
+        let log = String::from_utf8_lossy(&o.stdout).into_owned();
+        assert!(
+            o.status.success() && log.contains("validation layer: 0 error(s)"),
+            "{log}\n{}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        view_rect(&log)
+    };
+    let hidden = "hide csf\nhide gm\nhide wm\n";
+    let on = dir.join("on.png");
+    let view = run(&format!("{hidden}show vessels\nwait 4\n"), &on);
+    let off = dir.join("off.png");
+    let script = format!("{hidden}show vessels\nwait 4\nhide vessels\nwait 2\n");
+    let view_off = run(&script, &off);
+    let (shown, gone) = (crimson_pixels(&on, view), crimson_pixels(&off, view_off));
+    assert!(shown > 40, "the vessels are drawn ({shown} crimson px)");
+    assert!(
+        gone * 10 < shown,
+        "hidden again: {gone} crimson px (shown: {shown})"
+    );
+}
+
+#[test]
+fn tissues_vessels_renders_the_vessels_and_plans_the_vesselness_only_for_dvr() {
+    let dir = std::env::temp_dir().join(format!("morphray-vessel-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let volume = dir.join("ph.nii.gz");
+    let bin = env!("CARGO_BIN_EXE_morphray");
+    let morphray = |args: &[&str]| {
+        std::process::Command::new(bin)
+            .args(args)
+            .env("MORPHRAY_VALIDATION", "required")
+            .output()
+            .unwrap()
+    };
+    let path = volume.to_str().unwrap();
+    assert!(
+        morphray(&["phantom", "-o", path, "--dims", "64x72x56", "--force"])
+            .status
+            .success()
+    );
+    let out = dir.join("vessels.png");
+    let o = morphray(&[
+        "render",
+        path,
+        "--size",
+        "96x96",
+        "--tissues",
+        "vessels,pathology",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let red = crimson_pixels(&out, [0, 0, 96, 96]);
+    assert!(red > 20, "vessels and pathology drawn ({red} px)");
+    let passes = |extra: &[&str]| {
+        let o = morphray(&[&["plan", path, "--json", "--tissues", "vessels"], extra].concat());
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let plan: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        plan["passes"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|p| p["name"].as_str().unwrap().to_string())
+            .collect::<Vec<_>>()
+    };
+    assert!(passes(&[]).contains(&"vesselness".to_string()));
+    assert!(!passes(&["--mode", "mip"]).contains(&"vesselness".to_string()));
+    // An unknown name lists the channel among the accepted ones.
+    let o = morphray(&[
+        "render",
+        path,
+        "--tissues",
+        "vessel",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(String::from_utf8_lossy(&o.stderr).contains("pathology, vessels"));
+}

@@ -45,6 +45,7 @@ pub mod slices_panel;
 pub mod status;
 mod status_bar;
 pub mod ui;
+pub mod vessels_panel;
 pub mod view_area;
 pub mod viewer;
 pub mod window;

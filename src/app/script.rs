@@ -34,6 +34,8 @@ pub enum Action {
     Toggle(TissueClass),
     /// Set a tissue's visibility.
     Show(TissueClass, bool),
+    /// Show or hide the vessel channel (`show vessels`, `hide vessels`).
+    Vessels(bool),
     /// Set a tissue's window to `[lo, hi]` in I_norm (as dragging the band's edges does).
     SetWindow(TissueClass, f64, f64),
     /// Set a tissue's opacity.
@@ -230,8 +232,15 @@ fn parse_line(line: &str) -> Result<Action, String> {
     let mut next = || words.next();
     let action = match verb.as_str() {
         "toggle" => Action::Toggle(tissue(next())?),
-        "show" => Action::Show(tissue(next())?, true),
-        "hide" => Action::Show(tissue(next())?, false),
+        "show" | "hide" => {
+            let word = next();
+            let on = verb == "show";
+            if word.is_some_and(|w| w.eq_ignore_ascii_case("vessels")) {
+                Action::Vessels(on)
+            } else {
+                Action::Show(tissue(word)?, on)
+            }
+        }
         "set" => match next() {
             Some("window") => {
                 let t = tissue(next())?;

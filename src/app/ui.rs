@@ -320,6 +320,7 @@ fn tissue_panel(ui: &mut Ui, controls: &mut Controls) -> Option<Rect> {
             ui.end_row();
         }
     });
+    super::vessels_panel::vessel_row(ui, &mut controls.scene);
     ui.horizontal(|ui| {
         ui.label("Windows:");
         let source = controls.windows;

@@ -110,6 +110,7 @@ impl Viewer {
         match &step.action {
             Action::Toggle(t) => c.toggle(*t),
             Action::Show(t, v) => c.set_visible(*t, *v),
+            Action::Vessels(v) => c.scene.effects.vessels = *v,
             Action::SetWindow(t, lo, hi) => c.set_window(*t, *lo, *hi),
             Action::Opacity(t, o) => c.set_opacity(*t, *o),
             Action::Colour(t, rgb) => c.set_colour(*t, *rgb),
