@@ -431,6 +431,18 @@ pub fn run(args: &BenchArgs, global: &super::GlobalOptions) -> Result<(), Error>
         passes.push(pass_report(&name, &times, c, copy, documented));
     }
 
+    // The vessel channel's vesselness (all scales, one timed pass), when the scene shows vessels.
+    if scene.effects.vessels {
+        let params = crate::passes::vesselness::VesselnessParams::default();
+        let mut times = Vec::new();
+        for _ in 0..args.repeat {
+            let v = opened.engine.vesselness(&opened.twin.prepared, &params)?;
+            times.extend(times_of(&v.gpu_timings, "vesselness"));
+        }
+        let c = cost::vesselness(texels, &params.scales_mm);
+        passes.push(pass_report("vesselness", &times, c, copy, documented));
+    }
+
     // Raymarch over an orbit: warm-up, timed frames without readback, then counted frames.
     let mut target = opened
         .engine

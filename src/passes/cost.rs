@@ -101,6 +101,24 @@ pub fn denoise(voxels: f64, normalized_texel_bytes: f64) -> PassCost {
     }
 }
 
+/// Multi-scale vesselness over `voxels` (R32F scratch, 4 bytes a texel), per scale: three
+/// separable Gaussian passes of `2r + 1` loads a texel (r = 3 sigma, sigma's mm counted as
+/// voxels: exact at 1 mm) reading and writing the volume, and the Hessian/Frangi pass (19
+/// loads, the running maximum read and written).
+pub fn vesselness(voxels: f64, scales_mm: &[f32]) -> PassCost {
+    let loads: f64 = scales_mm
+        .iter()
+        .map(|&sigma| 3.0 * (2.0 * (3.0 * sigma as f64).ceil() + 1.0) + 19.0)
+        .sum();
+    let scales = scales_mm.len() as f64;
+    PassCost {
+        bytes_read: scales * 4.0 * voxels * 4.0,
+        bytes_written: scales * 4.0 * voxels * 4.0,
+        texel_loads: voxels * loads,
+        ..Default::default()
+    }
+}
+
 /// Raymarch of one frame from counted samples: each marched sample fetches I_norm; each
 /// classified sample also fetches the derived volumes (1, or 2 with stored normals), or makes 6
 /// (19 with curvature) extra I_norm fetches on the fly. The image is written once (4 bytes a

@@ -291,26 +291,12 @@ fn derivatives(ctx: &PlanContext, outputs: &DerivativeOutputs) -> PassDeclaratio
 }
 
 /// The vessel channel's multi-scale vesselness (`passes::vesselness`): the response is held,
-/// the two scratch volumes live for the pass. Cost per scale: three separable Gaussian passes
-/// (2r + 1 loads per texel, r = 3 sigma, sigma's mm counted as voxels: exact at 1 mm) and the
-/// Hessian/Frangi pass (19 loads).
+/// the two scratch volumes live for the pass; its cost is `cost::vesselness`.
 fn vesselness(ctx: &PlanContext) -> PassDeclaration {
     use crate::passes::vesselness::{VesselnessParams, vesselness_descs};
     let [response, scratch_a, scratch_b] = vesselness_descs(ctx.extent);
     let params = VesselnessParams::default();
-    let n = ctx.voxels() as f64;
-    let loads_per_texel: f64 = params
-        .scales_mm
-        .iter()
-        .map(|&sigma| 3.0 * (2.0 * (3.0 * sigma as f64).ceil() + 1.0) + 19.0)
-        .sum();
-    let scales = params.scales_mm.len() as f64;
-    let cost = PassCost {
-        bytes_read: scales * 4.0 * n * 4.0,
-        bytes_written: scales * 4.0 * n * 4.0,
-        texel_loads: n * loads_per_texel,
-        ..Default::default()
-    };
+    let cost = crate::passes::cost::vesselness(ctx.voxels() as f64, &params.scales_mm);
     PassDeclaration {
         passes: vec![pass(
             "vesselness",
