@@ -27,6 +27,8 @@ fn gpu_render(
     let frame = engine
         .render(&mut target, prepared, Some(derived), scene)
         .unwrap();
+    // Skipping stays on with the vessel channel (lossless: the comparisons below hold).
+    assert!(frame.skipped_empty_space || !scene.effects.vessels);
     frame
         .values
         .chunks_exact(4)

@@ -19,6 +19,8 @@ pub struct Derived {
     /// The multi-scale vesselness (R32F, `Access::ComputeSampled`) when
     /// `DerivativeOutputs::vesselness` asked for it.
     pub vesselness: Option<Arc<Image>>,
+    /// The vesselness's per-brick ranges (for empty-space skipping with the vessel channel).
+    pub vessel_ranges: Option<Arc<crate::scene::occupancy::BrickRanges>>,
 }
 
 /// The derivative pass's max |g| slots and their host copy (as [`Engine::derive`] creates them,
@@ -44,6 +46,13 @@ impl Engine {
             let params = crate::passes::vesselness::VesselnessParams::default();
             let vessels = self.vesselness(prepared, &params)?;
             derived.gpu_timings.extend(vessels.gpu_timings);
+            // Its brick ranges, so empty-space skipping stays on (and lossless) with vessels.
+            let (ranges, timings) = self.ranges_of(&vessels.image)?;
+            derived.gpu_timings.extend(timings.into_iter().map(|mut t| {
+                t.name = "vesselness brick ranges".into();
+                t
+            }));
+            derived.vessel_ranges = Some(ranges);
             derived.vesselness = Some(vessels.image);
             derived.volumes.outputs.vesselness = true;
         }
@@ -159,6 +168,7 @@ impl Engine {
             stats,
             gpu_timings,
             vesselness: None,
+            vessel_ranges: None,
         })
     }
 }

@@ -38,6 +38,19 @@ impl Engine {
         if let Some(r) = prepared.brick_ranges.get() {
             return Ok((r.clone(), Vec::new()));
         }
+        let (ranges, timings) = self.ranges_of(&prepared.normalized)?;
+        Ok((
+            prepared.brick_ranges.get_or_init(|| ranges).clone(),
+            timings,
+        ))
+    }
+
+    /// Per-brick (min, max) of any whole single-channel float `image` (I_norm, the vesselness),
+    /// over each brick and its one-voxel halo, by the occupancy pass.
+    pub(super) fn ranges_of(
+        &mut self,
+        image: &Arc<crate::gpu::Image>,
+    ) -> GpuResult<(Arc<BrickRanges>, Vec<PassTiming>)> {
         self.occupancy_pass()?;
         self.counters.occupancy_runs += 1;
         let Some(pass) = &self.occupancy_pass else {
@@ -45,14 +58,14 @@ impl Engine {
                 "occupancy pass missing".into(),
             ));
         };
-        let grid = brick_grid(prepared.dims);
+        let grid = brick_grid(image.extent());
         let bricks = (grid[0] * grid[1] * grid[2]) as u64;
         let [gpu, host] = brick_range_descs(bricks);
         let gpu = Buffer::new(&self.device, gpu)?;
         let host = Buffer::new(&self.device, host)?;
         let mut rec = Recording::new(&self.device, "brick ranges")?;
         rec.begin_pass("occupancy");
-        pass.record(&mut rec, &prepared.normalized, &self.nearest, &gpu)?;
+        pass.record(&mut rec, image, &self.nearest, &gpu)?;
         rec.end_pass();
         // Orders the range writes before the copy, and the copy before the host reads it.
         rec.barriers(
@@ -77,10 +90,7 @@ impl Engine {
             side: BRICK_SIDE,
             ranges,
         });
-        Ok((
-            prepared.brick_ranges.get_or_init(|| ranges).clone(),
-            timings,
-        ))
+        Ok((ranges, timings))
     }
 }
 
@@ -89,6 +99,7 @@ pub(super) struct OccupancyCache {
     pub(super) ranges: Arc<BrickRanges>,
     pub(super) classification: Classification,
     pub(super) labels: Option<Arc<Vec<u32>>>,
+    pub(super) vessels: Option<Arc<BrickRanges>>,
     pub(super) bits: Vec<u32>,
     pub(super) occupied: f64,
     // Starts at 1 and grows with every recomputation (0: a slot holds nothing yet).
@@ -102,11 +113,17 @@ impl OccupancyCache {
         ranges: &Arc<BrickRanges>,
         scene: &Scene,
         labels: Option<Arc<Vec<u32>>>,
+        vessels: Option<&Arc<BrickRanges>>,
     ) -> Option<&'a OccupancyCache> {
         let fresh = slot.as_ref().is_some_and(|c| {
             Arc::ptr_eq(&c.ranges, ranges)
                 && c.classification == scene.classification
                 && match (&c.labels, &labels) {
+                    (None, None) => true,
+                    (Some(a), Some(b)) => Arc::ptr_eq(a, b),
+                    _ => false,
+                }
+                && match (&c.vessels, vessels) {
                     (None, None) => true,
                     (Some(a), Some(b)) => Arc::ptr_eq(a, b),
                     _ => false,
@@ -120,6 +137,13 @@ impl OccupancyCache {
                     *word |= extra;
                 }
             }
+            // Bricks where the vessel channel can be non-zero (its own ranges, same grid).
+            if let Some(vessel_ranges) = vessels {
+                let vessel_bits = vessel_ranges.vessel_bits(&scene.classification);
+                for (word, extra) in bits.iter_mut().zip(vessel_bits) {
+                    *word |= extra;
+                }
+            }
             let occupied = bits.iter().map(|w| w.count_ones() as u64).sum::<u64>() as f64
                 / ranges.ranges.len().max(1) as f64;
             let generation = slot.as_ref().map_or(1, |c| c.generation + 1);
@@ -127,6 +151,7 @@ impl OccupancyCache {
                 ranges: ranges.clone(),
                 classification: scene.classification,
                 labels,
+                vessels: vessels.cloned(),
                 bits,
                 occupied,
                 generation,

@@ -354,13 +354,23 @@ impl Engine {
         let (label_values, label_colours, label_bits) =
             self.label_inputs(target, prepared, scene, frame_slot)?;
         variant.labels = label_bits.is_some();
+        // Skipping with vessels needs the vesselness's brick ranges (lossless only with them).
+        if variant.vessels && derived.and_then(|d| d.vessel_ranges.as_ref()).is_none() {
+            variant.skip_empty = false;
+        }
         target.next_uniforms = (target.next_uniforms + 1) % FRAMES_IN_FLIGHT;
         let mut bricks = [1, 1, 1, BRICK_SIDE];
         let occupancy = if variant.skip_empty {
             let ranges = self.brick_ranges(prepared)?;
-            let cache =
-                OccupancyCache::update(&mut target.occupancy_cache, &ranges, scene, label_bits)
-                    .ok_or_else(|| GpuError::Internal("the occupancy cache is empty".into()))?;
+            let vessel_ranges = derived.and_then(|d| d.vessel_ranges.as_ref());
+            let cache = OccupancyCache::update(
+                &mut target.occupancy_cache,
+                &ranges,
+                scene,
+                label_bits,
+                vessel_ranges.filter(|_| variant.vessels),
+            )
+            .ok_or_else(|| GpuError::Internal("the occupancy cache is empty".into()))?;
             let (generation, occupied) = (cache.generation, cache.occupied);
             // Nothing to skip: the lookups would only cost (lossless either way).
             variant.skip_empty = occupied <= MAX_OCCUPANCY_FOR_SKIPPING;

@@ -6,7 +6,8 @@
 //! occupied when its range meets the open support `(lo - e, hi + e)` of any visible tissue window
 //! with non-zero opacity (outside it the smoothstep weight is exactly 0), widened by 1e-6 so f32
 //! rounding of the window bounds on the GPU can never turn a zero weight into a non-zero one:
-//! skipping is conservative, hence lossless.
+//! skipping is conservative, hence lossless. The vessel channel is the same test on the
+//! ranges of the vesselness volume ([`BrickRanges::vessel_bits`], ORed in by the engine).
 //!
 //! What a brick must hold to matter depends on the mode, because each mode reads the volume
 //! differently ([`BrickRanges::needed_bits`], which decides a bricked volume's resident bricks):
@@ -51,6 +52,22 @@ impl BrickRanges {
         for (b, &(lo, hi)) in self.ranges.iter().enumerate() {
             let (lo, hi) = (lo as f64, hi as f64);
             if supports.iter().any(|&(s_lo, s_hi)| hi > s_lo && lo < s_hi) {
+                bits[b / 32] |= 1 << (b % 32);
+            }
+        }
+        bits
+    }
+
+    /// One bit per brick of these (vesselness) ranges: set where the vessel channel's window
+    /// can be non-zero (the same conservative support test as the tissues').
+    pub fn vessel_bits(&self, classification: &Classification) -> Vec<u32> {
+        let w = classification.vessels.window;
+        let e = w.edge.max(MIN_EDGE);
+        let (s_lo, s_hi) = (w.lo - e - MARGIN, w.hi + e + MARGIN);
+        let drawn = classification.vessels.opacity > 0.0;
+        let mut bits = vec![0u32; self.ranges.len().div_ceil(32).max(1)];
+        for (b, &(lo, hi)) in self.ranges.iter().enumerate() {
+            if drawn && (hi as f64) > s_lo && (lo as f64) < s_hi {
                 bits[b / 32] |= 1 << (b % 32);
             }
         }

@@ -45,9 +45,9 @@ impl RaymarchVariant {
                 Interpolation::Tricubic => 2,
             },
             naive_opacity: dvr && q.opacity_correction == OpacityCorrection::Naive,
-            // The occupancy bits know the tissue windows on I_norm, not the vesselness, so
-            // skipping would drop vessels: lossless only without the vessel channel.
-            skip_empty: dvr && q.empty_space_skipping && !effects.vessels,
+            // With the vessel channel the engine ORs in the bricks its window can see on the
+            // vesselness's own ranges (engine/occupancy.rs), so skipping stays lossless.
+            skip_empty: dvr && q.empty_space_skipping,
             count_samples,
             bricked,
             // Set by the engine where a label overlay is attached to the render target.
