@@ -313,6 +313,46 @@ fn tissues_vessels_renders_the_vessels_and_plans_the_vesselness_only_for_dvr() {
     };
     assert!(passes(&[]).contains(&"vesselness".to_string()));
     assert!(!passes(&["--mode", "mip"]).contains(&"vesselness".to_string()));
+    // The vessel channel's colour, window and opacity from the command line (`vessels=`).
+    let green = dir.join("green.png");
+    let args = [
+        "render",
+        path,
+        "--size",
+        "96x96",
+        "--tissues",
+        "vessels",
+        "--color",
+        "vessels=#00ff00",
+    ];
+    let o = morphray(&[&args[..], &["-o", green.to_str().unwrap()]].concat());
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (g, r) = (green_pixels(&green), crimson_pixels(&green, [0, 0, 96, 96]));
+    assert!(g > 20 && r == 0, "{g} green, {r} crimson px");
+    let none = dir.join("none.png");
+    let o = morphray(
+        &[
+            &args[..],
+            &["--opacity", "vessels=0", "-o", none.to_str().unwrap()],
+        ]
+        .concat(),
+    );
+    assert!(o.status.success());
+    assert_eq!(green_pixels(&none), 0, "opacity 0 hides the channel");
+    let narrow = dir.join("narrow.png");
+    let o = morphray(
+        &[
+            &args[..],
+            &["--window", "vessels=0.7:1", "-o", narrow.to_str().unwrap()],
+        ]
+        .concat(),
+    );
+    assert!(o.status.success());
+    let n = green_pixels(&narrow);
+    assert!(
+        n < g,
+        "a narrower vesselness window shows less: {n} vs {g} px"
+    );
     // An unknown name lists the channel among the accepted ones.
     let o = morphray(&[
         "render",
@@ -323,4 +363,14 @@ fn tissues_vessels_renders_the_vessels_and_plans_the_vesselness_only_for_dvr() {
         out.to_str().unwrap(),
     ]);
     assert!(String::from_utf8_lossy(&o.stderr).contains("pathology, vessels"));
+}
+
+fn green_pixels(path: &std::path::Path) -> usize {
+    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(path).unwrap()));
+    let mut reader = decoder.read_info().unwrap();
+    let mut rgba = vec![0; reader.output_buffer_size().unwrap()];
+    reader.next_frame(&mut rgba).unwrap();
+    rgba.chunks_exact(4)
+        .filter(|p| p[1] > 40 && u32::from(p[1]) > 2 * u32::from(p[0].max(p[2])))
+        .count()
 }

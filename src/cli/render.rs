@@ -17,6 +17,7 @@ use super::args::{
     GradientArg, ModeArg, PrecisionArg, ProjectionArg, RenderArgs, SceneArgs, Switch, WindowsArg,
 };
 use super::output::{ms, print_line, print_warnings};
+use super::scene_args::Channel;
 use super::session;
 use crate::analysis::{Contrast, ContrastBasis, TissueReport};
 use crate::error::Error;
@@ -25,10 +26,47 @@ use crate::files::write::{OutputKind, check_output};
 use crate::scene::visibility::{EmptyScene, pixels_off_background, predict_empty};
 use crate::scene::{
     Camera, DerivedPrecision, GradientSource, Projection, RenderMode, Scene, SceneRecipe,
-    TissueClass, WindowSet,
+    TissueClass, VesselStyle, WindowSet,
 };
 use ash::vk;
 use std::path::{Path, PathBuf};
+
+/// The tissue entries of a `--window`/`--opacity`/`--color` list, in order.
+fn tissues_only<'a, T, V: 'a>(
+    entries: &'a [T],
+    split: impl Fn(&T) -> (Channel, V) + 'a,
+) -> impl Iterator<Item = (TissueClass, V)> + 'a {
+    entries.iter().filter_map(move |e| match split(e) {
+        (Channel::Tissue(t), v) => Some((t, v)),
+        (Channel::Vessels, _) => None,
+    })
+}
+
+/// The vessel channel's style from the `vessels=` entries (later ones win), or None.
+fn vessel_style(args: &SceneArgs) -> Option<VesselStyle> {
+    let mut style = VesselStyle::default();
+    let mut set = false;
+    for &(channel, lo, hi) in &args.window {
+        if channel == Channel::Vessels {
+            style.window.lo = lo;
+            style.window.hi = hi;
+            set = true;
+        }
+    }
+    for &(channel, x) in &args.opacity {
+        if channel == Channel::Vessels {
+            style.opacity = x;
+            set = true;
+        }
+    }
+    for &(channel, rgb) in &args.color {
+        if channel == Channel::Vessels {
+            style.colour = rgb;
+            set = true;
+        }
+    }
+    set.then_some(style)
+}
 
 /// The scene recipe the arguments describe (the library builds the scene from it around each
 /// volume's analysis). Fails on an unknown tissue name and on what `SceneRecipe::check` refuses.
@@ -76,9 +114,12 @@ pub fn recipe_from_args(args: &SceneArgs) -> Result<SceneRecipe, Error> {
             WindowsArg::Paper => WindowSet::Paper,
         },
         visible: Some(visible),
-        window: args.window.clone(),
-        opacity: args.opacity.clone(),
-        colour: args.color.clone(),
+        window: tissues_only(&args.window, |&(c, lo, hi)| (c, (lo, hi)))
+            .map(|(t, (lo, hi))| (t, lo, hi))
+            .collect(),
+        opacity: tissues_only(&args.opacity, |&(c, x)| (c, x)).collect(),
+        colour: tissues_only(&args.color, |&(c, rgb)| (c, rgb)).collect(),
+        vessel_style: vessel_style(args),
         camera: Camera {
             azimuth_deg: args.view.angles().map_or(args.azimuth, |a| a.0),
             elevation_deg: args.view.angles().map_or(args.elevation, |a| a.1),

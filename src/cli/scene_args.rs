@@ -151,16 +151,17 @@ pub struct SceneArgs {
     /// are): TISSUE=LO:HI, repeatable (`--window wm=0.7:0.95 --window gm=0.5:0.7`).
     ///
     /// Replaces the adaptive or paper window of that tissue; the viewer's bands do the same.
+    /// `vessels=LO:HI` sets the vessel channel's window, on the vesselness (0..1).
     #[arg(long = "window", value_name = "TISSUE=LO:HI", value_parser = parse_window)]
-    pub window: Vec<(TissueClass, f64, f64)>,
+    pub window: Vec<(Channel, f64, f64)>,
     /// A tissue's opacity per mm of ray, 0..1: TISSUE=X, repeatable (`--opacity csf=0.1`).
     #[arg(long = "opacity", visible_alias = "tissue-opacity", value_name = "TISSUE=X", value_parser = parse_opacity)]
-    pub opacity: Vec<(TissueClass, f32)>,
+    pub opacity: Vec<(Channel, f32)>,
     /// A tissue's colour: TISSUE=#RRGGBB or TISSUE=R,G,B (0..255), repeatable
     ///
     /// `--color wm=#f0f0e0` gives white matter an off-white.
     #[arg(long = "color", visible_alias = "tissue-color", value_name = "TISSUE=#RRGGBB", value_parser = parse_tissue_colour)]
-    pub color: Vec<(TissueClass, [f32; 3])>,
+    pub color: Vec<(Channel, [f32; 3])>,
     /// Crop, clip planes and colour map (src/cli/clip.rs).
     #[command(flatten)]
     pub clip: super::clip::ClipArgs,
@@ -177,17 +178,31 @@ fn parse_denoise(text: &str) -> Result<crate::passes::denoise::Denoise, String> 
     text.parse()
 }
 
-/// `TISSUE=REST` split, with the tissue named as on the command line.
-fn tissue_and(text: &str) -> Result<(TissueClass, &str), String> {
+/// What `--window`, `--opacity` and `--color` set: a tissue, or the vessel channel (`vessels`,
+/// whose window is on the vesselness 0..1 rather than I_norm).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Channel {
+    /// One of the four tissue classes.
+    Tissue(TissueClass),
+    /// The vessel channel.
+    Vessels,
+}
+
+/// `TISSUE=REST` split, with the tissue (or `vessels`) named as on the command line.
+fn tissue_and(text: &str) -> Result<(Channel, &str), String> {
     let (name, rest) = text
         .split_once('=')
         .ok_or_else(|| format!("`{text}`: expected TISSUE=VALUE, e.g. wm=0.7:0.95"))?;
+    if name.trim().eq_ignore_ascii_case("vessels") {
+        return Ok((Channel::Vessels, rest));
+    }
     let tissue = TissueClass::parse(name)
-        .ok_or_else(|| format!("unknown tissue `{name}`; use csf, gm, wm or pathology"))?;
-    Ok((tissue, rest))
+        .ok_or_else(|| format!("unknown tissue `{name}`; use csf, gm, wm, pathology or vessels"))?;
+    Ok((Channel::Tissue(tissue), rest))
 }
 
-fn parse_window(text: &str) -> Result<(TissueClass, f64, f64), String> {
+fn parse_window(text: &str) -> Result<(Channel, f64, f64), String> {
     let (tissue, rest) = tissue_and(text)?;
     let (lo, hi) = rest
         .split_once(':')
@@ -209,7 +224,7 @@ fn parse_window(text: &str) -> Result<(TissueClass, f64, f64), String> {
     Ok((tissue, lo, hi))
 }
 
-fn parse_opacity(text: &str) -> Result<(TissueClass, f32), String> {
+fn parse_opacity(text: &str) -> Result<(Channel, f32), String> {
     let (tissue, rest) = tissue_and(text)?;
     let x: f32 = rest
         .trim()
@@ -221,7 +236,7 @@ fn parse_opacity(text: &str) -> Result<(TissueClass, f32), String> {
     Ok((tissue, x))
 }
 
-fn parse_tissue_colour(text: &str) -> Result<(TissueClass, [f32; 3]), String> {
+fn parse_tissue_colour(text: &str) -> Result<(Channel, [f32; 3]), String> {
     let (tissue, rest) = tissue_and(text)?;
     Ok((tissue, parse_colour(rest)?))
 }

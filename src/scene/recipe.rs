@@ -13,7 +13,7 @@
 //!   `recipe.effects` once, before the file is read, and the scene gets the planned (possibly
 //!   degraded) effects afterwards.
 
-use super::{Camera, Classification, Clip, Colormap, Effects, Scene, TissueClass};
+use super::{Camera, Classification, Clip, Colormap, Effects, Scene, TissueClass, VesselStyle};
 use crate::analysis::TissueReport;
 
 /// Which tissue windows a scene starts from.
@@ -39,6 +39,9 @@ pub struct SceneRecipe {
     pub opacity: Vec<(TissueClass, f32)>,
     /// Colours (RGB 0..1), in order.
     pub colour: Vec<(TissueClass, [f32; 3])>,
+    /// The vessel channel's style (window on the vesselness, colour, opacity); None keeps the
+    /// default. Whether it is drawn is `effects.vessels`.
+    pub vessel_style: Option<VesselStyle>,
     /// A classification to use as it is, instead of `windows`, `visible`, `window`, `opacity`
     /// and `colour` (a client opening a volume again for the scene it shows).
     pub classification: Option<Classification>,
@@ -112,6 +115,7 @@ impl SceneRecipe {
             window: Vec::new(),
             opacity: Vec::new(),
             colour: Vec::new(),
+            vessel_style: None,
             classification: Some(scene.classification),
             camera: scene.camera,
             effects: scene.effects,
@@ -164,6 +168,9 @@ impl SceneRecipe {
         }
         for &(tissue, colour) in &self.colour {
             classification.style_mut(tissue).colour = colour;
+        }
+        if let Some(style) = self.vessel_style {
+            classification.vessels = style;
         }
         classification
     }
