@@ -180,13 +180,22 @@ fn parse_denoise(text: &str) -> Result<crate::passes::denoise::Denoise, String> 
 
 /// What `--window`, `--opacity` and `--color` set: a tissue, or the vessel channel (`vessels`,
 /// whose window is on the vesselness 0..1 rather than I_norm).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "snake_case")]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Channel {
     /// One of the four tissue classes.
     Tissue(TissueClass),
     /// The vessel channel.
     Vessels,
+}
+
+impl serde::Serialize for Channel {
+    /// As on the command line (`wm`, `vessels`), so a picture's recorded arguments read as typed.
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        match self {
+            Channel::Tissue(t) => serializer.serialize_str(t.name()),
+            Channel::Vessels => serializer.serialize_str("vessels"),
+        }
+    }
 }
 
 /// `TISSUE=REST` split, with the tissue (or `vessels`) named as on the command line.
