@@ -12,6 +12,8 @@
 //! opens a device; without a file the input is the phantom written as .nii.gz, so reading and
 //! inflating are part of it.
 
+mod derived;
+
 use super::args::BenchArgs;
 use super::output::{json, print_line, print_warnings};
 use super::progress::say;
@@ -20,7 +22,6 @@ use crate::engine::plan::{Layout, Plan};
 use crate::error::Error;
 use crate::files::write::{OutputKind, check_output, write_file};
 use crate::passes::cost::{self, DeviceModel, H100, PassCost, XE_LP};
-use crate::passes::derivatives::DerivativeOutputs;
 use crate::scene::{GradientSource, RenderMode};
 use ash::vk;
 use std::time::Instant;
@@ -357,91 +358,20 @@ pub fn run(args: &BenchArgs, global: &super::GlobalOptions) -> Result<(), Error>
         passes.push(pass_report("denoise", &[ms], c, copy, documented));
     }
 
-    // Derivative variants, repeated.
-    let all_variants = [
-        (
-            "derivatives |g|",
-            DerivativeOutputs {
-                magnitude: true,
-                curvature: false,
-                normal: false,
-                ..Default::default()
-            },
-        ),
-        (
-            "derivatives |g|,k",
-            DerivativeOutputs {
-                magnitude: true,
-                curvature: true,
-                normal: false,
-                ..Default::default()
-            },
-        ),
-        (
-            "derivatives |g|,k,normals",
-            DerivativeOutputs {
-                magnitude: true,
-                curvature: true,
-                normal: true,
-                ..Default::default()
-            },
-        ),
-        ("derivatives max only", DerivativeOutputs::default()),
-    ];
-    let planned: Vec<(String, DerivativeOutputs)> = scene
-        .effects
-        .derivative_outputs()
-        .map(|o| (format!("derivatives (planned, {:?})", o.precision), o))
-        .into_iter()
-        .collect();
-    let variants: Vec<(String, DerivativeOutputs)> = if full_study {
-        all_variants
-            .iter()
-            .map(|(name, o)| (name.to_string(), *o))
-            .collect()
-    } else {
-        planned
+    // Derived volumes (every derivative variant, or the planned one) and the vesselness.
+    let rates = derived::Rates {
+        copy,
+        documented,
+        normalized_bytes,
+        repeat: args.repeat,
     };
-    let texels = opened
-        .twin
-        .prepared
-        .normalized
-        .extent()
-        .iter()
-        .map(|&d| d as f64)
-        .product::<f64>();
-    for (name, outputs) in variants {
-        let mut times = Vec::new();
-        for _ in 0..args.repeat {
-            let derived = opened.engine.derive(&opened.twin.prepared, outputs)?;
-            times.extend(times_of(&derived.gpu_timings, "derivatives"));
-        }
-        let gradient_bytes = if outputs.magnitude || outputs.curvature {
-            outputs.gradient_texel_bytes() as f64
-        } else {
-            0.0
-        };
-        let c = cost::derivatives(
-            texels,
-            normalized_bytes,
-            outputs.curvature,
-            outputs.normal,
-            gradient_bytes,
-        );
-        passes.push(pass_report(&name, &times, c, copy, documented));
-    }
-
-    // The vessel channel's vesselness (all scales, one timed pass), when the scene shows vessels.
-    if scene.effects.vessels {
-        let params = crate::passes::vesselness::VesselnessParams::default();
-        let mut times = Vec::new();
-        for _ in 0..args.repeat {
-            let v = opened.engine.vesselness(&opened.twin.prepared, &params)?;
-            times.extend(times_of(&v.gpu_timings, "vesselness"));
-        }
-        let c = cost::vesselness(texels, &params.scales_mm);
-        passes.push(pass_report("vesselness", &times, c, copy, documented));
-    }
+    passes.extend(derived::reports(
+        &mut opened.engine,
+        &opened.twin.prepared,
+        &scene.effects,
+        full_study,
+        &rates,
+    )?);
 
     // Raymarch over an orbit: warm-up, timed frames without readback, then counted frames.
     let mut target = opened

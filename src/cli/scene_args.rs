@@ -107,7 +107,7 @@ pub struct SceneArgs {
     /// What each ray computes.
     #[arg(long, value_enum, default_value_t = ModeArg::Dvr)]
     pub mode: ModeArg,
-    /// Visible tissue classes, comma-separated, from csf, gm, wm, pathology, vessels
+    /// Visible tissues, comma-separated: csf, gm, wm, pathology, vessels
     ///
     /// `--tissues pathology` alone "unmasks" lesions and vessels; `vessels` is the vessel
     /// channel, classified on the multi-scale vesselness instead of intensity (computed only when
@@ -124,13 +124,16 @@ pub struct SceneArgs {
     /// brighten with it.
     #[arg(long, default_value_t = 0.5, value_parser = parse_finite)]
     pub step: f64,
-    /// Curvature weight w(k) = 1 + s*tanh(|k|/k_ref) on opacity (paper eq. 4), emphasizing thin,
-    /// folded structures; computes the Hessian.
+    /// Curvature weight w(k) = 1 + s*tanh(|k|/k_ref) on opacity (paper eq. 4)
+    ///
+    /// Emphasizes thin, folded structures; computes the Hessian.
     #[arg(long, value_enum, default_value_t = Switch::Off)]
     pub curvature: Switch,
-    /// Phong shading with world-space gradient normals (headlight). Default: on for `render`
-    /// (a still: a shaded surface, at about 11 % of a frame on the H100, BENCHMARKS.md), off for
-    /// the interactive and measuring commands.
+    /// Phong shading with gradient normals: on by default for `render`, off for the others
+    ///
+    /// A headlight with world-space gradient normals. A still is a shaded surface, at about 11 %
+    /// of a frame on the H100 (BENCHMARKS.md); the interactive and measuring commands leave it
+    /// off unless asked.
     #[arg(long, value_enum)]
     pub shading: Option<Switch>,
     /// Where the gradient term comes from.
@@ -147,9 +150,9 @@ pub struct SceneArgs {
     /// Disable the per-pixel jitter of ray starts (shows wood-grain banding; for comparisons).
     #[arg(long)]
     pub no_jitter: bool,
-    /// A tissue's window by hand, in I_norm units (0..1; `morphray peaks` shows where the modes
-    /// are): TISSUE=LO:HI, repeatable (`--window wm=0.7:0.95 --window gm=0.5:0.7`).
+    /// A tissue's window by hand, in I_norm (0..1): TISSUE=LO:HI, repeatable
     ///
+    /// `morphray peaks` shows where the modes are (`--window wm=0.7:0.95 --window gm=0.5:0.7`).
     /// Replaces the adaptive or paper window of that tissue; the viewer's bands do the same.
     /// `vessels=LO:HI` sets the vessel channel's window, on the vesselness (0..1).
     #[arg(long = "window", value_name = "TISSUE=LO:HI", value_parser = parse_window)]
@@ -168,8 +171,10 @@ pub struct SceneArgs {
     /// A standard view (src/cli/view_preset.rs).
     #[command(flatten)]
     pub view: super::view_preset::ViewPresetArgs,
-    /// Denoise I_norm before the derivatives and the raymarch: none, gaussian:SIGMA_MM, median
-    /// or bilateral:SIGMA_MM,RANGE (whole volumes only: a bricked one is refused).
+    /// Denoise I_norm first: none, gaussian:SIGMA_MM, median or bilateral:SIGMA_MM,RANGE
+    ///
+    /// The derivatives and the raymarch read the filtered volume. Whole volumes only: a bricked
+    /// one is refused.
     #[arg(long, default_value = "none", value_parser = parse_denoise)]
     pub denoise: crate::passes::denoise::Denoise,
 }

@@ -28,11 +28,11 @@
 //!   at the front and back; a lesion sphere in the left hemisphere's WM (world x < 0, RAS);
 //!   vessels: the superior sagittal sinus along the top of the fissure in the CSF layer, a
 //!   pericallosal artery at the fissure bottom, one Sylvian (MCA-like) artery on each side, and
-//!   vessels of radii 3, 2, 1, 0.5 mm in the WM (phantom_vessels.rs). Edema: phantom_edema.rs.
+//!   vessels of radii 3, 2, 1, 0.5 mm in the WM (phantom_vessels.rs); edema (phantom_edema.rs).
 //! - Partial volume: each structure has a signed distance in voxels; its weight is a linear ramp
-//!   over one voxel centred on the boundary, and structures are blended in nesting order
-//!   (head, CSF, GM, WM, ventricles, edema, lesion, vessels). The label is the last structure whose
-//!   weight at the voxel centre is >= 0.5, which is also the dominant one in the blend.
+//!   over one voxel centred on the boundary, structures blended in nesting order (head, CSF, GM,
+//!   WM, ventricles, edema, lesion, vessels); the label is the last one weighing >= 0.5 at the
+//!   voxel centre, which is also the dominant one in the blend.
 //! - Bias: smooth multiplicative field 1 + 0.07 f(p), |f| <= 1 (about +-7 %), applied to the
 //!   tissue signal. Noise (when `noise`): Rician magnitude sqrt((s + sigma n1)^2 + (sigma n2)^2)
 //!   with sigma = 20 (2.4 % of WM), so the background is a positive Rayleigh floor (mean ~25).
@@ -503,12 +503,8 @@ impl Geometry {
         let dl = norm3(std::array::from_fn(|a| v[a] - self.lesion_centre[a]));
         let edema = super::phantom_edema::inside(dl, self.lesion_radius, self.edema_thickness);
         layer(&mut signal, &mut label, edema, Tissue::Edema);
-        layer(
-            &mut signal,
-            &mut label,
-            self.lesion_radius - dl,
-            Tissue::Lesion,
-        );
+        let lesion = self.lesion_radius - dl;
+        layer(&mut signal, &mut label, lesion, Tissue::Lesion);
 
         // The older vessels (radius floored) and the known radii, as one structure.
         let vessel =
