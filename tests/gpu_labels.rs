@@ -6,8 +6,8 @@
 mod common;
 
 use ash::vk;
+use common::pictures::prepared_scene;
 use common::volumes::{Rng, smooth_field, volume_with_affine};
-use morphray::analysis::analyze;
 use morphray::engine::readback::read_image;
 use morphray::engine::{Derived, Engine, LabelVolume, PreparedVolume, label_colours};
 use morphray::gpu::Access;
@@ -16,7 +16,7 @@ use morphray::reference::raymarch::{
 };
 use morphray::scene::overlay::{LabelTable, Labels};
 use morphray::scene::uniforms::GradientStats;
-use morphray::scene::{Classification, GradientSource, Scene, VolumeGeometry};
+use morphray::scene::{GradientSource, Scene, VolumeGeometry};
 use morphray::volume::Samples;
 use morphray::volume::phantom::{PhantomSpec, generate};
 use std::collections::BTreeSet;
@@ -33,23 +33,7 @@ fn prepare(
     volume: &morphray::volume::Volume,
     edit: impl Fn(&mut Scene),
 ) -> Case {
-    let prepared = engine.prepare(volume).unwrap();
-    let (imin, imax) = (
-        prepared.normalization.imin.unwrap(),
-        prepared.normalization.imax.unwrap(),
-    );
-    let report = analyze(
-        &prepared.histogram,
-        imin,
-        imax,
-        prepared.voxel_count as usize,
-        0,
-    );
-    let mut scene = Scene::new(Classification::from_tissue_windows(
-        &report.adaptive_windows,
-    ));
-    scene.camera.azimuth_deg = 35.0;
-    scene.camera.elevation_deg = 25.0;
+    let (prepared, mut scene) = prepared_scene(engine, volume);
     // On-the-fly gradients: the reference then needs only I_norm, also with shading.
     scene.effects.gradient_source = GradientSource::OnTheFly;
     edit(&mut scene);

@@ -2,6 +2,9 @@
 //! side where the lesion is, a bricked volume refused with a way out, a bad opacity refused.
 //! Runs the binary on lavapipe (or any Vulkan device) with the validation layer required.
 
+mod common;
+
+use common::pictures::{Picture, dominant};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -41,15 +44,6 @@ fn phantom(dir: &Path) -> (PathBuf, PathBuf, PathBuf) {
     (volume, labels, lut)
 }
 
-fn rgb_pixels(path: &Path) -> (u32, Vec<[u8; 3]>) {
-    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(path).unwrap()));
-    let mut reader = decoder.read_info().unwrap();
-    let mut rgba = vec![0; reader.output_buffer_size().unwrap()];
-    let info = reader.next_frame(&mut rgba).unwrap();
-    let pixels = rgba.chunks_exact(4).map(|p| [p[0], p[1], p[2]]).collect();
-    (info.width, pixels)
-}
-
 #[test]
 fn the_lesion_label_is_drawn_in_3d_on_the_lesions_side_and_bricking_is_refused() {
     let dir = temp_dir("render");
@@ -83,25 +77,17 @@ fn the_lesion_label_is_drawn_in_3d_on_the_lesions_side_and_bricking_is_refused()
     assert!(stdout.contains("overlay: 7 labels drawn in 3D"), "{stdout}");
     // Anterior view: the patient faces the viewer, so the left-hemisphere lesion is drawn on
     // the image's right. Green pixels are the label's (no tissue colour is green).
-    let (width, pixels) = rgb_pixels(&out);
-    let green: Vec<usize> = (0..pixels.len())
-        .filter(|&i| {
-            let p = pixels[i];
-            p[1] > 80 && u32::from(p[1]) > 2 * u32::from(p[0].max(p[2]))
-        })
-        .collect();
+    let picture = Picture::read(&out);
+    let green = picture.find(None, dominant(1));
     assert!(
         green.len() > 5,
         "the lesion label is drawn ({} px)",
         green.len()
     );
-    let mean_x = green
-        .iter()
-        .map(|&i| (i % width as usize) as f64)
-        .sum::<f64>()
-        / green.len() as f64;
+    let mean_x = green.iter().map(|&(x, _)| x as f64).sum::<f64>() / green.len() as f64;
+    let width = picture.width as f64;
     assert!(
-        mean_x > width as f64 / 2.0,
+        mean_x > width / 2.0,
         "on the image's right: mean x {mean_x:.1} of {width}"
     );
     // Without the overlay: no green at all.
@@ -115,12 +101,7 @@ fn the_lesion_label_is_drawn_in_3d_on_the_lesions_side_and_bricking_is_refused()
         plain.to_str().unwrap(),
     ]);
     assert!(o.status.success());
-    let (_, pixels) = rgb_pixels(&plain);
-    assert!(
-        !pixels
-            .iter()
-            .any(|p| p[1] > 80 && u32::from(p[1]) > 2 * u32::from(p[0].max(p[2])))
-    );
+    assert!(Picture::read(&plain).find(None, dominant(1)).is_empty());
     // Bricked: refused with the way out; nothing written.
     let bricked = dir.join("bricked.png");
     let o = morphray(

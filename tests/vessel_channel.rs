@@ -6,6 +6,7 @@
 mod common;
 
 use ash::vk;
+use common::pictures::{Picture, dominant};
 use morphray::engine::readback::read_image;
 use morphray::engine::{Derived, Engine, PreparedVolume, Twin};
 use morphray::gpu::Access;
@@ -176,19 +177,7 @@ fn the_default_vessel_window_keeps_the_phantoms_vessels_and_drops_its_parenchyma
 
 /// Crimson pixels (the vessel colour) of a PNG inside the 3D view's rectangle `[x, y, w, h]`.
 fn crimson_pixels(path: &std::path::Path, view: [u32; 4]) -> usize {
-    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(path).unwrap()));
-    let mut reader = decoder.read_info().unwrap();
-    let mut rgba = vec![0; reader.output_buffer_size().unwrap()];
-    let info = reader.next_frame(&mut rgba).unwrap();
-    let mut n = 0;
-    for y in view[1]..view[1] + view[3] {
-        for x in view[0]..view[0] + view[2] {
-            let i = 4 * (y * info.width + x) as usize;
-            let p = &rgba[i..i + 3];
-            n += usize::from(p[0] > 60 && u32::from(p[0]) > 2 * u32::from(p[1].max(p[2])));
-        }
-    }
-    n
+    Picture::read(path).find(Some(view), dominant(0)).len()
 }
 
 /// The 3D view's rectangle from the session log's layout line (`view X,Y,W,H`).
@@ -366,11 +355,5 @@ fn tissues_vessels_renders_the_vessels_and_plans_the_vesselness_only_for_dvr() {
 }
 
 fn green_pixels(path: &std::path::Path) -> usize {
-    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(path).unwrap()));
-    let mut reader = decoder.read_info().unwrap();
-    let mut rgba = vec![0; reader.output_buffer_size().unwrap()];
-    reader.next_frame(&mut rgba).unwrap();
-    rgba.chunks_exact(4)
-        .filter(|p| p[1] > 40 && u32::from(p[1]) > 2 * u32::from(p[0].max(p[2])))
-        .count()
+    Picture::read(path).find(None, dominant(1)).len()
 }

@@ -6,6 +6,7 @@
 
 pub mod bids;
 pub mod mni152;
+pub mod pictures;
 pub mod volumes;
 
 use morphray::engine::{Engine, EngineConfig};
