@@ -19,6 +19,7 @@
 //!   occupied (computed once, here, on the CPU), whatever the tissue windows say.
 
 use super::Engine;
+use super::prepare::{PreparedVolume, VolumeLayout};
 use super::render::RenderTarget;
 use super::upload::upload_samples;
 use crate::gpu::{Buffer, GpuError, GpuResult, Recording};
@@ -27,8 +28,6 @@ use crate::scene::overlay::{LabelTable, Labels};
 use crate::volume::Samples;
 use std::collections::BTreeSet;
 use std::sync::Arc;
-
-use super::prepare::{PreparedVolume, VolumeLayout};
 
 /// A label map on the GPU, on the grid of the volume it was resampled onto.
 pub struct LabelVolume {
