@@ -47,6 +47,11 @@ def parse_args():
         help="composite = DVR with gradient opacity and shading (default); mip = maximum intensity projection",
     )
     p.add_argument(
+        "--no-shade",
+        action="store_true",
+        help="composite without shading (the unshaded DVR morphray's default scene draws)",
+    )
+    p.add_argument(
         "--grad-max",
         type=float,
         default=None,
@@ -252,7 +257,10 @@ def main():
     prop.SetScalarOpacity(otf)
     prop.SetScalarOpacityUnitDistance(1.0)  # opacities are per mm, as morphray's
     prop.SetInterpolationTypeToLinear()
-    if args.blend == "composite":
+    if args.blend == "composite" and args.no_shade:
+        prop.SetGradientOpacity(gtf)
+        prop.ShadeOff()
+    elif args.blend == "composite":
         prop.SetGradientOpacity(gtf)
         prop.ShadeOn()
         # morphray's headlight Phong (shaders/raymarch.comp shade()): 0.35 ambient + 0.65 diffuse on

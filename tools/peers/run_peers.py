@@ -31,6 +31,7 @@ import common  # noqa: E402
 # name -> (script, extra arguments)
 PEERS = {
     "vtk-composite": ("peer_vtk.py", ["--blend", "composite"]),
+    "vtk-composite-plain": ("peer_vtk.py", ["--blend", "composite", "--no-shade"]),
     "vtk-mip": ("peer_vtk.py", ["--blend", "mip"]),
     "pygfx-mip": ("peer_pygfx.py", ["--step", "0.5"]),
     "pygfx-mip-stockstep": ("peer_pygfx.py", ["--step", "stock"]),
