@@ -5,7 +5,8 @@
 # `morphray bench` (1920x1080, step 0.5, curvature + shading, 100 orbit frames x 3, first pixel
 # from 5 fresh processes) and the peers on the same file (tools/peers: VTK 9.7.1 composite
 # shaded and plain, pygfx 0.17 MIP; 100 frames, 3 fresh processes each).
-# Carry the loader packages, a stripped release binary with the MNI152 copy, and the peers:
+# Carry the loader packages, .sv (morphray.xz: a stripped release binary, mni.nii.xz: the MNI152
+# copy, both xz -9e) and the peers:
 #   tools/peers/stage.sh; run(command="bash benches/device-scaling.sh", carry=[".glmin", ".sv", ".peers"])
 set -uo pipefail
 for f in .glmin/lib{vulkan1,egl1,glvnd0,opengl0,gl1,glx0,gles2}_*.deb; do dpkg -x "$f" /; done
@@ -15,20 +16,26 @@ OUT=${OUT:-/tmp/morphray-out}
 RAW=$(mktemp -d)  # everything, handed back as one archive (the machine returns few files)
 V=$(mktemp -d)
 mkdir -p "$OUT"
+# The binary and the MNI152 copy travel xz-compressed (the carry's 64 MiB holds the peers too).
+python3 -c 'import lzma,shutil,sys; shutil.copyfileobj(lzma.open(sys.argv[1]), open(sys.argv[2], "wb"))' \
+    .sv/morphray.xz /tmp/morphray && chmod +x /tmp/morphray
+python3 -c 'import lzma,gzip,shutil,sys; shutil.copyfileobj(lzma.open(sys.argv[1]), gzip.open(sys.argv[2], "wb", 6))' \
+    .sv/mni.nii.xz /tmp/mni152.nii.gz
+M=/tmp/morphray
 nvidia-smi --query-gpu=name,driver_version,clocks.sm,clocks.mem --format=csv,noheader | tee "$RAW/device.txt"
 for dims in 128x128x96 256x256x192 384x384x288 512x512x512; do
-    .sv/morphray phantom -o "$V/phantom-$dims.nii.gz" --dims "$dims" > /dev/null
+    $M phantom -o "$V/phantom-$dims.nii.gz" --dims "$dims" > /dev/null
 done
-.sv/morphray convert "$V/phantom-512x512x512.nii.gz" -o "$V/phantom-512x512x512.nii" > /dev/null 2>&1 \
+$M convert "$V/phantom-512x512x512.nii.gz" -o "$V/phantom-512x512x512.nii" > /dev/null 2>&1 \
     || python3 -c 'import gzip,shutil,sys; shutil.copyfileobj(gzip.open(sys.argv[1]), open(sys.argv[2], "wb"))' \
         "$V/phantom-512x512x512.nii.gz" "$V/phantom-512x512x512.nii"
-cp .sv/mni.nii.gz "$V/mni152.nii.gz"
+cp /tmp/mni152.nii.gz "$V/mni152.nii.gz"
 ls -l "$V" | tee "$RAW/volumes.txt"
 for vol in phantom-128x128x96.nii.gz phantom-256x256x192.nii.gz mni152.nii.gz \
     phantom-384x384x288.nii.gz phantom-512x512x512.nii.gz phantom-512x512x512.nii; do
     name=${vol//./-}
     echo "== $vol"
-    .sv/morphray bench "$V/$vol" --frames 100 --repeat 3 --trials 5 --size 1920x1080 \
+    $M bench "$V/$vol" --frames 100 --repeat 3 --trials 5 --size 1920x1080 \
         --curvature on --shading on --json "$RAW/bench-$name.json" > "$RAW/bench-$name.txt" 2>&1
     grep -E '^raymarch:|^time to first pixel|^first pixel' "$RAW/bench-$name.txt" | cut -c1-150
     case $vol in *.nii) continue ;; esac  # the peers read .nii.gz like .nii: once per volume
