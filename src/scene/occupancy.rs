@@ -23,6 +23,13 @@ use super::{RenderMode, Scene};
 /// Margin that keeps the f64 test conservative against the shader's f32 window bounds.
 const MARGIN: f64 = 1e-6;
 
+/// The open interval outside which `window`'s smoothstep weight is exactly 0, widened by
+/// [`MARGIN`].
+fn support(window: &super::Window) -> (f64, f64) {
+    let e = window.edge.max(MIN_EDGE);
+    (window.lo - e - MARGIN, window.hi + e + MARGIN)
+}
+
 /// Per-brick I_norm ranges of one volume.
 #[derive(Clone, Debug, PartialEq)]
 pub struct BrickRanges {
@@ -43,31 +50,29 @@ impl BrickRanges {
             .iter()
             .filter(|t| t.visible && t.opacity > 0.0)
             .filter_map(|t| t.window)
-            .map(|w| {
-                let e = w.edge.max(MIN_EDGE);
-                (w.lo - e - MARGIN, w.hi + e + MARGIN)
-            })
+            .map(|w| support(&w))
             .collect();
-        let mut bits = vec![0u32; self.ranges.len().div_ceil(32).max(1)];
-        for (b, &(lo, hi)) in self.ranges.iter().enumerate() {
-            let (lo, hi) = (lo as f64, hi as f64);
-            if supports.iter().any(|&(s_lo, s_hi)| hi > s_lo && lo < s_hi) {
-                bits[b / 32] |= 1 << (b % 32);
-            }
-        }
-        bits
+        self.bits_meeting(&supports)
     }
 
     /// One bit per brick of these (vesselness) ranges: set where the vessel channel's window
     /// can be non-zero (the same conservative support test as the tissues').
     pub fn vessel_bits(&self, classification: &Classification) -> Vec<u32> {
-        let w = classification.vessels.window;
-        let e = w.edge.max(MIN_EDGE);
-        let (s_lo, s_hi) = (w.lo - e - MARGIN, w.hi + e + MARGIN);
-        let drawn = classification.vessels.opacity > 0.0;
+        let vessels = &classification.vessels;
+        let supports = if vessels.opacity > 0.0 {
+            vec![support(&vessels.window)]
+        } else {
+            Vec::new()
+        };
+        self.bits_meeting(&supports)
+    }
+
+    /// Bits of the bricks whose range meets any of the open intervals `supports`.
+    fn bits_meeting(&self, supports: &[(f64, f64)]) -> Vec<u32> {
         let mut bits = vec![0u32; self.ranges.len().div_ceil(32).max(1)];
         for (b, &(lo, hi)) in self.ranges.iter().enumerate() {
-            if drawn && (hi as f64) > s_lo && (lo as f64) < s_hi {
+            let (lo, hi) = (lo as f64, hi as f64);
+            if supports.iter().any(|&(s_lo, s_hi)| hi > s_lo && lo < s_hi) {
                 bits[b / 32] |= 1 << (b % 32);
             }
         }
