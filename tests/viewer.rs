@@ -392,6 +392,36 @@ fn a_window_too_small_for_the_volume_ends_and_says_why() {
     );
 }
 
+#[test]
+fn an_offscreen_script_ends_with_its_last_line_and_times_each_opened_file() {
+    // Offscreen, the script's end is the session's end: without `close` or --frames the viewer
+    // used to run forever. Each opened file's first pixel is logged (issue 17's second-file
+    // measurement reads these lines).
+    let dir = temp_dir("script-end");
+    let volume = small_phantom(&dir);
+    let script = dir.join("open-again.txt");
+    std::fs::write(&script, format!("open {}\n", volume.display())).unwrap();
+    let o = view_within(
+        &[
+            volume.to_str().unwrap(),
+            "--offscreen",
+            "--size",
+            "640x480",
+            "--script",
+            script.to_str().unwrap(),
+        ],
+        false,
+        std::time::Duration::from_secs(240),
+    );
+    assert_ok(&o);
+    let log = stdout(&o);
+    let firsts = log
+        .lines()
+        .filter(|l| l.starts_with("time to first pixel of "))
+        .count();
+    assert_eq!(firsts, 2, "one line per opened file:\n{log}");
+}
+
 /// Runs `morphray view ARGS` (offscreen, or under Xvfb) and kills it after `limit`: a run that
 /// does not end by then is reported as hung (the viewer used to wait forever for a volume that
 /// failed to load).

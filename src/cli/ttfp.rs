@@ -143,6 +143,20 @@ pub struct ChildReport {
     /// Pipelines created by the first frame itself (a raymarch variant the plan did not
     /// predict, such as one without empty-space skipping for a volume with nothing to skip).
     pub pipelines_created_by_frame: u32,
+    /// How the volume came in: threads, gzip members, the upload path.
+    #[serde(default)]
+    pub load_path: LoadPath,
+}
+
+/// How a trial's volume was read and uploaded (the streamed load's shape, next to its phases).
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct LoadPath {
+    /// Threads for the large read, inflation and staging copy.
+    pub io_threads: usize,
+    /// gzip members (0: not compressed, 1: one thread inflates, more: in parallel).
+    pub gzip_members: usize,
+    /// `direct`, `staged` or `rebar` (engine/upload.rs).
+    pub upload: String,
 }
 
 /// Runs one trial (`bench --ttfp-child`) and prints its [`ChildReport`] as one JSON line.
@@ -280,8 +294,18 @@ pub fn run_child(args: &BenchArgs, global: &super::GlobalOptions) -> Result<(), 
         *gpu.entry(name.to_string()).or_default() += timing.gpu_ms;
     }
 
+    let upload = serde_json::to_value(opened.twin.prepared.upload_path)
+        .ok()
+        .and_then(|v| v.as_str().map(str::to_string))
+        .unwrap_or_default();
+    let load_path = LoadPath {
+        io_threads: t.load.io_threads,
+        gzip_members: t.load.gzip_members,
+        upload,
+    };
     let load = opened.engine.pipeline_cache().load();
     let report = ChildReport {
+        load_path,
         phases_ms: phases,
         gpu_ms: gpu,
         total_ms: spawned.map(|s| fence_wall.saturating_sub(s) as f64 / 1e6),
@@ -320,6 +344,8 @@ pub struct TtfpSide {
     pub cache_save_ms: Spread,
     /// Pipelines each trial's first frame created itself (beyond those created ahead).
     pub pipelines_created_by_frame: Vec<u32>,
+    /// How the volume came in (the same for every trial of a run; the first trial's).
+    pub load_path: LoadPath,
 }
 
 impl TtfpSide {
@@ -363,6 +389,10 @@ impl TtfpSide {
                 .iter()
                 .map(|c| c.pipelines_created_by_frame)
                 .collect(),
+            load_path: trials
+                .first()
+                .map(|c| c.load_path.clone())
+                .unwrap_or_default(),
         }
     }
 }
@@ -576,6 +606,11 @@ pub fn print_text(r: &TtfpReport) {
     print_line(&format!(
         "  GPU ms (timestamps, median cold/warm): {}",
         gpu.join(", ")
+    ));
+    let path = &r.cold.load_path;
+    print_line(&format!(
+        "  load path: {} I/O threads, {} gzip member(s), upload {}",
+        path.io_threads, path.gzip_members, path.upload
     ));
     let bytes = |v: &[u64]| {
         v.iter()

@@ -5,6 +5,13 @@
 //! H100) the samples go through a host-memory staging buffer and one transfer into device-local
 //! memory, recorded into the caller's recording so it overlaps nothing and is timed as a pass.
 //! The buffer is zero-padded to whole 16-byte quads, which the min/max kernel reads.
+//!
+//! A third path, for discrete GPUs with resizable BAR (a device-local heap that host-visible
+//! memory reaches, large enough: at least [`REBAR_HEADROOM`] times the samples), writes the
+//! samples straight into device-local memory: no staging buffer, no copy. It is chosen by
+//! `MORPHRAY_UPLOAD=rebar` (`staged` forces the copy) so both can be measured in the same run
+//! (`benches/device-streamed.sh`); the default is the one those measurements favour
+//! ([`DEFAULT_REBAR`], BENCHMARKS.md "Streamed loading").
 
 use crate::gpu::{Access, Buffer, BufferDesc, Device, GpuError, GpuResult, Recording};
 use crate::volume::Samples;
@@ -18,6 +25,32 @@ pub enum UploadPath {
     Direct,
     /// Written to host memory and copied into device-local memory.
     Staged,
+    /// Written through resizable BAR straight into device-local memory.
+    Rebar,
+}
+
+/// The environment variable choosing between [`UploadPath::Rebar`] and [`UploadPath::Staged`]
+/// on a discrete GPU (`rebar` or `staged`).
+pub const UPLOAD_ENV: &str = "MORPHRAY_UPLOAD";
+
+/// Whether a discrete GPU with a large enough BAR uses it when `MORPHRAY_UPLOAD` is unset.
+pub const DEFAULT_REBAR: bool = false;
+
+/// The BAR heap must hold this many times the samples: a small (256 MiB) BAR stays for what the
+/// driver and the uniforms need.
+pub const REBAR_HEADROOM: u64 = 4;
+
+/// True when the samples of `padded` bytes go through the BAR on this device.
+pub fn use_rebar(device: &Device, padded: u64) -> bool {
+    let adapter = device.adapter();
+    let wanted = match std::env::var(UPLOAD_ENV).as_deref() {
+        Ok("rebar") => true,
+        Ok("staged") => false,
+        _ => DEFAULT_REBAR,
+    };
+    wanted
+        && !adapter.unified_memory
+        && adapter.host_visible_device_bytes >= padded.saturating_mul(REBAR_HEADROOM)
 }
 
 /// Bytes of the sample buffer for `sample_bytes` of samples: a multiple of 16 (the kernels read
@@ -57,14 +90,21 @@ pub fn upload_samples(
         )));
     }
     let pad = vec![0u8; (padded - bytes.len() as u64) as usize];
-    let (sample_desc, staging_desc) = sample_descs(padded, device.adapter().unified_memory);
+    let rebar = use_rebar(device, padded);
+    let (sample_desc, staging_desc) =
+        sample_descs(padded, device.adapter().unified_memory || rebar);
     let Some(staging_desc) = staging_desc else {
         let buffer = Buffer::new(device, sample_desc)?;
         buffer.write(0, bytes)?;
         buffer.write(bytes.len() as u64, &pad)?;
         // Host writes before vkQueueSubmit are visible to the submitted work (Vulkan's implicit
         // host-write ordering), so no barrier is needed here.
-        return Ok((buffer, UploadPath::Direct));
+        let path = if rebar {
+            UploadPath::Rebar
+        } else {
+            UploadPath::Direct
+        };
+        return Ok((buffer, path));
     };
     let staging = Buffer::new(device, staging_desc)?;
     staging.write(0, bytes)?;

@@ -10,6 +10,7 @@
 //! any work is done.
 
 pub mod movie;
+pub mod parallel;
 pub mod png;
 pub mod read;
 pub mod stdout;

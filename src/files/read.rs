@@ -13,6 +13,9 @@
 //!   longer (it grew while being read) is refused rather than silently cut, since a half-written
 //!   input is not the file the user meant. A file that shrank is returned as read (the parser
 //!   reports it as truncated, naming what is missing).
+//! - Files of more than a few MiB are read by several threads at once (`pread` of contiguous
+//!   chunks, files/parallel.rs): one thread reading a large file from the page cache into new
+//!   memory is bound by first-touch page faults, which threads take in parallel.
 //! - Memory for the bytes is reserved with `try_reserve_exact`, so a huge regular file within the
 //!   cap is a typed error on a machine without the memory, not an abort.
 
@@ -127,6 +130,29 @@ pub fn open_regular(path: &Path) -> Result<(File, Metadata), ReadError> {
     Ok((file, meta))
 }
 
+/// Reads `want` bytes of `file` from its start into the spare capacity of the empty `bytes`
+/// (which holds at least `want + 1`) on several threads ([`super::parallel::read_at`]), then
+/// one byte more to see whether the file grew. A file that shrank keeps what was read, as the
+/// sequential read does.
+fn read_parallel(file: &File, want: usize, bytes: &mut Vec<u8>) -> std::io::Result<()> {
+    let spare = bytes.spare_capacity_mut();
+    if spare.len() <= want {
+        return Err(std::io::Error::other(
+            "the read buffer is smaller than the file",
+        ));
+    }
+    let dst = spare.as_mut_ptr().cast::<u8>();
+    // SAFETY: the spare capacity holds more than `want` bytes.
+    let mut got = unsafe { super::parallel::read_at(file, 0, dst, want) }?;
+    if got == want {
+        // SAFETY: one more byte fits (capacity > want).
+        got += unsafe { super::parallel::read_at(file, want as u64, dst.add(want), 1) }?;
+    }
+    // SAFETY: read_at initialised the first `got` bytes (it reports the first missing one).
+    unsafe { bytes.set_len(got) };
+    Ok(())
+}
+
 /// Reads the whole regular file at `path`, refusing non-regular files, files longer than `cap`
 /// bytes and files that grow while read. Pass `u64::MAX` for "its own length is the only cap".
 pub fn read_regular(path: &Path, cap: u64) -> Result<Vec<u8>, ReadError> {
@@ -149,12 +175,17 @@ pub fn read_regular(path: &Path, cap: u64) -> Result<Vec<u8>, ReadError> {
     bytes
         .try_reserve_exact(want.saturating_add(1))
         .map_err(|_| too_big())?;
-    file.take(len.saturating_add(1))
-        .read_to_end(&mut bytes)
-        .map_err(|source| ReadError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
+    let io = |source| ReadError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    if super::parallel::threads_for(want) > 1 {
+        read_parallel(&file, want, &mut bytes).map_err(io)?;
+    } else {
+        file.take(len.saturating_add(1))
+            .read_to_end(&mut bytes)
+            .map_err(io)?;
+    }
     if bytes.len() > want {
         return Err(ReadError::Grew {
             path: path.to_path_buf(),

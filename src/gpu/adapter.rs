@@ -106,6 +106,9 @@ pub struct AdapterInfo {
     /// True when every device-local heap is also reachable by host-visible memory types (CPU
     /// devices, integrated GPUs): uploads then skip the staging copy.
     pub unified_memory: bool,
+    /// Size of the largest device-local heap that a HOST_VISIBLE memory type reaches (resizable
+    /// BAR on a discrete GPU, all memory on unified devices); 0 when there is none.
+    pub host_visible_device_bytes: u64,
     /// Reasons this device cannot run morphray (empty when suitable).
     pub rejections: Vec<String>,
     /// The device profile clamping these properties (`gen12`, a file's name), if any.
@@ -369,6 +372,16 @@ fn describe(
         })
         && (properties.device_type == vk::PhysicalDeviceType::CPU
             || properties.device_type == vk::PhysicalDeviceType::INTEGRATED_GPU);
+    let host_visible_device_bytes = types
+        .iter()
+        .filter(|t| {
+            t.property_flags.contains(
+                vk::MemoryPropertyFlags::HOST_VISIBLE | vk::MemoryPropertyFlags::DEVICE_LOCAL,
+            )
+        })
+        .filter_map(|t| heaps.get(t.heap_index as usize).map(|h| h.0))
+        .max()
+        .unwrap_or(0);
     let has_subgroup_size_control = features13.subgroup_size_control == vk::TRUE
         && features13.compute_full_subgroups == vk::TRUE
         && size_control
@@ -407,6 +420,7 @@ fn describe(
         has_subgroup_size_control,
         heaps,
         unified_memory,
+        host_visible_device_bytes,
         rejections,
         profile: None,
         float_atomics,

@@ -205,8 +205,11 @@ impl Buffer {
     /// (write before submitting work that reads it, or after the fence of work that used it).
     pub fn write(&self, offset: u64, bytes: &[u8]) -> GpuResult<()> {
         let ptr = self.host_range(offset, bytes.len() as u64)?;
-        // SAFETY: host_range checked that [offset, offset + len) lies inside the mapped memory.
-        unsafe { std::ptr::copy_nonoverlapping(bytes.as_ptr(), ptr, bytes.len()) };
+        // Large writes are split across threads: the first touch of fresh mapped pages bounds
+        // one thread (files/parallel.rs).
+        // SAFETY: host_range checked that [offset, offset + len) lies inside the mapped memory,
+        // which does not overlap the caller's slice.
+        unsafe { crate::files::parallel::copy_to(ptr, bytes) };
         Ok(())
     }
 

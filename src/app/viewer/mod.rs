@@ -594,17 +594,15 @@ impl Viewer {
         }
 
         // Exit decision before painting, so the last frame carries the screenshot copy.
-        let frames_done = self
-            .config
-            .frames
-            .is_some_and(|n| self.volume_frames + self.empty_view_frames + 1 >= n as u64);
+        // Offscreen without --frames, the end of the script is the end (there is no window to
+        // close); in a window, only --frames or the user ends it.
+        let frames_done = match self.config.frames {
+            Some(n) => self.volume_frames + self.empty_view_frames + 1 >= n as u64,
+            None => window.is_none(),
+        };
         let script_done = self.runner.finished() && self.synthetic.is_empty();
-        let last = self.exit
-            || (self.config.frames.is_some()
-                && frames_done
-                && script_done
-                && !self.busy()
-                && self.current.is_some());
+        let last =
+            self.exit || (frames_done && script_done && !self.busy() && self.current.is_some());
 
         let primitives = self.ctx.tessellate(full.shapes, ppp);
         let mut textures = full.textures_delta;

@@ -130,17 +130,22 @@ pub fn convert_frame(
     );
     if native {
         let kind = datatype.sample_kind();
-        if start > 0 {
+        // The samples stay where they are, after the header, unless what lies before them is
+        // large (big extensions): then they move down so that memory is not held twice.
+        let mut start = start;
+        if start > KEEP_IN_FRONT {
             buf.copy_within(start..end, 0);
+            start = 0;
         }
-        buf.truncate(len);
-        if buf.capacity() > len.saturating_mul(2).saturating_add(4096) {
+        buf.truncate(start + len);
+        if buf.capacity() > len.saturating_mul(2).saturating_add(KEEP_IN_FRONT) {
             buf.shrink_to_fit(); // e.g. frame 0 of a long 4-D file
         }
         if big {
+            let data = buf.get_mut(start..).unwrap_or_default();
             match kind.size_bytes() {
-                2 => buf.chunks_exact_mut(2).for_each(|c| c.reverse()),
-                4 => buf.chunks_exact_mut(4).for_each(|c| c.reverse()),
+                2 => data.chunks_exact_mut(2).for_each(|c| c.reverse()),
+                4 => data.chunks_exact_mut(4).for_each(|c| c.reverse()),
                 _ => {}
             }
         }
@@ -150,7 +155,7 @@ pub fn convert_frame(
             largest_stored(kind),
             &mut warnings,
         );
-        let samples = samples(kind, buf)?;
+        let samples = samples_at(kind, buf, start)?;
         return Ok(Converted {
             samples,
             to_physical,
@@ -220,6 +225,21 @@ fn safe_map(
         ));
         conversion
     }
+}
+
+/// Bytes in front of the samples that may stay in their vector (a header and small extensions)
+/// instead of being moved out: 1 MiB.
+const KEEP_IN_FRONT: usize = 1 << 20;
+
+/// [`samples`] for the bytes of `bytes` from `start` on.
+fn samples_at(kind: SampleKind, bytes: Vec<u8>, start: usize) -> Result<Samples, NiftiError> {
+    let len = bytes.len().saturating_sub(start);
+    Samples::from_le_bytes_at(kind, bytes, start).map_err(|_| NiftiError::TruncatedData {
+        file: "file",
+        len,
+        needed: len.div_ceil(kind.size_bytes()) * kind.size_bytes(),
+        offset: 0,
+    })
 }
 
 fn samples(kind: SampleKind, bytes: Vec<u8>) -> Result<Samples, NiftiError> {

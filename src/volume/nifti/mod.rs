@@ -32,6 +32,7 @@ pub mod datatype;
 mod error;
 pub mod extensions;
 pub mod gzip;
+pub mod gzip_parallel;
 pub mod header;
 mod layout;
 mod load;

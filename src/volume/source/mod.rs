@@ -112,6 +112,11 @@ pub struct LoadTimings {
     pub convert_ms: f64,
     /// Generating the phantom.
     pub phantom_ms: f64,
+    /// Threads the reader may use for a large read, inflation or copy
+    /// (files/parallel.rs: the cores, at most 16, or `MORPHRAY_IO_THREADS`).
+    pub io_threads: usize,
+    /// gzip members of the file (0: not compressed; more than 1 inflate in parallel).
+    pub gzip_members: usize,
 }
 
 /// A volume read from a source.

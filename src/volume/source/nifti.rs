@@ -44,6 +44,7 @@ impl VolumeReader for NiftiReader {
                 source: Box::new(e),
             },
         })?;
+        let gzip_members = loaded.header.gzip_members;
         Ok(SourceVolume {
             label,
             volume: loaded.volume,
@@ -54,6 +55,8 @@ impl VolumeReader for NiftiReader {
                 inflate_ms: times.inflate_ms,
                 convert_ms: times.convert_ms,
                 phantom_ms: 0.0,
+                io_threads: crate::files::parallel::thread_budget(),
+                gzip_members,
             },
             series: None,
         })
