@@ -35,9 +35,17 @@ struct InfoReport<'a> {
     nonfinite_voxels: usize,
     gzip: bool,
     gzip_members: usize,
+    /// A large single-member .gz: inflation cannot be split across threads (a hint is shown).
+    #[serde(skip)]
+    one_thread_inflate: bool,
     description: &'a str,
     warnings: &'a [String],
 }
+
+/// Samples of a single-member .gz above which `info` suggests a multi-member copy: 64 MiB
+/// inflate in about 0.2 s on one thread of the H100 machine (740 ms for 268 MB,
+/// benches/results/h100-2026-11-24-streamed) and in a tenth of that on 16.
+const SLOW_SINGLE_MEMBER: usize = 64 << 20;
 
 /// Runs the command.
 pub fn run(args: &InfoArgs) -> Result<(), Error> {
@@ -74,6 +82,9 @@ pub fn run(args: &InfoArgs) -> Result<(), Error> {
         nonfinite_voxels: stats.nonfinite,
         gzip: header.gzip,
         gzip_members: header.gzip_members,
+        one_thread_inflate: header.gzip
+            && header.gzip_members == 1
+            && v.samples.as_bytes().len() >= SLOW_SINGLE_MEMBER,
         description: &header.description,
         warnings: &v.warnings,
     };
@@ -98,6 +109,12 @@ pub fn run(args: &InfoArgs) -> Result<(), Error> {
             String::new()
         }
     ));
+    if report.one_thread_inflate {
+        print_line(&format!(
+            "note          one gzip member: it inflates on one thread; `morphray convert {} -o COPY.nii.gz` writes a copy of 1 MiB members that inflates on every core",
+            report.file
+        ));
+    }
     print_line(&format!(
         "datatype      {} (bitpix {})",
         report.datatype, report.bitpix

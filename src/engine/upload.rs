@@ -9,9 +9,9 @@
 //! A third path, for discrete GPUs with resizable BAR (a device-local heap that host-visible
 //! memory reaches, large enough: at least [`REBAR_HEADROOM`] times the samples), writes the
 //! samples straight into device-local memory: no staging buffer, no copy. It is chosen by
-//! `MORPHRAY_UPLOAD=rebar` (`staged` forces the copy) so both can be measured in the same run
-//! (`benches/device-streamed.sh`); the default is the one those measurements favour
-//! ([`DEFAULT_REBAR`], BENCHMARKS.md "Streamed loading").
+//! default ([`DEFAULT_REBAR`], measured: BENCHMARKS.md "Streamed loading");
+//! `MORPHRAY_UPLOAD=staged` forces the copy, so both can be measured in the same run
+//! (`benches/device-streamed.sh`).
 
 use crate::gpu::{Access, Buffer, BufferDesc, Device, GpuError, GpuResult, Recording};
 use crate::volume::Samples;
@@ -33,8 +33,12 @@ pub enum UploadPath {
 /// on a discrete GPU (`rebar` or `staged`).
 pub const UPLOAD_ENV: &str = "MORPHRAY_UPLOAD";
 
-/// Whether a discrete GPU with a large enough BAR uses it when `MORPHRAY_UPLOAD` is unset.
-pub const DEFAULT_REBAR: bool = false;
+/// Whether a discrete GPU with a large enough BAR uses it when `MORPHRAY_UPLOAD` is unset: yes.
+/// On the H100 (benches/results/h100-2026-11-24-streamed) the 268 MB of the 134 M-voxel
+/// phantom took 20-22 ms through the BAR (about 13 GB/s from 16 threads) against 90-93 ms of
+/// staging writes plus a 25 ms submission holding the 5.3 ms copy; first pixel 267-298 ms
+/// against 336-364 ms.
+pub const DEFAULT_REBAR: bool = true;
 
 /// The BAR heap must hold this many times the samples: a small (256 MiB) BAR stays for what the
 /// driver and the uniforms need.

@@ -23,8 +23,14 @@ use std::fs::File;
 /// path's own locks make more threads useless.
 pub const MAX_THREADS: usize = 16;
 
-/// Smallest chunk worth a thread: 4 MiB.
+/// Smallest chunk worth a thread for copies and inflation: 4 MiB.
 pub const MIN_CHUNK: usize = 4 << 20;
+
+/// Smallest chunk worth a thread for file reads: 16 MiB. Reads of small files are faster on one
+/// thread: the 13 MB default phantom read in 8-9 ms on one thread and 13-17 ms on three (H100
+/// machine, benches/results/h100-2026-11-24-streamed), while the 268 MB `.nii` went from 134 ms
+/// on one thread to 24-34 ms on sixteen.
+pub const MIN_READ_CHUNK: usize = 16 << 20;
 
 /// The environment variable that sets the thread count (for measurements).
 pub const THREADS_ENV: &str = "MORPHRAY_IO_THREADS";
@@ -35,6 +41,12 @@ pub const THREADS_ENV: &str = "MORPHRAY_IO_THREADS";
 pub fn threads_for(bytes: usize) -> usize {
     let by_size = (bytes / MIN_CHUNK).max(1);
     thread_budget().min(by_size)
+}
+
+/// How many threads to use for reading `bytes` of a file: as [`threads_for`], with chunks of at
+/// least [`MIN_READ_CHUNK`].
+pub fn read_threads_for(bytes: usize) -> usize {
+    thread_budget().min((bytes / MIN_READ_CHUNK).max(1))
 }
 
 /// Threads available to one call, before the size is taken into account.
@@ -115,7 +127,7 @@ pub unsafe fn read_at(
     dst: *mut u8,
     len: usize,
 ) -> std::io::Result<usize> {
-    let threads = threads_for(len);
+    let threads = read_threads_for(len);
     let dest = Dest(dst);
     let ranges = chunks(len, threads, 1 << 16);
     let results: Vec<std::io::Result<usize>> = if ranges.len() <= 1 {
@@ -264,7 +276,7 @@ mod tests {
     #[test]
     fn a_parallel_read_equals_the_file_and_reports_a_short_file() {
         let path = std::env::temp_dir().join(format!("morphray-pread-{}", std::process::id()));
-        let data: Vec<u8> = (0..(2 * MIN_CHUNK + 999))
+        let data: Vec<u8> = (0..(2 * MIN_READ_CHUNK + 999))
             .map(|i| (i % 253) as u8)
             .collect();
         std::fs::write(&path, &data).unwrap();

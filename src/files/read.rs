@@ -179,7 +179,7 @@ pub fn read_regular(path: &Path, cap: u64) -> Result<Vec<u8>, ReadError> {
         path: path.to_path_buf(),
         source,
     };
-    if super::parallel::threads_for(want) > 1 {
+    if super::parallel::read_threads_for(want) > 1 {
         read_parallel(&file, want, &mut bytes).map_err(io)?;
     } else {
         file.take(len.saturating_add(1))
