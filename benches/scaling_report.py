@@ -22,6 +22,11 @@ def load(path):
         return json.load(f)
 
 
+# The volumes this run has (the lavapipe run, benches/lavapipe-scaling.sh, has fewer).
+ORDER = [n for n in ORDER if os.path.exists(os.path.join(run, f"bench-{n}-nii-gz.json"))]
+first = load(os.path.join(run, f"bench-{ORDER[0]}-nii-gz.json"))
+DEVICE = "H100" if "H100" in first["device"] else first["device"].split(" (")[0]
+SIZE = "x".join(str(v) for v in first["image"]) if isinstance(first["image"], list) else str(first["image"])
 rows = []
 for name in ORDER:
     bench = load(os.path.join(run, f"bench-{name}-nii-gz.json"))
@@ -81,7 +86,7 @@ for p, (title, lines) in enumerate(series):
     y0, y1 = math.floor(math.log10(min(values))), math.ceil(math.log10(max(values)))
     px = lambda v: left + (math.log10(v) - x0) / (x1 - x0) * panel_w
     py = lambda v: bottom - (math.log10(v) - y0) / (y1 - y0) * (bottom - top)
-    out.append(f'<text x="{left + panel_w / 2}" y="18" text-anchor="middle" font-size="13">{title} (ms, H100, 1920x1080)</text>')
+    out.append(f'<text x="{left + panel_w / 2}" y="18" text-anchor="middle" font-size="13">{title} (ms, {DEVICE}, {SIZE})</text>')
     out.append(f'<rect x="{left}" y="{top}" width="{panel_w}" height="{bottom - top}" fill="none" stroke="#888"/>')
     for e in range(y0, y1 + 1):
         y = py(10 ** e)

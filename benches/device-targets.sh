@@ -1,0 +1,53 @@
+#!/usr/bin/env bash
+# Issue 17 item 4's targets with the final tree, on the lent GPU machine, one call: `morphray
+# bench` at 1920x1080, step 0.5, curvature + shading, 100 orbit frames x 3, first pixel from 5
+# fresh processes per cache state, on the default phantom, MNI152 and the 134 M-voxel phantom as
+# .nii.gz (1 MiB members) and .nii; the phantom in MIP too (the texel rate without the DVR
+# arithmetic: what bounds the DVR's); and a running viewer opening the phantom again (second-file
+# first pixel), offscreen at 1920x1080.
+# Carry the loader packages and .sv (morphray.xz and mni.nii.xz):
+#   run(command="bash benches/device-targets.sh", carry=[".glmin", ".sv"])
+set -uo pipefail
+for f in .glmin/lib{vulkan1,egl1,glvnd0,opengl0,gl1,glx0,gles2}_*.deb; do dpkg -x "$f" /; done
+ldconfig
+export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
+OUT=${OUT:-/tmp/morphray-out}
+RAW=$(mktemp -d)  # everything, handed back as one archive (the machine returns few files)
+V=$(mktemp -d)
+mkdir -p "$OUT"
+python3 -c 'import lzma,shutil,sys; shutil.copyfileobj(lzma.open(sys.argv[1]), open(sys.argv[2], "wb"))' \
+    .sv/morphray.xz /tmp/morphray && chmod +x /tmp/morphray
+python3 -c 'import lzma,gzip,shutil,sys; shutil.copyfileobj(lzma.open(sys.argv[1]), gzip.open(sys.argv[2], "wb", 6))' \
+    .sv/mni.nii.xz "$V/mni152.nii.gz"
+M=/tmp/morphray
+nvidia-smi --query-gpu=name,driver_version,clocks.sm,clocks.mem --format=csv,noheader | tee "$RAW/device.txt"
+$M phantom -o "$V/p256.nii.gz" > /dev/null
+cp "$V/p256.nii.gz" "$V/p256b.nii.gz"
+$M phantom -o "$V/p512.nii.gz" --dims 512x512x512 > /dev/null
+python3 -c 'import gzip,shutil,sys; shutil.copyfileobj(gzip.open(sys.argv[1]), open(sys.argv[2], "wb"))' \
+    "$V/p512.nii.gz" "$V/p512.nii"
+ls -l "$V" | tee "$RAW/volumes.txt"
+$M info "$V/p512.nii.gz" | head -3 >> "$RAW/volumes.txt"
+
+bench() { # NAME FILE ARGS...; skipped past 500 s so the call ends inside the device's 10 minutes
+    local name=$1 file=$2
+    shift 2
+    if [ "$SECONDS" -gt 500 ]; then echo "$name: skipped (time)"; return; fi
+    $M bench "$file" --size 1920x1080 --json "$RAW/$name.json" "$@" > "$RAW/$name.txt" 2>&1
+    echo "== $name"
+    grep -E '^raymarch:|^frame overhead|texel rate|^empty-space|total \(spawn|load path' "$RAW/$name.txt" | cut -c1-160
+}
+{
+printf 'open %s\nopen %s\nopen %s\n' "$V/p256b.nii.gz" "$V/p256.nii.gz" "$V/p256b.nii.gz" > "$V/open.txt"
+timeout 120 $M view "$V/p256.nii.gz" --offscreen --size 1920x1080 --curvature on --shading on \
+    --frame-budget 0 --script "$V/open.txt" > "$RAW/viewer.txt" 2>&1
+echo "viewer: $(grep 'time to first pixel' "$RAW/viewer.txt" | tr '\n' ';')"
+full=(--frames 100 --repeat 3 --trials 5 --curvature on --shading on)
+bench phantom "$V/p256.nii.gz" "${full[@]}"
+bench mni152 "$V/mni152.nii.gz" "${full[@]}"
+bench phantom-mip "$V/p256.nii.gz" --frames 100 --repeat 1 --trials 0 --mode mip
+bench p512-nii-gz "$V/p512.nii.gz" "${full[@]}"
+bench p512-nii "$V/p512.nii" "${full[@]}"
+} 2>&1 | tee "$RAW/summary.txt"
+cp "$RAW/summary.txt" "$RAW/device.txt" "$OUT/"
+tar czf "$OUT/raw.tgz" -C "$RAW" .
