@@ -94,21 +94,27 @@ pub fn upload_samples(
         )));
     }
     let pad = vec![0u8; (padded - bytes.len() as u64) as usize];
-    let rebar = use_rebar(device, padded);
-    let (sample_desc, staging_desc) =
-        sample_descs(padded, device.adapter().unified_memory || rebar);
+    if use_rebar(device, padded) {
+        // A full BAR heap (other processes' buffers) is no error: the staged path follows.
+        match Buffer::new(device, BufferDesc::host_storage("volume samples", padded)) {
+            Ok(buffer) => {
+                buffer.write(0, bytes)?;
+                buffer.write(bytes.len() as u64, &pad)?;
+                // Host writes before vkQueueSubmit are visible to the submitted work (Vulkan's
+                // implicit host-write ordering), so no barrier is needed here.
+                return Ok((buffer, UploadPath::Rebar));
+            }
+            Err(e) if e.is_out_of_memory() => {}
+            Err(e) => return Err(e),
+        }
+    }
+    let (sample_desc, staging_desc) = sample_descs(padded, device.adapter().unified_memory);
     let Some(staging_desc) = staging_desc else {
         let buffer = Buffer::new(device, sample_desc)?;
         buffer.write(0, bytes)?;
         buffer.write(bytes.len() as u64, &pad)?;
-        // Host writes before vkQueueSubmit are visible to the submitted work (Vulkan's implicit
-        // host-write ordering), so no barrier is needed here.
-        let path = if rebar {
-            UploadPath::Rebar
-        } else {
-            UploadPath::Direct
-        };
-        return Ok((buffer, path));
+        // As above: host writes before the submission need no barrier.
+        return Ok((buffer, UploadPath::Direct));
     };
     let staging = Buffer::new(device, staging_desc)?;
     staging.write(0, bytes)?;

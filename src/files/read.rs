@@ -220,6 +220,21 @@ mod tests {
     }
 
     #[test]
+    fn a_file_large_enough_for_threads_is_read_whole_and_exact() {
+        let d = dir("parallel");
+        let path = d.join("big.bin");
+        let len = 2 * super::super::parallel::MIN_READ_CHUNK + 4097;
+        let data: Vec<u8> = (0..len)
+            .map(|i| (i % 251) as u8 ^ (i >> 16) as u8)
+            .collect();
+        std::fs::write(&path, &data).unwrap();
+        let read = read_regular(&path, u64::MAX).unwrap();
+        assert_eq!(read.len(), len);
+        assert!(read == data);
+        std::fs::remove_dir_all(&d).unwrap();
+    }
+
+    #[test]
     fn files_over_the_cap_are_refused_unread() {
         let d = dir("cap");
         let path = d.join("big.bin");
