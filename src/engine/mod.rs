@@ -38,6 +38,7 @@ pub use bricked::HostPrepared;
 pub use derive::Derived;
 pub use labels::{LabelVolume, label_brick_bits, label_colours};
 pub use maps::{DerivedMaps, MapRequest};
+pub use occupancy::BrickBounds;
 pub use open::{OpenError, OpenTimings, OpenedVolume};
 pub use pipelines::PipelineTimes;
 pub use prepare::{BrickAtlas, PrepareTimings, PreparedVolume, VolumeLayout};
