@@ -385,6 +385,8 @@ impl Engine {
         } else {
             self.placeholders.occupancy.clone()
         };
+        // Long steps read the bounds next to the bits: off without skipping.
+        variant.long_steps &= variant.skip_empty;
         let block = RaymarchUniforms::new(
             scene,
             &geometry,

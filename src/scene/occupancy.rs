@@ -35,6 +35,44 @@ fn support(window: &super::Window) -> (f64, f64) {
     (window.lo - e - MARGIN, window.hi + e + MARGIN)
 }
 
+/// Longer steps where the brick-bounds pass says opacity is low (issue 17 item 2): inside an
+/// occupied brick whose opacity bound is below the threshold, one sample stands for up to
+/// `factor` lattice samples (never past the brick's exit), composited with the opacity of that
+/// length. An approximation (the accuracy study measures it: `morphray accuracy`, ACCURACY.md),
+/// so off by default. Integers so [`super::Quality`] stays a hashable pipeline key.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+pub struct LongSteps {
+    /// Lattice samples one long step stands for (1: off).
+    pub factor: u32,
+    /// Opacity bound per mm below which a brick takes long steps, in units of 1e-4 (so 100 is
+    /// 0.01 per mm; 0: off). Labelled bricks (bound >= 1) never qualify.
+    pub threshold_e4: u32,
+}
+
+impl LongSteps {
+    /// No long steps.
+    pub const OFF: LongSteps = LongSteps {
+        factor: 1,
+        threshold_e4: 0,
+    };
+
+    /// Whether any brick can take long steps.
+    pub fn is_on(&self) -> bool {
+        self.factor > 1 && self.threshold_e4 > 0
+    }
+
+    /// The threshold per mm, at most 1 (so a labelled brick never qualifies).
+    pub fn threshold(&self) -> f64 {
+        (f64::from(self.threshold_e4) * 1e-4).min(1.0)
+    }
+}
+
+impl Default for LongSteps {
+    fn default() -> Self {
+        LongSteps::OFF
+    }
+}
+
 /// Slack added to every opacity bound (GPU and twin) so the f32 arithmetic of the pass can never
 /// put a bound below the exact one.
 pub const BOUND_MARGIN: f64 = 1e-6;
