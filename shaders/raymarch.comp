@@ -12,8 +12,8 @@
 //
 // Empty-space skipping (SKIP_EMPTY): the volume is cut into 8^3-voxel bricks; a bit per brick
 // says whether any visible tissue window can be non-zero in the brick's intensity range (brick
-// min/max over the brick plus a one-voxel halo, the trilinear footprint; classified on the CPU
-// when the windows change). A sample in an empty brick jumps to the last sample of the same
+// min/max over the brick plus a 2-voxel halo, the footprint of every interpolation; classified
+// by the brick-bounds pass when the windows change). A sample in an empty brick jumps to the last sample of the same
 // lattice before the brick's exit, so the samples taken are exactly those taken without
 // skipping minus samples of zero opacity: the image is unchanged.
 //

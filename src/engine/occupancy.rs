@@ -61,7 +61,7 @@ impl Engine {
     }
 
     /// Per-brick (min, max) of any whole single-channel float `image` (I_norm, the vesselness),
-    /// over each brick and its one-voxel halo, by the occupancy pass.
+    /// over each brick and its 2-voxel halo, by the occupancy pass.
     pub(super) fn ranges_of(
         &mut self,
         image: &Arc<crate::gpu::Image>,
