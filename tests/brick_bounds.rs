@@ -183,3 +183,50 @@ fn the_bound_covers_every_value_in_the_brick() {
         }
     }
 }
+
+#[test]
+fn the_pass_runs_when_the_classification_changes_never_per_frame() {
+    use ash::vk;
+    use morphray::volume::phantom::{PhantomSpec, generate};
+    let mut engine = common::engine();
+    let volume = generate(&PhantomSpec::cube(24)).unwrap().volume;
+    let prepared = engine.prepare(&volume).unwrap();
+    let window = |lo, hi| Some(Window { lo, hi, edge: 0.01 });
+    let mut scene = morphray::scene::Scene::new(Classification::with_windows([
+        window(0.1, 0.3),
+        window(0.4, 0.6),
+        None,
+        None,
+    ]));
+    scene.effects.mode = morphray::scene::RenderMode::Dvr;
+    let derived = engine
+        .derive(&prepared, scene.effects.derivative_outputs().unwrap())
+        .unwrap();
+    let mut target = engine
+        .render_target(16, 16, vk::Format::R8G8B8A8_UNORM)
+        .unwrap();
+    let runs = |e: &morphray::engine::Engine| e.counters().brick_bounds_runs;
+    let mut frame = |engine: &mut morphray::engine::Engine, scene: &morphray::scene::Scene| {
+        engine
+            .render(&mut target, &prepared, Some(&derived), scene)
+            .unwrap();
+    };
+    let start = runs(&engine);
+    // Two frames in flight: one run per slot.
+    frame(&mut engine, &scene);
+    frame(&mut engine, &scene);
+    assert_eq!(runs(&engine), start + 2);
+    // An orbit runs nothing.
+    for i in 0..6 {
+        scene.camera.azimuth_deg = 30.0 * f64::from(i);
+        frame(&mut engine, &scene);
+    }
+    assert_eq!(runs(&engine), start + 2);
+    // A tissue toggle runs it again, once per slot.
+    scene.classification.show_only(&[TissueClass::Gm]);
+    for _ in 0..4 {
+        frame(&mut engine, &scene);
+    }
+    assert_eq!(runs(&engine), start + 4);
+    common::assert_no_validation_errors(&engine);
+}

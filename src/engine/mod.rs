@@ -129,6 +129,8 @@ pub struct EngineCounters {
     pub derivative_runs: u32,
     /// Brick-range (occupancy) passes.
     pub occupancy_runs: u32,
+    /// Brick-bounds passes (bits and opacity bounds; once per frame slot and classification).
+    pub brick_bounds_runs: u32,
     /// Frames rendered.
     pub frames: u32,
 }

@@ -224,6 +224,7 @@ impl Engine {
                 "occupancy pass missing".into(),
             ));
         };
+        self.counters.brick_bounds_runs += 1;
         let mut rec = Recording::new(&self.device, "brick bounds")?;
         rec.begin_pass("brick bounds");
         pass.bounds().record(&mut rec, data, params)?;
