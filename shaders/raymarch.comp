@@ -12,10 +12,17 @@
 //
 // Empty-space skipping (SKIP_EMPTY): the volume is cut into 8^3-voxel bricks; a bit per brick
 // says whether any visible tissue window can be non-zero in the brick's intensity range (brick
-// min/max over the brick plus a one-voxel halo, the trilinear footprint; classified on the CPU
-// when the windows change). A sample in an empty brick jumps to the last sample of the same
+// min/max over the brick plus a 2-voxel halo, the footprint of every interpolation; classified
+// by the brick-bounds pass when the windows change). A sample in an empty brick jumps to the last sample of the same
 // lattice before the brick's exit, so the samples taken are exactly those taken without
 // skipping minus samples of zero opacity: the image is unchanged.
+//
+// Long steps (LONG_STEPS, with SKIP_EMPTY; issue 17 item 2): the occupancy buffer also holds
+// each brick's upper bound of f(v) (shaders/brick_bounds.comp). In an occupied brick whose bound
+// is below a threshold, a sample stands for up to k lattice samples (never past the brick's
+// last lattice sample), composited with the opacity of that length (exponent k r), and the
+// march goes on k samples later. An approximation, measured by the accuracy study; the f64 twin
+// does the same (ReferenceRaymarch::with_brick_bounds).
 //
 // Bricking (BRICKED): for volumes over the memory budget or the 3D image limit, the textures hold
 // only resident bricks (with halos) in atlases, and every fetch goes through the brick table
@@ -53,6 +60,7 @@ layout(constant_id = 7) const bool SKIP_EMPTY = false;    // empty-space skippin
 layout(constant_id = 8) const bool BRICKED = false;       // textures are brick atlases (sampling.glsl)
 layout(constant_id = 9) const bool LABELS = false;        // a label overlay drawn in 3D (labels.glsl)
 layout(constant_id = 10) const bool VESSELS = false;      // the vessel channel (classification.glsl)
+layout(constant_id = 11) const bool LONG_STEPS = false;   // longer steps in bricks of low opacity bound
 
 layout(set = 0, binding = 0) uniform sampler3D volume;          // I_norm, trilinear
 layout(set = 0, binding = 1) uniform sampler3D gradient_volume; // .r |g|, .g k (scaled, see derived_scale)
@@ -75,7 +83,7 @@ layout(set = 0, binding = 4, std140) uniform Params {
     vec4 intensity;         // x, y: MIP/MinIP display window; z: MinIP floor
     vec4 gradient_to_world[3];
     uvec4 image;            // width, height, jitter seed, max steps
-    vec4 derived_scale;     // x: stored |g| -> per mm, y: stored k -> per mm^2
+    vec4 derived_scale;     // x: stored |g| -> per mm, y: stored k -> per mm^2, z: long-step threshold, w: k
     uvec4 bricks;           // xyz: brick grid, w: brick side in voxels
     vec4 atlas;             // BRICKED: xyz atlas dims in texels, w storage brick side
     uvec4 brick_grid;       // BRICKED: xyz storage brick grid, w halo
@@ -96,7 +104,8 @@ layout(set = 0, binding = 4, std140) uniform Params {
 const uint COUNTER_SLOTS = 512u;
 layout(set = 0, binding = 5, std430) buffer Counters { uint slots[]; } counters;
 
-// One bit per brick, set where a visible tissue can have non-zero opacity (SKIP_EMPTY only).
+// One bit per brick, set where a visible tissue can have non-zero opacity (SKIP_EMPTY only),
+// then (LONG_STEPS) one f32 opacity bound per brick (brick_bounds.comp's layout).
 layout(set = 0, binding = 6, std430) readonly buffer Occupancy { uint bits[]; } occupancy;
 
 // Slot + 1 of each storage brick in the atlases, 0 when not resident (BRICKED only).
@@ -143,14 +152,19 @@ void count_samples(uint marched, uint classified) {
     }
 }
 
-// If the brick holding p is empty, the ray parameter at which the ray leaves it; else -1.
-float empty_brick_exit(vec3 p, vec3 origin, vec3 direction) {
+// The brick holding p (clamped to the grid).
+ivec3 brick_at(vec3 p) {
     float side = float(params.bricks.w);
-    ivec3 brick = clamp(ivec3(floor((p + 0.5) / side)), ivec3(0), ivec3(params.bricks.xyz) - 1);
-    uint b = uint(brick.x) + params.bricks.x * (uint(brick.y) + params.bricks.y * uint(brick.z));
-    if (((occupancy.bits[b >> 5u] >> (b & 31u)) & 1u) != 0u) {
-        return -1.0;
-    }
+    return clamp(ivec3(floor((p + 0.5) / side)), ivec3(0), ivec3(params.bricks.xyz) - 1);
+}
+
+uint brick_index(ivec3 brick) {
+    return uint(brick.x) + params.bricks.x * (uint(brick.y) + params.bricks.y * uint(brick.z));
+}
+
+// The ray parameter at which the ray leaves `brick`.
+float brick_exit(ivec3 brick, vec3 origin, vec3 direction) {
+    float side = float(params.bricks.w);
     vec3 lo = vec3(brick) * side - 0.5;
     vec3 hi = lo + side;
     float t_exit = 3.0e38;
@@ -163,9 +177,20 @@ float empty_brick_exit(vec3 p, vec3 origin, vec3 direction) {
     return t_exit;
 }
 
+bool brick_occupied(uint b) {
+    return ((occupancy.bits[b >> 5u] >> (b & 31u)) & 1u) != 0u;
+}
+
+// The opacity bound of brick b, after the bits (brick_bounds.comp's layout).
+float brick_bound(uint b) {
+    uint count = params.bricks.x * params.bricks.y * params.bricks.z;
+    uint words = max((count + 31u) / 32u, 1u);
+    return uintBitsToFloat(occupancy.bits[words + b]);
+}
+
 // One classified tissue sample's colour (rgb, shaded with SHADING) and step-corrected opacity
 // (a): the gradient-magnitude term, the curvature weight and the colour of eqs. 4-6.
-vec4 tissue_sample(vec3 p, float v, vec4 cls, vec3 direction_world) {
+vec4 tissue_sample(vec3 p, float v, vec4 cls, vec3 direction_world, float r) {
     float magnitude;
     float k = 0.0;
     vec3 normal = vec3(0.0);
@@ -194,7 +219,7 @@ vec4 tissue_sample(vec3 p, float v, vec4 cls, vec3 direction_world) {
     if (CURVATURE_MODE != 0u) {
         a = min(a * curvature_weight(k), 1.0);
     }
-    a = NAIVE_OPACITY ? opacity_correct_naive(a, params.march.x) : opacity_correct(a, params.march.x);
+    a = NAIVE_OPACITY ? opacity_correct_naive(a, r) : opacity_correct(a, r);
     vec3 colour = cls.rgb;
     if (params.crop_hi.w > 0.5) {
         colour = colormap_lookup(display_position(v));
@@ -240,14 +265,26 @@ void main() {
         vec4 acc = vec4(0.0);
         for (uint i = 0u; i < steps; i++) {
             vec3 p = origin + direction * (start + float(i) * dt);
+            // Opacity exponent of this sample: r, or k r for a long step.
+            float r = params.march.x;
             if (SKIP_EMPTY) {
-                float t_exit = empty_brick_exit(p, origin, direction);
-                if (t_exit >= 0.0) {
-                    // The last lattice sample at or before the exit: it still lies in this empty
-                    // brick (or on its face), so nothing with opacity is skipped.
-                    float last = clamp(floor((t_exit - start) / dt), float(i), float(steps));
-                    i = uint(last);
-                    continue;
+                ivec3 brick = brick_at(p);
+                uint b = brick_index(brick);
+                bool occupied = brick_occupied(b);
+                if (!occupied || (LONG_STEPS && brick_bound(b) < params.derived_scale.z)) {
+                    // The last lattice sample at or before the exit: it still lies in this brick
+                    // (or on its face).
+                    float t_exit = brick_exit(brick, origin, direction);
+                    float last = clamp(floor((t_exit - start) / dt), float(i), float(steps - 1u));
+                    if (!occupied) {
+                        // Nothing with opacity is skipped.
+                        i = uint(last);
+                        continue;
+                    }
+                    uint span = min(uint(params.derived_scale.w), uint(last) - i + 1u);
+                    r *= float(span);
+                    // The samples this one stands for are not taken (the loop adds the last 1).
+                    i += span - 1u;
                 }
             }
             float v = sample_volume(p);
@@ -264,7 +301,7 @@ void main() {
             }
             if (cls.a > 0.0) {
                 classified++;
-                vec4 tissue = tissue_sample(p, v, cls, direction_world);
+                vec4 tissue = tissue_sample(p, v, cls, direction_world, r);
                 composite(acc, tissue.rgb, tissue.a);
             }
             if (LABELS && label_colour.a > 0.0) {
@@ -273,7 +310,7 @@ void main() {
                 if (SHADING) {
                     lc = shade(lc, label_normal(nearest_voxel(p), label), direction_world);
                 }
-                composite(acc, lc, opacity_correct(label_colour.a, params.march.x));
+                composite(acc, lc, opacity_correct(label_colour.a, r));
             }
             if (acc.a > params.march.y) {
                 break;

@@ -296,6 +296,7 @@ fn a_tiny_bench_reports_every_pass_as_json() {
         "histogram",
         "derivatives |g|",
         "derivatives |g|,k",
+        "brick bounds",
     ] {
         assert!(names.contains(&pass), "{pass} missing from {names:?}");
     }

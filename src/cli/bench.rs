@@ -373,6 +373,26 @@ pub fn run(args: &BenchArgs, global: &super::GlobalOptions) -> Result<(), Error>
         &rates,
     )?);
 
+    // The brick-bounds pass (issue 17 item 2): it runs when the classification changes, never
+    // per frame, so it is timed on its own, `--repeat` times.
+    if scene.effects.mode == RenderMode::Dvr && scene.effects.quality.empty_space_skipping {
+        let ranges = opened.engine.brick_ranges(&opened.twin.prepared)?;
+        let mut times = Vec::new();
+        for _ in 0..args.repeat {
+            let b = opened
+                .engine
+                .brick_bounds(&ranges, &scene.classification, None, None)?;
+            times.extend(times_of(&b.timings, "brick bounds"));
+        }
+        let bricks = ranges.ranges.len() as f64;
+        let c = PassCost {
+            bytes_read: 8.0 * bricks,
+            bytes_written: 4.0 * bricks + bricks / 8.0,
+            ..Default::default()
+        };
+        passes.push(pass_report("brick bounds", &times, c, copy, documented));
+    }
+
     // Raymarch over an orbit: warm-up, timed frames without readback, then counted frames.
     let mut target = opened
         .engine

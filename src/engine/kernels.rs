@@ -131,6 +131,7 @@ fn every_quality() -> Vec<Quality> {
                                 derived_precision,
                                 opacity_correction,
                                 empty_space_skipping,
+                                long_steps: crate::scene::occupancy::LongSteps::OFF,
                             });
                         }
                     }

@@ -38,6 +38,7 @@ pub use bricked::HostPrepared;
 pub use derive::Derived;
 pub use labels::{LabelVolume, label_brick_bits, label_colours};
 pub use maps::{DerivedMaps, MapRequest};
+pub use occupancy::BrickBounds;
 pub use open::{OpenError, OpenTimings, OpenedVolume};
 pub use pipelines::PipelineTimes;
 pub use prepare::{BrickAtlas, PrepareTimings, PreparedVolume, VolumeLayout};
@@ -128,6 +129,8 @@ pub struct EngineCounters {
     pub derivative_runs: u32,
     /// Brick-range (occupancy) passes.
     pub occupancy_runs: u32,
+    /// Brick-bounds passes (bits and opacity bounds; once per frame slot and classification).
+    pub brick_bounds_runs: u32,
     /// Frames rendered.
     pub frames: u32,
 }

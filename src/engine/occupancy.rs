@@ -1,11 +1,25 @@
 //! Brick ranges of a prepared volume, computed once on the GPU and kept with the volume, and a
-//! render target's cache of the occupancy bits classified from them (`render.rs` says why).
+//! render target's occupancy buffers: the bits and opacity bounds the brick-bounds pass makes
+//! from the ranges under the scene's classification (`render.rs` says why they are cached).
+//!
+//! Decisions (issue 17 item 2):
+//! - The brick-bounds pass runs only when the classification (or the volume, vesselness or
+//!   labels) changes, once per frame in flight, each in a submission of its own that is waited
+//!   for: the frame needs the count of occupied bricks to choose the raymarch variant (no
+//!   skipping when nearly every brick is occupied), and a change of windows is rare enough for
+//!   one wait. An orbit runs nothing and writes nothing.
+//! - The pass's inputs (ranges, vesselness ranges, label bits) are copied into each frame slot's
+//!   buffer by the host when they change (a new volume), 8-16 bytes a brick; the GPU copy of the
+//!   ranges is not kept by the prepared volume (`prepare.rs`), so it is not reused here.
 
 use super::Engine;
 use super::prepare::PreparedVolume;
 use crate::gpu::{Access, Buffer, BufferDesc, GpuResult, PassTiming, Recording};
+use crate::passes::brick_bounds::{
+    BrickBoundsLayout, BrickBoundsParams, EMPTY_SUPPORT, LABEL_BIT, VESSEL_BIT,
+};
 use crate::passes::occupancy::{BRICK_SIDE, brick_grid};
-use crate::scene::occupancy::BrickRanges;
+use crate::scene::occupancy::{BrickRanges, bound_channels};
 use crate::scene::{Classification, Scene};
 use std::sync::Arc;
 
@@ -18,10 +32,11 @@ pub fn brick_range_descs(bricks: u64) -> [BufferDesc; 2] {
     ]
 }
 
-/// One frame in flight's occupancy bits for `bricks` bricks (32 to a word), written by the host
-/// before the frame that reads them.
+/// One frame in flight's occupancy buffer for `bricks` bricks ([`BrickBoundsLayout`]: bits,
+/// opacity bounds, and the brick-bounds pass's inputs), host-visible so the host writes the
+/// inputs and reads the count of occupied bricks.
 pub fn occupancy_bits_desc(bricks: u64) -> BufferDesc {
-    BufferDesc::host_storage("occupancy bits", 4 * bricks.div_ceil(32))
+    BufferDesc::host_storage("occupancy bits", BrickBoundsLayout::new(bricks).bytes())
 }
 
 impl Engine {
@@ -46,7 +61,7 @@ impl Engine {
     }
 
     /// Per-brick (min, max) of any whole single-channel float `image` (I_norm, the vesselness),
-    /// over each brick and its one-voxel halo, by the occupancy pass.
+    /// over each brick and its 2-voxel halo, by the occupancy pass.
     pub(super) fn ranges_of(
         &mut self,
         image: &Arc<crate::gpu::Image>,
@@ -94,69 +109,272 @@ impl Engine {
     }
 }
 
-/// The occupancy bits of one volume (its brick ranges) under one classification.
-pub(super) struct OccupancyCache {
+/// What a brick-bounds buffer's inputs are made of.
+#[derive(Clone)]
+pub(super) struct BoundsInputs {
+    /// The volume's I_norm ranges.
     pub(super) ranges: Arc<BrickRanges>,
-    pub(super) classification: Classification,
-    pub(super) labels: Option<Arc<Vec<u32>>>,
+    /// The vesselness's ranges (the vessel channel is drawn).
     pub(super) vessels: Option<Arc<BrickRanges>>,
-    pub(super) bits: Vec<u32>,
-    pub(super) occupied: f64,
-    // Starts at 1 and grows with every recomputation (0: a slot holds nothing yet).
-    pub(super) generation: u64,
+    /// Bricks holding a drawn label.
+    pub(super) labels: Option<Arc<Vec<u32>>>,
 }
 
-impl OccupancyCache {
-    /// The cached bits when volume and classification are unchanged, else recomputed.
-    pub(super) fn update<'a>(
-        slot: &'a mut Option<OccupancyCache>,
+fn same<T>(a: &Option<Arc<T>>, b: &Option<Arc<T>>) -> bool {
+    match (a, b) {
+        (None, None) => true,
+        (Some(a), Some(b)) => Arc::ptr_eq(a, b),
+        _ => false,
+    }
+}
+
+impl BoundsInputs {
+    fn same(&self, other: &BoundsInputs) -> bool {
+        Arc::ptr_eq(&self.ranges, &other.ranges)
+            && same(&self.vessels, &other.vessels)
+            && same(&self.labels, &other.labels)
+    }
+
+    fn layout(&self) -> BrickBoundsLayout {
+        BrickBoundsLayout::new(self.ranges.ranges.len() as u64)
+    }
+
+    /// The input words from the layout's ranges to its count word (zeroed), inclusive.
+    fn words(&self) -> GpuResult<Vec<u32>> {
+        let layout = self.layout();
+        let bricks = self.ranges.ranges.len();
+        let mut words = vec![0u32; (layout.count() + 1 - layout.ranges()) as usize];
+        let ranges = |out: &mut [u32], r: &BrickRanges| {
+            for (pair, &(lo, hi)) in out.chunks_exact_mut(2).zip(&r.ranges) {
+                pair[0] = lo.to_bits();
+                pair[1] = hi.to_bits();
+            }
+        };
+        ranges(&mut words[..2 * bricks], &self.ranges);
+        if let Some(v) = &self.vessels {
+            if v.ranges.len() != bricks {
+                return Err(crate::gpu::GpuError::Internal(format!(
+                    "the vesselness has {} bricks, the volume {bricks}",
+                    v.ranges.len()
+                )));
+            }
+            ranges(&mut words[2 * bricks..4 * bricks], v);
+        }
+        if let Some(l) = &self.labels {
+            let start = 4 * bricks;
+            for (w, &bits) in words[start..start + layout.words as usize]
+                .iter_mut()
+                .zip(l.iter())
+            {
+                *w = bits;
+            }
+        }
+        Ok(words)
+    }
+}
+
+/// The brick-bounds pass's push constants for `classification` over `inputs`.
+fn bounds_params(inputs: &BoundsInputs, classification: &Classification) -> BrickBoundsParams {
+    let channels = bound_channels(classification, inputs.vessels.is_some());
+    let mut params = BrickBoundsParams {
+        windows: [[0.0; 4]; 5],
+        supports: [EMPTY_SUPPORT; 5],
+        bricks: inputs.ranges.ranges.len() as u32,
+        flags: 0,
+    };
+    for (i, c) in channels.iter().enumerate() {
+        if let Some(c) = c {
+            params.windows[i] = [c.lo, c.hi, c.edge, c.opacity];
+            params.supports[i] = [c.support.0, c.support.1];
+        }
+    }
+    if inputs.vessels.is_some() {
+        params.flags |= VESSEL_BIT;
+    }
+    if inputs.labels.is_some() {
+        params.flags |= LABEL_BIT;
+    }
+    params
+}
+
+/// Occupancy bits and opacity bounds read back from the brick-bounds pass.
+#[derive(Clone, Debug)]
+pub struct BrickBounds {
+    /// One bit per brick (32 to a word), as the raymarch reads them.
+    pub bits: Vec<u32>,
+    /// Upper bound of the opacity per mm a sample in each brick can have (plus 1 with a label).
+    pub bounds: Vec<f32>,
+    /// Fraction of bricks occupied.
+    pub occupied: f64,
+    /// GPU time of the pass.
+    pub timings: Vec<PassTiming>,
+}
+
+impl Engine {
+    /// Runs the brick-bounds pass over `data` (inputs written, count zeroed) and waits;
+    /// returns the fraction of bricks occupied and the pass's GPU time.
+    fn run_brick_bounds(
+        &mut self,
+        data: &Arc<Buffer>,
+        params: &BrickBoundsParams,
+    ) -> GpuResult<(f64, Vec<PassTiming>)> {
+        self.occupancy_pass()?;
+        let Some(pass) = &self.occupancy_pass else {
+            return Err(crate::gpu::GpuError::Internal(
+                "occupancy pass missing".into(),
+            ));
+        };
+        self.counters.brick_bounds_runs += 1;
+        let mut rec = Recording::new(&self.device, "brick bounds")?;
+        rec.begin_pass("brick bounds");
+        pass.bounds().record(&mut rec, data, params)?;
+        rec.end_pass();
+        // Orders the pass's writes before the host reads the count, and before the raymarch
+        // of any later submission reads the bits and bounds.
+        rec.barriers(&[(data, Access::ComputeWriteBuffer, Access::HostRead)], &[]);
+        rec.barriers(
+            &[(data, Access::ComputeWriteBuffer, Access::ComputeReadBuffer)],
+            &[],
+        );
+        let timings = rec.submit()?.wait()?;
+        let layout = BrickBoundsLayout::new(u64::from(params.bricks));
+        let mut count = [0u8; 4];
+        data.read(4 * layout.count(), &mut count)?;
+        let occupied = f64::from(u32::from_le_bytes(count)) / layout.bricks.max(1) as f64;
+        Ok((occupied, timings))
+    }
+
+    /// The brick-bounds pass of `classification` over `ranges` (with the vesselness's ranges
+    /// and label bits when given), in a buffer of its own, read back: for tests (against
+    /// `BrickRanges::reference_bits` and `reference_bounds`) and for timing the pass.
+    pub fn brick_bounds(
+        &mut self,
         ranges: &Arc<BrickRanges>,
-        scene: &Scene,
-        labels: Option<Arc<Vec<u32>>>,
+        classification: &Classification,
         vessels: Option<&Arc<BrickRanges>>,
-    ) -> Option<&'a OccupancyCache> {
-        let fresh = slot.as_ref().is_some_and(|c| {
-            Arc::ptr_eq(&c.ranges, ranges)
-                && c.classification == scene.classification
-                && match (&c.labels, &labels) {
-                    (None, None) => true,
-                    (Some(a), Some(b)) => Arc::ptr_eq(a, b),
-                    _ => false,
-                }
-                && match (&c.vessels, vessels) {
-                    (None, None) => true,
-                    (Some(a), Some(b)) => Arc::ptr_eq(a, b),
-                    _ => false,
-                }
-        });
+        labels: Option<&Arc<Vec<u32>>>,
+    ) -> GpuResult<BrickBounds> {
+        let inputs = BoundsInputs {
+            ranges: ranges.clone(),
+            vessels: vessels.cloned(),
+            labels: labels.cloned(),
+        };
+        let layout = inputs.layout();
+        let data = Buffer::new(&self.device, occupancy_bits_desc(layout.bricks))?;
+        data.write(4 * layout.ranges(), bytemuck::cast_slice(&inputs.words()?))?;
+        let params = bounds_params(&inputs, classification);
+        let (occupied, timings) = self.run_brick_bounds(&data, &params)?;
+        let mut out = vec![0u32; (layout.words + layout.bricks) as usize];
+        data.read(0, bytemuck::cast_slice_mut(&mut out))?;
+        let bounds = out[layout.words as usize..]
+            .iter()
+            .map(|&w| f32::from_bits(w))
+            .collect();
+        out.truncate(layout.words as usize);
+        Ok(BrickBounds {
+            bits: out,
+            bounds,
+            occupied,
+            timings,
+        })
+    }
+
+    /// Makes frame slot `slot`'s occupancy buffer hold the bits and bounds of `scene` over
+    /// `inputs` (running the brick-bounds pass only when they changed since that slot's last
+    /// frame); returns the buffer and the fraction of bricks occupied.
+    pub(super) fn occupancy_for_frame(
+        &mut self,
+        slots: &mut OccupancySlots,
+        slot: usize,
+        inputs: BoundsInputs,
+        scene: &Scene,
+    ) -> GpuResult<(Arc<Buffer>, f64)> {
+        let layout = inputs.layout();
+        // The generation of the inputs and of the classification over them.
+        let (inputs_changed, fresh) = match &slots.cache {
+            Some(c) => (
+                !c.inputs.same(&inputs),
+                c.inputs.same(&inputs) && c.classification == scene.classification,
+            ),
+            None => (true, false),
+        };
         if !fresh {
-            let mut bits = ranges.occupancy_bits(&scene.classification);
-            // Bricks holding a drawn label are never skipped (labels.rs).
-            if let Some(label_bits) = &labels {
-                for (word, extra) in bits.iter_mut().zip(label_bits.iter()) {
-                    *word |= extra;
-                }
-            }
-            // Bricks where the vessel channel can be non-zero (its own ranges, same grid).
-            if let Some(vessel_ranges) = vessels {
-                let vessel_bits = vessel_ranges.vessel_bits(&scene.classification);
-                for (word, extra) in bits.iter_mut().zip(vessel_bits) {
-                    *word |= extra;
-                }
-            }
-            let occupied = bits.iter().map(|w| w.count_ones() as u64).sum::<u64>() as f64
-                / ranges.ranges.len().max(1) as f64;
-            let generation = slot.as_ref().map_or(1, |c| c.generation + 1);
-            *slot = Some(OccupancyCache {
-                ranges: ranges.clone(),
+            let old = slots.cache.as_ref();
+            let generation = old.map_or(1, |c| c.generation + 1);
+            let inputs_generation = old.map_or(1, |c| c.inputs_generation + inputs_changed as u64);
+            slots.cache = Some(OccupancyCache {
+                inputs,
                 classification: scene.classification,
-                labels,
-                vessels: vessels.cloned(),
-                bits,
-                occupied,
+                occupied: None,
                 generation,
+                inputs_generation,
             });
         }
-        slot.as_ref()
+        let Some(cache) = slots.cache.as_mut() else {
+            return Err(crate::gpu::GpuError::Internal(
+                "the occupancy cache is empty".into(),
+            ));
+        };
+        let buffer = match &slots.buffers[slot] {
+            Some(b) if b.size() >= layout.bytes() => b.clone(),
+            _ => {
+                let b = Buffer::new(&self.device, occupancy_bits_desc(layout.bricks))?;
+                slots.buffers[slot] = Some(b.clone());
+                slots.written[slot] = [0, 0];
+                b
+            }
+        };
+        // Host writes before the submission that reads them; the other frame slot's buffer,
+        // which a frame in flight may read, is untouched.
+        let [bits_written, inputs_written] = &mut slots.written[slot];
+        if *bits_written != cache.generation {
+            if *inputs_written != cache.inputs_generation {
+                let words = cache.inputs.words()?;
+                buffer.write(4 * layout.ranges(), bytemuck::cast_slice(&words))?;
+                *inputs_written = cache.inputs_generation;
+            } else {
+                buffer.write(4 * layout.count(), &[0; 4])?;
+            }
+            let params = bounds_params(&cache.inputs, &cache.classification);
+            let (occupied, timings) = self.run_brick_bounds(&buffer, &params)?;
+            cache.occupied = Some(occupied);
+            slots.timings = timings;
+            *bits_written = cache.generation;
+        }
+        let occupied = cache.occupied.unwrap_or(1.0);
+        Ok((buffer, occupied))
+    }
+}
+
+/// The classification whose bits the occupancy buffers hold.
+pub(super) struct OccupancyCache {
+    inputs: BoundsInputs,
+    classification: Classification,
+    // Known once one slot ran the pass for this generation.
+    occupied: Option<f64>,
+    // Start at 1 and grow with every change (0: a slot holds nothing yet).
+    generation: u64,
+    inputs_generation: u64,
+}
+
+/// A render target's occupancy buffers, one per frame in flight, and what each holds.
+pub(super) struct OccupancySlots {
+    buffers: Vec<Option<Arc<Buffer>>>,
+    // Per slot: the generation of its bits and of its inputs.
+    written: Vec<[u64; 2]>,
+    cache: Option<OccupancyCache>,
+    /// GPU time of the last brick-bounds pass a frame ran.
+    pub(super) timings: Vec<PassTiming>,
+}
+
+impl OccupancySlots {
+    /// Empty slots for `frames` frames in flight.
+    pub(super) fn new(frames: usize) -> Self {
+        OccupancySlots {
+            buffers: vec![None; frames],
+            written: vec![[0, 0]; frames],
+            cache: None,
+            timings: Vec::new(),
+        }
     }
 }

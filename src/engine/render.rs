@@ -4,12 +4,10 @@
 //! - A [`RenderTarget`] owns the output image, its readback buffer and two uniform buffers used
 //!   alternately (one per frame in flight), so writing the next frame's parameters never touches
 //!   memory the GPU may still read.
-//! - Empty-space skipping writes the frame's occupancy bits (classified on the CPU from the
-//!   volume's brick ranges, computed once) into a host-visible buffer per frame in flight. The
-//!   bits depend only on the volume and the classification, so the target keeps the last ones
-//!   and a frame with the same classification (an orbit) neither classifies again nor rewrites
-//!   a buffer that already holds them: on a 136 M-voxel volume that is 266 k bricks a frame of
-//!   host work the per-frame overhead does not need (issue 13 item 5).
+//! - Empty-space skipping reads the frame's occupancy bits (made by the brick-bounds pass from
+//!   the volume's brick ranges, computed once) from a buffer per frame in flight. The bits
+//!   depend only on the volume and the classification, so a frame with the same classification
+//!   (an orbit) neither runs the pass nor writes the buffer (issue 13 item 5; occupancy.rs).
 //! - Recording and submitting are separate (issue 13 item 5): [`Engine::record_render`] records
 //!   the raymarch (and the copies back, when the target reads back) into a caller's
 //!   [`Recording`], so a caller can put it into its own submission with other work (the viewer's
@@ -21,7 +19,7 @@
 
 use super::Engine;
 use super::derive::Derived;
-use super::occupancy::{OccupancyCache, occupancy_bits_desc};
+use super::occupancy::{BoundsInputs, OccupancySlots};
 use super::prepare::PreparedVolume;
 use super::prepare::VolumeLayout;
 use crate::gpu::{
@@ -57,10 +55,8 @@ pub struct RenderTarget {
     next_uniforms: usize,
     counters: Arc<Buffer>,
     counters_host: Arc<Buffer>,
-    occupancy: Vec<Option<Arc<Buffer>>>,
-    // The last classified bits, and which of them each frame slot's buffer holds.
-    occupancy_cache: Option<OccupancyCache>,
-    occupancy_written: [u64; FRAMES_IN_FLIGHT],
+    // Occupancy bits and opacity bounds per frame slot, and what each holds.
+    occupancy: OccupancySlots,
     // A label overlay drawn in 3D, its colour table per frame slot and which table each holds
     // (labels.rs).
     pub(super) labels: Option<super::labels::AttachedLabels>,
@@ -118,6 +114,12 @@ impl RenderTarget {
     /// back), for a presenter that copies it into a window.
     pub fn image(&self) -> &Arc<Image> {
         &self.image
+    }
+
+    /// GPU time of the last brick-bounds pass a frame of this target ran (it runs when the
+    /// classification changes; empty before).
+    pub fn brick_bounds_timings(&self) -> &[PassTiming] {
+        &self.occupancy.timings
     }
 }
 
@@ -203,9 +205,7 @@ impl Engine {
             next_uniforms: 0,
             counters,
             counters_host,
-            occupancy: vec![None; FRAMES_IN_FLIGHT],
-            occupancy_cache: None,
-            occupancy_written: [0; FRAMES_IN_FLIGHT],
+            occupancy: OccupancySlots::new(FRAMES_IN_FLIGHT),
             labels: None,
             label_colour_buffers: vec![None; FRAMES_IN_FLIGHT],
             label_colours_written: [0; FRAMES_IN_FLIGHT],
@@ -362,39 +362,20 @@ impl Engine {
         let mut bricks = [1, 1, 1, BRICK_SIDE];
         let occupancy = if variant.skip_empty {
             let ranges = self.brick_ranges(prepared)?;
-            let vessel_ranges = derived.and_then(|d| d.vessel_ranges.as_ref());
-            let cache = OccupancyCache::update(
-                &mut target.occupancy_cache,
-                &ranges,
-                scene,
-                label_bits,
-                vessel_ranges.filter(|_| variant.vessels),
-            )
-            .ok_or_else(|| GpuError::Internal("the occupancy cache is empty".into()))?;
-            let (generation, occupied) = (cache.generation, cache.occupied);
+            let inputs = BoundsInputs {
+                ranges: ranges.clone(),
+                vessels: derived
+                    .and_then(|d| d.vessel_ranges.clone())
+                    .filter(|_| variant.vessels),
+                labels: label_bits,
+            };
+            // Made even when this frame does not skip, so the buffers a scene with skipping
+            // holds do not depend on the view: the plan lists them.
+            let (buffer, occupied) =
+                self.occupancy_for_frame(&mut target.occupancy, frame_slot, inputs, scene)?;
             // Nothing to skip: the lookups would only cost (lossless either way).
             variant.skip_empty = occupied <= MAX_OCCUPANCY_FOR_SKIPPING;
             bricks = [ranges.grid[0], ranges.grid[1], ranges.grid[2], ranges.side];
-            let bytes: &[u8] = bytemuck::cast_slice(&cache.bits);
-            let buffer = match &target.occupancy[frame_slot] {
-                Some(b) if b.size() >= bytes.len() as u64 => b.clone(),
-                _ => {
-                    let b = Buffer::new(
-                        &self.device,
-                        occupancy_bits_desc(ranges.grid.iter().map(|&g| g as u64).product()),
-                    )?;
-                    target.occupancy[frame_slot] = Some(b.clone());
-                    target.occupancy_written[frame_slot] = 0;
-                    b
-                }
-            };
-            // Written before the submission that reads it; the buffer of the other frame in
-            // flight is untouched. (Written even when this frame does not skip, so the buffers
-            // a scene with skipping holds do not depend on the view: the plan lists them.)
-            if target.occupancy_written[frame_slot] != generation {
-                buffer.write(0, bytes)?;
-                target.occupancy_written[frame_slot] = generation;
-            }
             if variant.skip_empty {
                 buffer
             } else {
@@ -404,6 +385,8 @@ impl Engine {
         } else {
             self.placeholders.occupancy.clone()
         };
+        // Long steps read the bounds next to the bits: off without skipping.
+        variant.long_steps &= variant.skip_empty;
         let block = RaymarchUniforms::new(
             scene,
             &geometry,

@@ -27,9 +27,11 @@ pub fn brick_grid(dims: [u32; 3]) -> [u32; 3] {
     dims.map(|d| d.div_ceil(BRICK_SIDE))
 }
 
-/// The brick-range pass.
+/// The brick-range pass, with the brick-bounds pass that classifies its ranges (one pipeline
+/// key for both: whoever skips empty space needs the two).
 pub struct OccupancyPass {
     pipeline: Arc<ComputePipeline>,
+    bounds: super::brick_bounds::BrickBoundsPass,
 }
 
 impl OccupancyPass {
@@ -42,7 +44,13 @@ impl OccupancyPass {
     pub fn new(device: &Device, cache: vk::PipelineCache) -> GpuResult<Self> {
         Ok(OccupancyPass {
             pipeline: ComputePipeline::new(device, &table::OCCUPANCY, &[], cache)?,
+            bounds: super::brick_bounds::BrickBoundsPass::new(device, cache)?,
         })
+    }
+
+    /// The brick-bounds pass (bits and opacity bounds from the ranges).
+    pub fn bounds(&self) -> &super::brick_bounds::BrickBoundsPass {
+        &self.bounds
     }
 
     /// Records the ranges of `volume` (in `Access::ComputeSampled`) into `ranges` (2 u32 per

@@ -44,6 +44,8 @@ pub struct RaymarchVariant {
     pub labels: bool,
     /// The vessel channel is drawn (classification.glsl).
     pub vessels: bool,
+    /// Longer steps in bricks of low opacity bound (needs `skip_empty`).
+    pub long_steps: bool,
 }
 
 impl RaymarchVariant {
@@ -73,6 +75,7 @@ impl RaymarchVariant {
             ("BRICKED", self.bricked),
             ("LABELS", self.labels),
             ("VESSELS", self.vessels),
+            ("LONG_STEPS", self.long_steps),
         ] {
             text.push_str(&format!(", {name}={}", on(value)));
         }
@@ -156,6 +159,7 @@ impl RaymarchPass {
                 ("INTERPOLATION", SpecValue::U32(variant.interpolation)),
                 ("NAIVE_OPACITY", SpecValue::Bool(variant.naive_opacity)),
                 ("SKIP_EMPTY", SpecValue::Bool(variant.skip_empty)),
+                ("LONG_STEPS", SpecValue::Bool(variant.long_steps)),
                 ("BRICKED", SpecValue::Bool(variant.bricked)),
                 ("LABELS", SpecValue::Bool(variant.labels)),
                 ("VESSELS", SpecValue::Bool(variant.vessels)),

@@ -111,6 +111,8 @@ pub struct Quality {
     pub opacity_correction: OpacityCorrection,
     /// Skip 8^3 bricks in which no visible tissue can have opacity (lossless).
     pub empty_space_skipping: bool,
+    /// Longer steps in bricks of low opacity bound (needs skipping; off by default).
+    pub long_steps: occupancy::LongSteps,
 }
 
 impl Default for Quality {
@@ -128,6 +130,7 @@ impl Default for Quality {
             derived_precision: DerivedPrecision::Snorm8,
             opacity_correction: OpacityCorrection::Exact,
             empty_space_skipping: true,
+            long_steps: occupancy::LongSteps::OFF,
         }
     }
 }

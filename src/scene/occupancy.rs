@@ -1,8 +1,13 @@
-//! Which bricks a classification can see: the CPU half of empty-space skipping.
+//! Which bricks a classification can see, and how opaque they can be: the rules of empty-space
+//! skipping and their f64 twins.
 //!
 //! Decisions: the GPU computes each brick's I_norm range once per volume (passes/occupancy.rs);
-//! turning ranges into occupancy bits happens here, on the CPU, whenever the windows or the
-//! visible tissues change: a few microseconds per thousand bricks, and no pass re-runs. A brick is
+//! turning ranges into occupancy bits and opacity bounds is the brick-bounds pass
+//! (shaders/brick_bounds.comp, run when the windows or the visible tissues change). This file
+//! holds its inputs ([`bound_channels`]: the windows as they reach the GPU, supports rounded
+//! outward to f32 so the GPU's f32 test decides exactly as the f64 one here) and its twins
+//! ([`BrickRanges::reference_bits`], [`BrickRanges::reference_bounds`]); the CPU bits are still
+//! what decides a bricked volume's resident bricks ([`BrickRanges::needed_bits`]). A brick is
 //! occupied when its range meets the open support `(lo - e, hi + e)` of any visible tissue window
 //! with non-zero opacity (outside it the smoothstep weight is exactly 0), widened by 1e-6 so f32
 //! rounding of the window bounds on the GPU can never turn a zero weight into a non-zero one:
@@ -28,6 +33,125 @@ const MARGIN: f64 = 1e-6;
 fn support(window: &super::Window) -> (f64, f64) {
     let e = window.edge.max(MIN_EDGE);
     (window.lo - e - MARGIN, window.hi + e + MARGIN)
+}
+
+/// Longer steps where the brick-bounds pass says opacity is low (issue 17 item 2): inside an
+/// occupied brick whose opacity bound is below the threshold, one sample stands for up to
+/// `factor` lattice samples (never past the brick's exit), composited with the opacity of that
+/// length. An approximation (the accuracy study measures it: `morphray accuracy`, ACCURACY.md),
+/// so off by default. Integers so [`super::Quality`] stays a hashable pipeline key.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+pub struct LongSteps {
+    /// Lattice samples one long step stands for (1: off).
+    pub factor: u32,
+    /// Opacity bound per mm below which a brick takes long steps, in units of 1e-4 (so 100 is
+    /// 0.01 per mm; 0: off). Labelled bricks (bound >= 1) never qualify.
+    pub threshold_e4: u32,
+}
+
+impl LongSteps {
+    /// No long steps.
+    pub const OFF: LongSteps = LongSteps {
+        factor: 1,
+        threshold_e4: 0,
+    };
+
+    /// Whether any brick can take long steps.
+    pub fn is_on(&self) -> bool {
+        self.factor > 1 && self.threshold_e4 > 0
+    }
+
+    /// The threshold per mm, at most 1 (so a labelled brick never qualifies).
+    pub fn threshold(&self) -> f64 {
+        (f64::from(self.threshold_e4) * 1e-4).min(1.0)
+    }
+}
+
+impl Default for LongSteps {
+    fn default() -> Self {
+        LongSteps::OFF
+    }
+}
+
+/// Slack added to every opacity bound (GPU and twin) so the f32 arithmetic of the pass can never
+/// put a bound below the exact one.
+pub const BOUND_MARGIN: f64 = 1e-6;
+
+/// One channel of the brick-bounds pass (a tissue window on I_norm or the vessel window on the
+/// vesselness), in the f32 values the GPU gets.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BoundChannel {
+    /// Window bounds.
+    pub lo: f32,
+    /// Window bounds.
+    pub hi: f32,
+    /// Edge half-width, at least [`MIN_EDGE`].
+    pub edge: f32,
+    /// Opacity per mm, clamped to [0, 1] as the raymarch's uniforms clamp it.
+    pub opacity: f32,
+    /// The open support (`support`), rounded outward to f32: for every f32 `x`, `x > lo` and
+    /// `x < hi` decide as the f64 comparisons with the unrounded support do.
+    pub support: (f32, f32),
+}
+
+/// The largest f32 at or below `x`.
+fn f32_down(x: f64) -> f32 {
+    let f = x as f32;
+    if f64::from(f) > x { f.next_down() } else { f }
+}
+
+/// The smallest f32 at or above `x`.
+fn f32_up(x: f64) -> f32 {
+    let f = x as f32;
+    if f64::from(f) < x { f.next_up() } else { f }
+}
+
+fn bound_channel(window: &super::Window, opacity: f32) -> BoundChannel {
+    let (s_lo, s_hi) = support(window);
+    BoundChannel {
+        lo: window.lo as f32,
+        hi: window.hi as f32,
+        edge: window.edge.max(MIN_EDGE) as f32,
+        opacity: opacity.clamp(0.0, 1.0),
+        support: (f32_down(s_lo), f32_up(s_hi)),
+    }
+}
+
+/// The channels of the brick-bounds pass: the four tissues (None where invisible, without a
+/// window or of zero opacity, exactly the tissues [`BrickRanges::occupancy_bits`] counts) and,
+/// when `vessels`, the vessel channel (None at zero opacity).
+pub fn bound_channels(classification: &Classification, vessels: bool) -> [Option<BoundChannel>; 5] {
+    let mut channels = [None; 5];
+    for (slot, t) in channels.iter_mut().zip(&classification.tissues) {
+        if let (true, true, Some(w)) = (t.visible, t.opacity > 0.0, t.window) {
+            *slot = Some(bound_channel(&w, t.opacity));
+        }
+    }
+    let v = &classification.vessels;
+    if vessels && v.opacity > 0.0 {
+        channels[4] = Some(bound_channel(&v.window, v.opacity));
+    }
+    channels
+}
+
+/// f64 smoothstep(centre - e, centre + e, x), the pass's `edge_step`.
+fn edge_step(centre: f64, e: f64, x: f64) -> f64 {
+    let t = (((x - centre) + e) / (2.0 * e)).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}
+
+/// The largest weight `channel`'s window takes over [lo, hi], times its opacity (an upper
+/// bound: 1 where the range meets the window, else the nearer edge's smoothstep).
+fn channel_bound(channel: &BoundChannel, lo: f64, hi: f64) -> f64 {
+    let [w_lo, w_hi, e] = [channel.lo, channel.hi, channel.edge].map(f64::from);
+    let weight = if hi < w_lo {
+        edge_step(w_lo, e, hi)
+    } else if lo > w_hi {
+        1.0 - edge_step(w_hi, e, lo)
+    } else {
+        1.0
+    };
+    f64::from(channel.opacity) * weight
 }
 
 /// Per-brick I_norm ranges of one volume.
@@ -77,6 +201,64 @@ impl BrickRanges {
             }
         }
         bits
+    }
+
+    /// The twin of the brick-bounds pass's bits: [`BrickRanges::occupancy_bits`], ORed with the
+    /// vessel channel's bits on `vessels` (the vesselness's ranges, same grid) and with
+    /// `labels` (bricks holding a drawn label are never skipped).
+    pub fn reference_bits(
+        &self,
+        classification: &Classification,
+        vessels: Option<&BrickRanges>,
+        labels: Option<&[u32]>,
+    ) -> Vec<u32> {
+        let mut bits = self.occupancy_bits(classification);
+        if let Some(label_bits) = labels {
+            for (word, extra) in bits.iter_mut().zip(label_bits) {
+                *word |= extra;
+            }
+        }
+        if let Some(vessel_ranges) = vessels {
+            for (word, extra) in bits
+                .iter_mut()
+                .zip(vessel_ranges.vessel_bits(classification))
+            {
+                *word |= extra;
+            }
+        }
+        bits
+    }
+
+    /// The twin of the brick-bounds pass's bounds: per brick an upper bound of f(v)
+    /// (classification.rs) over every sample the brick can hold, `min(1, BOUND_MARGIN + sum of
+    /// channel bounds)`, plus 1 where a label is drawn; f64 arithmetic on the f32 channel values.
+    pub fn reference_bounds(
+        &self,
+        classification: &Classification,
+        vessels: Option<&BrickRanges>,
+        labels: Option<&[u32]>,
+    ) -> Vec<f64> {
+        let channels = bound_channels(classification, vessels.is_some());
+        let range = |r: &(f32, f32)| (f64::from(r.0), f64::from(r.1));
+        (0..self.ranges.len())
+            .map(|b| {
+                let (lo, hi) = range(&self.ranges[b]);
+                let mut sum: f64 = channels[..4]
+                    .iter()
+                    .flatten()
+                    .map(|c| channel_bound(c, lo, hi))
+                    .sum();
+                if let (Some(c), Some(v)) = (&channels[4], vessels) {
+                    let (v_lo, v_hi) = v.ranges.get(b).map_or((0.0, 0.0), range);
+                    sum += channel_bound(c, v_lo, v_hi);
+                }
+                let mut bound = (sum + BOUND_MARGIN).min(1.0);
+                if labels.is_some_and(|l| l.get(b / 32).is_some_and(|w| w >> (b % 32) & 1 == 1)) {
+                    bound += 1.0;
+                }
+                bound
+            })
+            .collect()
     }
 
     /// Fraction of bricks occupied for a classification (for reports).

@@ -48,7 +48,8 @@ pub struct RaymarchUniforms {
     pub gradient_to_world: [[f32; 4]; 3],
     /// x = width, y = height, z = jitter seed (frame), w = maximum steps per ray.
     pub image: [u32; 4],
-    /// x multiplies stored |g| back to per mm, y stored k to per mm^2 (8-bit storage is scaled).
+    /// x multiplies stored |g| back to per mm, y stored k to per mm^2 (8-bit storage is scaled);
+    /// z, w: the long-step threshold (opacity bound per mm) and factor (LONG_STEPS only).
     pub derived_scale: [f32; 4],
     /// xyz = brick grid of the occupancy bits, w = brick side in voxels.
     pub bricks: [u32; 4],
@@ -228,8 +229,8 @@ impl RaymarchUniforms {
             derived_scale: [
                 1.0 / frame.store_scale[0].max(f32::MIN_POSITIVE),
                 1.0 / frame.store_scale[1].max(f32::MIN_POSITIVE),
-                0.0,
-                0.0,
+                scene.effects.quality.long_steps.threshold() as f32,
+                scene.effects.quality.long_steps.factor.max(1) as f32,
             ],
             bricks: frame.bricks,
             atlas: [

@@ -53,6 +53,7 @@ impl RaymarchVariant {
             // Set by the engine where a label overlay is attached to the render target.
             labels: false,
             vessels: dvr && effects.vessels,
+            long_steps: dvr && q.empty_space_skipping && q.long_steps.is_on(),
         }
     }
 }

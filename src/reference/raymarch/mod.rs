@@ -59,6 +59,7 @@
 mod formulas;
 mod inputs;
 mod labels;
+mod long_steps;
 mod sampling;
 #[cfg(test)]
 mod tests;
@@ -66,6 +67,7 @@ mod tests;
 pub use formulas::*;
 pub use inputs::{ReferenceDerived, ReferenceError, ReferenceVolume};
 pub use labels::ReferenceLabels;
+pub use long_steps::ReferenceLongSteps;
 pub use sampling::{fetch, trilinear};
 
 use crate::scene::camera::CameraRays;
@@ -177,6 +179,9 @@ pub struct ReferenceRaymarch<'a> {
     labels: Option<ReferenceLabels<'a>>,
     vesselness: Option<Grid<'a, f64>>,
     vessels_on: bool,
+    // The scene's long steps (DVR with skipping only) and, once given, the brick bounds.
+    long_step_setting: Option<crate::scene::occupancy::LongSteps>,
+    long_steps: Option<ReferenceLongSteps<'a>>,
 }
 
 impl<'a> ReferenceRaymarch<'a> {
@@ -344,6 +349,11 @@ impl<'a> ReferenceRaymarch<'a> {
             labels: None,
             vesselness: None,
             vessels_on: dvr && effects.vessels,
+            long_step_setting: {
+                let q = effects.quality;
+                (dvr && q.empty_space_skipping && q.long_steps.is_on()).then_some(q.long_steps)
+            },
+            long_steps: None,
         })
     }
 
@@ -365,6 +375,32 @@ impl<'a> ReferenceRaymarch<'a> {
     pub fn with_labels(mut self, labels: ReferenceLabels<'a>) -> Result<Self, ReferenceError> {
         check_values("labels", self.volume.dims, labels.values, |_| true)?;
         self.labels = Some(labels);
+        Ok(self)
+    }
+
+    /// The brick bounds the scene's long steps need (`BrickRanges::reference_bounds` on a
+    /// `grid` of bricks of `side` voxels); without them, or when the scene's long steps are
+    /// off, the twin takes no long steps.
+    pub fn with_brick_bounds(
+        mut self,
+        grid: [u32; 3],
+        side: u32,
+        bounds: &'a [f64],
+    ) -> Result<Self, ReferenceError> {
+        let bricks = grid.iter().map(|&g| g as usize).product::<usize>();
+        if bounds.len() != bricks || side == 0 {
+            return Err(ReferenceError::BadParameter {
+                what: "brick bounds (one per brick of the grid)",
+                value: bounds.len() as f64,
+            });
+        }
+        self.long_steps = self.long_step_setting.map(|s| ReferenceLongSteps {
+            grid,
+            side,
+            bounds,
+            factor: s.factor,
+            threshold: s.threshold(),
+        });
         Ok(self)
     }
 
@@ -509,6 +545,11 @@ impl<'a> ReferenceRaymarch<'a> {
     /// `view_direction`, or None where the shader skips it (`f(v) <= 0`). For finding out why a
     /// GPU pixel differs: every intermediate of the shader's loop body.
     pub fn dvr_sample(&self, p: DVec3, view_direction: DVec3) -> Option<DvrSample> {
+        self.dvr_sample_with(p, view_direction, self.opacity_exponent)
+    }
+
+    /// [`ReferenceRaymarch::dvr_sample`] with opacity exponent `r` (a long step's is larger).
+    fn dvr_sample_with(&self, p: DVec3, view_direction: DVec3, r: f64) -> Option<DvrSample> {
         let value = self.value(p);
         let vessels = self
             .vesselness
@@ -528,9 +569,9 @@ impl<'a> ReferenceRaymarch<'a> {
                 .min(1.0);
         }
         let corrected = if self.naive_opacity {
-            opacity_correct_naive(opacity, self.opacity_exponent)
+            opacity_correct_naive(opacity, r)
         } else {
-            opacity_correct(opacity, self.opacity_exponent)
+            opacity_correct(opacity, r)
         };
         let shaded = if self.shading {
             shade(colour, normal, view_direction)
@@ -552,19 +593,18 @@ impl<'a> ReferenceRaymarch<'a> {
 
     fn dvr(&self, plan: &RayPlan) -> [f64; 4] {
         let mut acc = [0.0; 4];
-        for i in 0..plan.count {
+        let mut next = 0;
+        while next < plan.count {
+            let i = next;
+            let span = self.long_steps.map_or(1, |l| l.span(plan, i));
+            next = i + span;
+            let r = self.opacity_exponent * f64::from(span);
             let p = plan.position(i);
-            let tissue = self.dvr_sample(p, plan.view_direction);
+            let tissue = self.dvr_sample_with(p, plan.view_direction, r);
             let label = self.labels.and_then(|labels| {
                 let shading = self.shading.then_some(plan.view_direction);
                 let m = self.geometry.gradient_to_world;
-                labels.sample(
-                    self.volume.dims.map(|d| d as usize),
-                    p,
-                    m,
-                    shading,
-                    self.opacity_exponent,
-                )
+                labels.sample(self.volume.dims.map(|d| d as usize), p, m, shading, r)
             });
             if tissue.is_none() && label.is_none() {
                 continue;
