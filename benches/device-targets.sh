@@ -4,7 +4,7 @@
 # fresh processes per cache state, on the default phantom, MNI152 and the 134 M-voxel phantom as
 # .nii.gz (1 MiB members) and .nii; the phantom in MIP too (the texel rate without the DVR
 # arithmetic: what bounds the DVR's); and a running viewer opening the phantom again (second-file
-# first pixel), offscreen at 1920x1080.
+# first pixel), offscreen at 1920x1080; the accuracy study's long-step settings timed at 1920x1080.
 # Carry the loader packages and .sv (morphray.xz and mni.nii.xz):
 #   run(command="bash benches/device-targets.sh", carry=[".glmin", ".sv"])
 set -uo pipefail
@@ -48,6 +48,15 @@ bench mni152 "$V/mni152.nii.gz" "${full[@]}"
 bench phantom-mip "$V/p256.nii.gz" --frames 100 --repeat 1 --trials 0 --mode mip
 bench p512-nii-gz "$V/p512.nii.gz" "${full[@]}"
 bench p512-nii "$V/p512.nii" "${full[@]}"
+# The long-step settings of the accuracy study (issue 17 item 2) timed at 1920x1080 on the GPU
+# (errors against the f64 twin at the study's default size).
+for vol in p256 mni152; do
+    if [ "$SECONDS" -gt 480 ]; then echo "accuracy $vol: skipped (time)"; continue; fi
+    timeout 100 $M accuracy "$V/$vol.nii.gz" --time-size 1920x1080 --frames 21 \
+        --json "$RAW/accuracy-$vol.json" > "$RAW/accuracy-$vol.txt" 2>&1
+    echo "== accuracy $vol (rc $?)"
+    grep -iE 'long steps|^default|setting' "$RAW/accuracy-$vol.txt" | cut -c1-150
+done
 } 2>&1 | tee "$RAW/summary.txt"
 cp "$RAW/summary.txt" "$RAW/device.txt" "$OUT/"
 tar czf "$OUT/raw.tgz" -C "$RAW" .

@@ -175,6 +175,8 @@ pub fn read_regular(path: &Path, cap: u64) -> Result<Vec<u8>, ReadError> {
     bytes
         .try_reserve_exact(want.saturating_add(1))
         .map_err(|_| too_big())?;
+    let spare = bytes.spare_capacity_mut();
+    super::parallel::advise_huge_pages(spare.as_mut_ptr().cast(), spare.len());
     let io = |source| ReadError::Io {
         path: path.to_path_buf(),
         source,
