@@ -7,16 +7,8 @@
 # Carry the loader packages and .sv (morphray.xz and mni.nii.xz):
 #   run(command="bash benches/device-hugepages.sh", carry=[".glmin", ".sv"])
 set -uo pipefail
-for f in .glmin/lib{vulkan1,egl1,glvnd0,opengl0,gl1,glx0,gles2}_*.deb; do dpkg -x "$f" /; done
-ldconfig
-export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
-OUT=${OUT:-/tmp/morphray-out}
-RAW=$(mktemp -d)
-V=$(mktemp -d)
-mkdir -p "$OUT"
-python3 -c 'import lzma,shutil,sys; shutil.copyfileobj(lzma.open(sys.argv[1]), open(sys.argv[2], "wb"))' \
-    .sv/morphray.xz /tmp/morphray && chmod +x /tmp/morphray
-M=/tmp/morphray
+# Loader, OUT, RAW, V, M and $V/mni152.nii.gz (benches/device-common.sh).
+source benches/device-common.sh
 { nvidia-smi --query-gpu=name,driver_version --format=csv,noheader; nproc; uname -r
   echo "THP: $(cat /sys/kernel/mm/transparent_hugepage/enabled) defrag: $(cat /sys/kernel/mm/transparent_hugepage/defrag)"; } | tee "$RAW/device.txt"
 $M phantom -o "$V/p256.nii.gz" > /dev/null

@@ -8,18 +8,8 @@
 # Carry the loader packages and .sv (morphray.xz and mni.nii.xz):
 #   run(command="bash benches/device-targets.sh", carry=[".glmin", ".sv"])
 set -uo pipefail
-for f in .glmin/lib{vulkan1,egl1,glvnd0,opengl0,gl1,glx0,gles2}_*.deb; do dpkg -x "$f" /; done
-ldconfig
-export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
-OUT=${OUT:-/tmp/morphray-out}
-RAW=$(mktemp -d)  # everything, handed back as one archive (the machine returns few files)
-V=$(mktemp -d)
-mkdir -p "$OUT"
-python3 -c 'import lzma,shutil,sys; shutil.copyfileobj(lzma.open(sys.argv[1]), open(sys.argv[2], "wb"))' \
-    .sv/morphray.xz /tmp/morphray && chmod +x /tmp/morphray
-python3 -c 'import lzma,gzip,shutil,sys; shutil.copyfileobj(lzma.open(sys.argv[1]), gzip.open(sys.argv[2], "wb", 6))' \
-    .sv/mni.nii.xz "$V/mni152.nii.gz"
-M=/tmp/morphray
+# Loader, OUT, RAW, V, M and $V/mni152.nii.gz (benches/device-common.sh).
+source benches/device-common.sh
 nvidia-smi --query-gpu=name,driver_version,clocks.sm,clocks.mem --format=csv,noheader | tee "$RAW/device.txt"
 $M phantom -o "$V/p256.nii.gz" > /dev/null
 cp "$V/p256.nii.gz" "$V/p256b.nii.gz"

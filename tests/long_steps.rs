@@ -5,13 +5,12 @@
 mod common;
 
 use ash::vk;
-use morphray::analysis::analyze;
 use morphray::engine::readback::read_image;
 use morphray::engine::{Derived, Engine, PreparedVolume};
 use morphray::gpu::Access;
 use morphray::reference::raymarch::{ReferenceDerived, ReferenceRaymarch, ReferenceVolume};
 use morphray::scene::occupancy::LongSteps;
-use morphray::scene::{Classification, Scene, VolumeGeometry};
+use morphray::scene::{Scene, VolumeGeometry};
 use morphray::volume::phantom::{PhantomSpec, generate};
 
 struct Prepared {
@@ -22,23 +21,7 @@ struct Prepared {
 
 fn prepare(engine: &mut Engine, n: usize) -> Prepared {
     let volume = generate(&PhantomSpec::cube(n)).unwrap().volume;
-    let prepared = engine.prepare(&volume).unwrap();
-    let (imin, imax) = (
-        prepared.normalization.imin.unwrap(),
-        prepared.normalization.imax.unwrap(),
-    );
-    let report = analyze(
-        &prepared.histogram,
-        imin,
-        imax,
-        prepared.voxel_count as usize,
-        0,
-    );
-    let mut scene = Scene::new(Classification::from_tissue_windows(
-        &report.adaptive_windows,
-    ));
-    scene.camera.azimuth_deg = 35.0;
-    scene.camera.elevation_deg = 25.0;
+    let (prepared, mut scene) = common::pictures::prepared_scene(engine, &volume);
     scene.effects.shading = true;
     let derived = scene
         .effects

@@ -202,12 +202,7 @@ pub fn inflate_within(bytes: Vec<u8>, limit: Limit) -> Result<(Vec<u8>, usize), 
         return Ok((out, members));
     }
     let mut decompressor = Decompressor::new()?;
-    let mut out: Vec<u8> = Vec::new();
-    out.try_reserve_exact(capacity)
-        .map_err(|_| NiftiError::OutOfMemory {
-            bytes: capacity,
-            what: "the inflated gzip data",
-        })?;
+    let mut out = reserve_output(capacity)?;
     let mut pos = 0usize;
     let mut members = 0usize;
     while pos < bytes.len() {
@@ -247,6 +242,18 @@ pub fn inflate_within(bytes: Vec<u8>, limit: Limit) -> Result<(Vec<u8>, usize), 
     }
     release_slack(&mut out);
     Ok((out, members))
+}
+
+/// An empty vector with room for `capacity` inflated bytes (a typed error when the memory is
+/// not there).
+pub(super) fn reserve_output(capacity: usize) -> Result<Vec<u8>, NiftiError> {
+    let mut out = Vec::new();
+    out.try_reserve_exact(capacity)
+        .map_err(|_| NiftiError::OutOfMemory {
+            bytes: capacity,
+            what: "the inflated gzip data",
+        })?;
+    Ok(out)
 }
 
 /// Releases a large over-estimate (a header declaring more than the file holds; the parser

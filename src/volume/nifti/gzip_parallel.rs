@@ -23,7 +23,7 @@
 //!   it goes the sequential path at one thread's speed. That bound is stated in BENCHMARKS.md.
 
 use super::error::NiftiError;
-use super::gzip::{Decompressor, RawResult, is_gzip};
+use super::gzip::{Decompressor, RawResult, is_gzip, reserve_output};
 use crate::files::parallel::{Dest, for_each_index, thread_budget};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -79,12 +79,7 @@ pub fn inflate_members(
     let Some(offsets) = output_offsets(bytes, &starts, capacity) else {
         return Ok(None);
     };
-    let mut out: Vec<u8> = Vec::new();
-    out.try_reserve_exact(capacity)
-        .map_err(|_| NiftiError::OutOfMemory {
-            bytes: capacity,
-            what: "the inflated gzip data",
-        })?;
+    let mut out = reserve_output(capacity)?;
     let dest = Dest(out.spare_capacity_mut().as_mut_ptr().cast());
     let last_written = AtomicUsize::new(0);
     let verified = for_each_index(
