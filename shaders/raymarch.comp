@@ -61,12 +61,14 @@ layout(constant_id = 8) const bool BRICKED = false;       // textures are brick 
 layout(constant_id = 9) const bool LABELS = false;        // a label overlay drawn in 3D (labels.glsl)
 layout(constant_id = 10) const bool VESSELS = false;      // the vessel channel (classification.glsl)
 layout(constant_id = 11) const bool LONG_STEPS = false;   // longer steps in bricks of low opacity bound
+layout(constant_id = 12) const bool BRAIN = false;        // tissues inside the brain mask, the head layer outside
 
 layout(set = 0, binding = 0) uniform sampler3D volume;          // I_norm, trilinear
 layout(set = 0, binding = 1) uniform sampler3D gradient_volume; // .r |g|, .g k (scaled, see derived_scale)
 layout(set = 0, binding = 2) uniform sampler3D normal_volume;   // .xyz unit world gradient
 layout(set = 0, binding = 3) uniform writeonly image2D target;  // RGBA8 (or RGBA32F for studies)
 layout(set = 0, binding = 10) uniform sampler3D vesselness_volume; // VESSELS: multi-scale vesselness
+layout(set = 0, binding = 11) uniform sampler3D brain_mask;        // BRAIN: 1 inside the brain (R8, trilinear)
 
 layout(set = 0, binding = 4, std140) uniform Params {
     mat4 world_to_index;
@@ -96,6 +98,9 @@ layout(set = 0, binding = 4, std140) uniform Params {
     // Vessel channel (issue 15 item 3).
     vec4 vessel_window;     // lo, hi, edge on the vesselness, 1
     vec4 vessel_colour;     // rgb, opacity
+    // Brain extraction (issue 27): the head layer outside the brain mask.
+    vec4 head_window;       // lo, hi, edge on I_norm, visible
+    vec4 head_colour;       // rgb, opacity (0 when hidden)
 } params;
 
 // Benchmark counters (COUNT_SAMPLES only): samples marched and samples that passed
@@ -289,7 +294,13 @@ void main() {
             }
             float v = sample_volume(p);
             marched++;
-            vec4 cls = VESSELS ? classify_with_vessels(v, fetch_volume(vesselness_volume, p).r) : classify(v);
+            vec4 cls;
+            if (BRAIN) {
+                float vessel_weight = VESSELS ? window_weight(fetch_volume(vesselness_volume, p).r, params.vessel_window) * params.vessel_colour.a : 0.0;
+                cls = classify_in_brain(v, vessel_weight, fetch_volume(brain_mask, p).r);
+            } else {
+                cls = VESSELS ? classify_with_vessels(v, fetch_volume(vesselness_volume, p).r) : classify(v);
+            }
             uint label = 0u;
             vec4 label_colour = vec4(0.0);
             if (LABELS) {

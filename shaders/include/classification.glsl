@@ -9,14 +9,22 @@ float window_weight(float v, vec4 window) {
                     * (1.0 - smoothstep(window.y - window.z, window.y + window.z, v));
 }
 
-// The tissues' and (when drawn) the vessel channel's opacity-weighted colour sums.
-vec4 classify_sums(float v, float vessel_weight) {
+// The tissues' and (when drawn) the vessel channel's opacity-weighted colour sums. `brain` is
+// the brain mask at the sample (1 without one): the tissues weigh `brain`, the head layer
+// (params.head_window / head_colour, opacity 0 when hidden) `1 - brain` (twin:
+// Classification::classify_masked).
+vec4 classify_sums(float v, float vessel_weight, float brain) {
     float total = vessel_weight;
     vec3 colour = vessel_weight * params.vessel_colour.rgb;
     for (int t = 0; t < 4; t++) {
-        float w = window_weight(v, params.windows[t]) * params.colours[t].a;
+        float w = brain * window_weight(v, params.windows[t]) * params.colours[t].a;
         total += w;
         colour += w * params.colours[t].rgb;
+    }
+    if (BRAIN) {
+        float w = (1.0 - brain) * window_weight(v, params.head_window) * params.head_colour.a;
+        total += w;
+        colour += w * params.head_colour.rgb;
     }
     if (total <= 0.0) {
         return vec4(0.0);
@@ -26,13 +34,18 @@ vec4 classify_sums(float v, float vessel_weight) {
 
 // Returns f(v) in .a (clamped to 1) and the opacity-weighted mean colour in .rgb.
 vec4 classify(float v) {
-    return classify_sums(v, 0.0);
+    return classify_sums(v, 0.0, 1.0);
+}
+
+// classify() inside the brain mask (BRAIN; issue 27).
+vec4 classify_in_brain(float v, float vessel_weight, float brain) {
+    return classify_sums(v, vessel_weight, brain);
 }
 
 // classify() with the vessel channel: one more term, its window on the vesselness (issue 15
 // item 3; twin: Classification::classify_with_vessels).
 vec4 classify_with_vessels(float v, float vesselness) {
-    return classify_sums(v, window_weight(vesselness, params.vessel_window) * params.vessel_colour.a);
+    return classify_sums(v, window_weight(vesselness, params.vessel_window) * params.vessel_colour.a, 1.0);
 }
 
 // Curvature weight w(k) = 1 + s * tanh(|k| / k_ref): thin, sharply bent structures (the cortical

@@ -38,8 +38,32 @@ fn tissues_only<'a, T, V: 'a>(
 ) -> impl Iterator<Item = (TissueClass, V)> + 'a {
     entries.iter().filter_map(move |e| match split(e) {
         (Channel::Tissue(t), v) => Some((t, v)),
-        (Channel::Vessels, _) => None,
+        (Channel::Vessels | Channel::Head, _) => None,
     })
+}
+
+/// The head layer from `--tissues head` and the `head=` entries (later ones win).
+fn head_recipe(args: &SceneArgs, visible: bool) -> crate::scene::classification::HeadRecipe {
+    let mut head = crate::scene::classification::HeadRecipe {
+        visible,
+        ..Default::default()
+    };
+    for &(channel, lo, hi) in &args.window {
+        if channel == Channel::Head {
+            head.window = Some((lo, hi));
+        }
+    }
+    for &(channel, x) in &args.opacity {
+        if channel == Channel::Head {
+            head.opacity = Some(x);
+        }
+    }
+    for &(channel, rgb) in &args.color {
+        if channel == Channel::Head {
+            head.colour = Some(rgb);
+        }
+    }
+    head
 }
 
 /// The vessel channel's style from the `vessels=` entries (later ones win), or None.
@@ -73,8 +97,13 @@ fn vessel_style(args: &SceneArgs) -> Option<VesselStyle> {
 pub fn recipe_from_args(args: &SceneArgs) -> Result<SceneRecipe, Error> {
     let mut visible = Vec::new();
     let mut vessels = false;
+    let mut head = false;
     for name in &args.tissues {
         if name.trim().is_empty() {
+            continue;
+        }
+        if name.trim().eq_ignore_ascii_case("head") {
+            head = true;
             continue;
         }
         if name.trim().eq_ignore_ascii_case("vessels") {
@@ -83,7 +112,7 @@ pub fn recipe_from_args(args: &SceneArgs) -> Result<SceneRecipe, Error> {
         }
         let tissue = TissueClass::parse(name).ok_or_else(|| {
             Error::Usage(format!(
-                "unknown tissue `{name}` in --tissues; use csf, gm, wm, pathology, vessels"
+                "unknown tissue `{name}` in --tissues; use csf, gm, wm, pathology, vessels, head"
             ))
         })?;
         visible.push(tissue);
@@ -101,6 +130,11 @@ pub fn recipe_from_args(args: &SceneArgs) -> Result<SceneRecipe, Error> {
             GradientArg::OnTheFly => GradientSource::OnTheFly,
         },
         vessels: vessels && args.mode == ModeArg::Dvr,
+        brain: if args.mode == ModeArg::Dvr {
+            args.brain
+        } else {
+            crate::passes::brain::BrainSwitch::Off
+        },
         ..Default::default()
     };
     effects.quality.derived_precision = match args.derived_precision {
@@ -120,6 +154,7 @@ pub fn recipe_from_args(args: &SceneArgs) -> Result<SceneRecipe, Error> {
         opacity: tissues_only(&args.opacity, |&(c, x)| (c, x)).collect(),
         colour: tissues_only(&args.color, |&(c, rgb)| (c, rgb)).collect(),
         vessel_style: vessel_style(args),
+        head: head_recipe(args, head),
         camera: Camera {
             azimuth_deg: args.view.angles().map_or(args.azimuth, |a| a.0),
             elevation_deg: args.view.angles().map_or(args.elevation, |a| a.1),

@@ -107,14 +107,23 @@ pub struct SceneArgs {
     /// What each ray computes.
     #[arg(long, value_enum, default_value_t = ModeArg::Dvr)]
     pub mode: ModeArg,
-    /// Visible tissues, comma-separated: csf, gm, wm, pathology, vessels
+    /// Visible tissues, comma-separated: csf, gm, wm, pathology, vessels, head
     ///
+    /// `head` draws the skin, fat and muscle around an extracted brain (see --brain) as a
+    /// translucent context layer (`--opacity head=0.4`, `--color head=#RRGGBB` style it).
     /// `--tissues pathology` alone "unmasks" lesions and vessels; `vessels` is the vessel
     /// channel, classified on the multi-scale vesselness instead of intensity (computed only when
     /// shown), so `--tissues vessels,pathology` shows the vessels with the brain tissue
     /// suppressed (the paper's Fig. 2). Default: all but pathology and vessels.
     #[arg(long, default_value = "csf,gm,wm", value_delimiter = ',')]
     pub tissues: Vec<String>,
+    /// Brain extraction: auto (a head scan shows its brain), on, off
+    ///
+    /// auto finds the brain of an MR head and classifies tissues inside it only, so the scalp
+    /// and face do not hide it; a skull-stripped scan is left alone. on uses any brain found;
+    /// off classifies every voxel (the face of a head scan). `--tissues head,...` shows the head.
+    #[arg(long, default_value = "auto", value_parser = parse_brain)]
+    pub brain: crate::passes::brain::BrainSwitch,
     /// Tissue windows: adaptive (from this volume's histogram peaks) or the paper's constants.
     #[arg(long, value_enum, default_value_t = WindowsArg::Adaptive)]
     pub windows: WindowsArg,
@@ -179,6 +188,11 @@ pub struct SceneArgs {
     pub denoise: crate::passes::denoise::Denoise,
 }
 
+fn parse_brain(text: &str) -> Result<crate::passes::brain::BrainSwitch, String> {
+    crate::passes::brain::BrainSwitch::parse(text)
+        .ok_or_else(|| format!("--brain `{text}`: use auto, on or off"))
+}
+
 fn parse_denoise(text: &str) -> Result<crate::passes::denoise::Denoise, String> {
     text.parse()
 }
@@ -191,6 +205,8 @@ pub enum Channel {
     Tissue(TissueClass),
     /// The vessel channel.
     Vessels,
+    /// The head layer around an extracted brain.
+    Head,
 }
 
 impl serde::Serialize for Channel {
@@ -199,6 +215,7 @@ impl serde::Serialize for Channel {
         match self {
             Channel::Tissue(t) => serializer.serialize_str(t.name()),
             Channel::Vessels => serializer.serialize_str("vessels"),
+            Channel::Head => serializer.serialize_str("head"),
         }
     }
 }
@@ -211,8 +228,12 @@ fn tissue_and(text: &str) -> Result<(Channel, &str), String> {
     if name.trim().eq_ignore_ascii_case("vessels") {
         return Ok((Channel::Vessels, rest));
     }
-    let tissue = TissueClass::parse(name)
-        .ok_or_else(|| format!("unknown tissue `{name}`; use csf, gm, wm, pathology or vessels"))?;
+    if name.trim().eq_ignore_ascii_case("head") {
+        return Ok((Channel::Head, rest));
+    }
+    let tissue = TissueClass::parse(name).ok_or_else(|| {
+        format!("unknown tissue `{name}`; use csf, gm, wm, pathology, vessels or head")
+    })?;
     Ok((Channel::Tissue(tissue), rest))
 }
 

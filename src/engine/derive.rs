@@ -21,6 +21,9 @@ pub struct Derived {
     pub vesselness: Option<Arc<Image>>,
     /// The vesselness's per-brick ranges (for empty-space skipping with the vessel channel).
     pub vessel_ranges: Option<Arc<crate::scene::occupancy::BrickRanges>>,
+    /// Brain extraction's outcome when `DerivativeOutputs::brain` asked for it; its mask is what
+    /// the raymarch classifies tissues inside (`BrainMask::used`).
+    pub brain: Option<Arc<super::brain::BrainMask>>,
 }
 
 /// The derivative pass's max |g| slots and their host copy (as [`Engine::derive`] creates them,
@@ -56,6 +59,12 @@ impl Engine {
             derived.vesselness = Some(vessels.image);
             derived.volumes.outputs.vesselness = true;
         }
+        if outputs.brain != crate::passes::brain::BrainSwitch::Off {
+            let brain = self.extract_brain(prepared, outputs.brain)?;
+            derived.gpu_timings.extend(brain.gpu_timings.iter().cloned());
+            derived.brain = Some(Arc::new(brain));
+            derived.volumes.outputs.brain = outputs.brain;
+        }
         Ok(derived)
     }
 
@@ -67,6 +76,7 @@ impl Engine {
         // The vesselness is no output of the derivative shader: its pipelines ignore the flag.
         let outputs = DerivativeOutputs {
             vesselness: false,
+            brain: crate::passes::brain::BrainSwitch::Off,
             ..outputs
         };
         let _span = crate::files::trace::span("derived volumes", "prepare");
@@ -169,6 +179,7 @@ impl Engine {
             gpu_timings,
             vesselness: None,
             vessel_ranges: None,
+            brain: None,
         })
     }
 }
@@ -181,6 +192,7 @@ fn max_only_pass(outputs: DerivativeOutputs) -> DerivativeOutputs {
         normal: false,
         precision: outputs.precision,
         vesselness: false,
+        brain: crate::passes::brain::BrainSwitch::Off,
     }
 }
 
@@ -189,6 +201,7 @@ fn max_only_pass(outputs: DerivativeOutputs) -> DerivativeOutputs {
 pub(crate) fn derivative_variants(outputs: DerivativeOutputs) -> Vec<DerivativeOutputs> {
     let outputs = DerivativeOutputs {
         vesselness: false,
+        brain: crate::passes::brain::BrainSwitch::Off,
         ..outputs
     };
     let stores = outputs.magnitude || outputs.curvature;

@@ -100,6 +100,8 @@ fn every_effects() -> Vec<Effects> {
                         // The vessel channel adds one texture fetch per sample; the sweep
                         // keeps to the tissue variants it was made for.
                         vessels: false,
+                        // The brain mask adds one fetch per classified sample, as the vessels.
+                        brain: crate::passes::brain::BrainSwitch::Off,
                     });
                 }
             }

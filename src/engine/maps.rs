@@ -75,6 +75,7 @@ impl Engine {
                 normal: false,
                 precision: DerivedPrecision::F32,
                 vesselness: false,
+                brain: crate::passes::brain::BrainSwitch::Off,
             };
             let derived = self.derive(source, outputs)?;
             let image = derived.volumes.gradient.as_ref().ok_or_else(|| {

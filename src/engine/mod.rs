@@ -13,6 +13,7 @@
 //! - The engine records what each persistent image was last used for, so readback and later
 //!   passes put the right barrier in front of it.
 
+mod brain;
 mod bricked;
 mod denoise;
 mod derive;
@@ -34,6 +35,7 @@ mod twin;
 pub mod upload;
 mod vessels;
 
+pub use brain::BrainMask;
 pub use bricked::HostPrepared;
 pub use derive::Derived;
 pub use labels::{LabelVolume, label_brick_bits, label_colours};

@@ -350,6 +350,18 @@ impl Engine {
             }
         };
         let mut variant = RaymarchVariant::of_layout(&effects, count, atlas.brick > 0);
+        // The brain mask is read where the derived volumes hold one the switch uses (a head).
+        variant.brain = variant.mode == 0
+            && effects.brain != crate::passes::brain::BrainSwitch::Off
+            && derived
+                .and_then(|d| d.brain.as_ref())
+                .is_some_and(|b| b.image.is_some() && b.use_for(effects.brain));
+        // The head layer's window is not among the brick-bounds channels (four tissues and the
+        // vessels): with it visible, skipping is off rather than lossy.
+        if variant.brain && scene.classification.head.visible {
+            variant.skip_empty = false;
+            variant.long_steps = false;
+        }
         let frame_slot = target.next_uniforms;
         let (label_values, label_colours, label_bits) =
             self.label_inputs(target, prepared, scene, frame_slot)?;
@@ -414,8 +426,13 @@ impl Engine {
                 ));
             }
         };
+        let brain_mask = match derived.and_then(|d| d.brain.as_ref()) {
+            Some(b) if variant.brain => b.image.clone().unwrap_or_else(|| self.placeholders.gradient.clone()),
+            _ => self.placeholders.gradient.clone(),
+        };
         let pass = self.raymarch_pass(variant)?;
         let inputs = RaymarchInputs {
+            brain_mask: &brain_mask,
             volume: &prepared.normalized,
             gradient: &gradient,
             normal: &normal,

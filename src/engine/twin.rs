@@ -201,6 +201,7 @@ mod tests {
             normal,
             precision: DerivedPrecision::Snorm8,
             vesselness: false,
+            brain: crate::passes::brain::BrainSwitch::Off,
         }
     }
 

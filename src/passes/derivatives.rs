@@ -59,6 +59,9 @@ pub struct DerivativeOutputs {
     /// The multi-scale vesselness volume (`passes::vesselness`), computed with the derivatives
     /// for the vessel channel; not an output of this pass's shader.
     pub vesselness: bool,
+    /// Brain extraction (`passes::brain`), computed with the derivatives when the scene shows
+    /// brain tissues; not an output of this pass's shader.
+    pub brain: crate::passes::brain::BrainSwitch,
 }
 
 /// Push constants of `derivatives.comp`.

@@ -7,6 +7,7 @@
 //! `#[repr(C)]` + `Pod` and their sizes are checked against the reflection table in tests.
 
 pub mod bandwidth;
+pub mod brain;
 pub mod brick_bounds;
 pub mod compositing_probe;
 pub mod cost;

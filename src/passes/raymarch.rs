@@ -46,6 +46,8 @@ pub struct RaymarchVariant {
     pub vessels: bool,
     /// Longer steps in bricks of low opacity bound (needs `skip_empty`).
     pub long_steps: bool,
+    /// Tissues classified inside the brain mask, the head layer outside (classification.glsl).
+    pub brain: bool,
 }
 
 impl RaymarchVariant {
@@ -76,6 +78,7 @@ impl RaymarchVariant {
             ("LABELS", self.labels),
             ("VESSELS", self.vessels),
             ("LONG_STEPS", self.long_steps),
+            ("BRAIN", self.brain),
         ] {
             text.push_str(&format!(", {name}={}", on(value)));
         }
@@ -92,8 +95,9 @@ impl RaymarchVariant {
         if self.mode != 0 {
             return (per_fetch, 0.0);
         }
-        // The vessel channel reads the vesselness at every marched sample.
-        let marched = per_fetch * (1.0 + self.vessels as u32 as f64);
+        // The vessel channel reads the vesselness, the brain mask its mask, at every marched
+        // sample.
+        let marched = per_fetch * (1.0 + self.vessels as u32 as f64 + self.brain as u32 as f64);
         let gradient = match self.gradient_mode {
             0 => 1.0 + self.shading as u32 as f64,
             1 => 6.0,
@@ -118,6 +122,8 @@ pub struct RaymarchInputs<'a> {
     pub normal: &'a Arc<Image>,
     /// The vesselness, or a placeholder.
     pub vesselness: &'a Arc<Image>,
+    /// The brain mask, or a placeholder.
+    pub brain_mask: &'a Arc<Image>,
     /// Occupancy bits, or a placeholder.
     pub occupancy: &'a Arc<Buffer>,
     /// Brick table of a bricked volume, or a placeholder.
@@ -163,6 +169,7 @@ impl RaymarchPass {
                 ("BRICKED", SpecValue::Bool(variant.bricked)),
                 ("LABELS", SpecValue::Bool(variant.labels)),
                 ("VESSELS", SpecValue::Bool(variant.vessels)),
+                ("BRAIN", SpecValue::Bool(variant.brain)),
             ],
             cache,
         )?;
@@ -200,6 +207,10 @@ impl RaymarchPass {
                 (
                     "vesselness_volume",
                     Resource::CombinedImageSampler(inputs.vesselness.clone(), s.clone()),
+                ),
+                (
+                    "brain_mask",
+                    Resource::CombinedImageSampler(inputs.brain_mask.clone(), s.clone()),
                 ),
                 ("target", Resource::StorageImage(target.clone())),
                 ("params", Resource::Buffer(uniforms.clone())),

@@ -123,13 +123,88 @@ impl Default for VesselStyle {
     }
 }
 
-/// The four tissue styles, indexed by [`TissueClass`], and the vessel channel's.
+/// How the head around an extracted brain is drawn (issue 27): a context layer over the same
+/// intensity (I_norm) as the tissues, weighted by `1 - b` where `b` is the brain mask at the
+/// sample, while the tissues are weighted by `b`. Drawn only where a brain mask is in use
+/// (`Effects::brain` and a head); hidden by default, so a head scan shows its brain.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct HeadStyle {
+    /// Window in I_norm (skin, fat, muscle: everything above the background).
+    pub window: Window,
+    /// Display colour, RGB in [0, 1].
+    pub colour: [f32; 3],
+    /// Opacity per millimetre of ray at full window weight and maximal gradient, in [0, 1].
+    pub opacity: f32,
+    /// On/off (`--tissues head,...`).
+    pub visible: bool,
+}
+
+impl HeadStyle {
+    /// The window over everything brighter than `background` (I_norm), skin-toned, translucent
+    /// (0.15 per mm: the face reads as a surface, the brain shows through it), hidden.
+    pub fn above(background: f64) -> Self {
+        let lo = background.clamp(0.02, 0.9);
+        HeadStyle {
+            window: Window {
+                lo,
+                hi: 2.0,
+                edge: 0.02,
+            },
+            colour: [0.93, 0.76, 0.64],
+            opacity: 0.15,
+            visible: false,
+        }
+    }
+}
+
+/// The head layer as a client asks for it: shown or not, and what it sets by hand; the rest
+/// comes from the volume (`HeadStyle::above` its background threshold).
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct HeadRecipe {
+    /// Draw the head around the brain (`--tissues head,...`).
+    pub visible: bool,
+    /// Window in I_norm, by hand.
+    pub window: Option<(f64, f64)>,
+    /// Opacity per mm, by hand.
+    pub opacity: Option<f32>,
+    /// Colour, by hand.
+    pub colour: Option<[f32; 3]>,
+}
+
+impl HeadRecipe {
+    /// `base` with this recipe's settings.
+    pub fn apply(&self, base: HeadStyle) -> HeadStyle {
+        let mut style = base;
+        style.visible = self.visible;
+        if let Some((lo, hi)) = self.window {
+            style.window.lo = lo;
+            style.window.hi = hi;
+        }
+        if let Some(opacity) = self.opacity {
+            style.opacity = opacity;
+        }
+        if let Some(colour) = self.colour {
+            style.colour = colour;
+        }
+        style
+    }
+}
+
+impl Default for HeadStyle {
+    fn default() -> Self {
+        HeadStyle::above(0.1)
+    }
+}
+
+/// The four tissue styles, indexed by [`TissueClass`], the vessel channel's and the head's.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct Classification {
     /// Styles in [`TissueClass::ALL`] order.
     pub tissues: [TissueStyle; 4],
     /// The vessel channel's style.
     pub vessels: VesselStyle,
+    /// The head layer's style (drawn only with a brain mask in use).
+    pub head: HeadStyle,
 }
 
 impl Classification {
@@ -159,6 +234,7 @@ impl Classification {
         Classification {
             tissues,
             vessels: VesselStyle::default(),
+            head: HeadStyle::default(),
         }
     }
 
@@ -201,6 +277,20 @@ impl Classification {
     /// (the vessel channel drawn): one more window-weighted, opacity-weighted colour in the
     /// same sums, so vessels mix with the tissues as the tissues mix with each other.
     pub fn classify_with_vessels(&self, v: f64, vesselness: Option<f64>) -> (f64, [f64; 3]) {
+        self.classify_masked(v, vesselness, None)
+    }
+
+    /// [`Classification::classify_with_vessels`] inside a brain mask: with `brain = Some(b)`
+    /// (the mask at the sample, in [0, 1]) every tissue's weight is multiplied by `b` and the
+    /// head layer (when visible) adds its own term weighted by `1 - b`; the vessel channel is not
+    /// masked (vessels run outside the brain too). Exactly what classification.glsl evaluates.
+    pub fn classify_masked(
+        &self,
+        v: f64,
+        vesselness: Option<f64>,
+        brain: Option<f64>,
+    ) -> (f64, [f64; 3]) {
+        let b = brain.map_or(1.0, |b| b.clamp(0.0, 1.0));
         let mut total = 0.0;
         let mut colour = [0.0; 3];
         if let Some(vesselness) = vesselness {
@@ -216,9 +306,17 @@ impl Classification {
             if !style.visible {
                 continue;
             }
-            let w = render_weight(&window, v) * style.opacity.clamp(0.0, 1.0) as f64;
+            let w = b * render_weight(&window, v) * style.opacity.clamp(0.0, 1.0) as f64;
             total += w;
             for (c, s) in colour.iter_mut().zip(style.colour) {
+                *c += w * s as f64;
+            }
+        }
+        if brain.is_some() && self.head.visible {
+            let head = &self.head;
+            let w = (1.0 - b) * render_weight(&head.window, v) * head.opacity.clamp(0.0, 1.0) as f64;
+            total += w;
+            for (c, s) in colour.iter_mut().zip(head.colour) {
                 *c += w * s as f64;
             }
         }

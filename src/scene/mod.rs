@@ -151,6 +151,9 @@ pub struct Effects {
     /// Draw the vessel channel (DVR): computes the multi-scale vesselness volume and classifies
     /// it with `Classification::vessels` (issue 15 item 3).
     pub vessels: bool,
+    /// Classify tissues inside the extracted brain only (DVR; issue 27): `Auto` masks a head
+    /// scan and leaves a skull-stripped one alone.
+    pub brain: crate::passes::brain::BrainSwitch,
 }
 
 impl Effects {
@@ -168,6 +171,11 @@ impl Effects {
             normal: stored && self.shading,
             precision: self.quality.derived_precision,
             vesselness: self.vessels,
+            // Auto and On extract alike; which one masks is decided per frame (no recompute).
+            brain: match self.brain {
+                crate::passes::brain::BrainSwitch::Off => crate::passes::brain::BrainSwitch::Off,
+                _ => crate::passes::brain::BrainSwitch::Auto,
+            },
         })
     }
 
@@ -206,6 +214,7 @@ impl Default for Effects {
             gradient_source: GradientSource::Precomputed,
             quality: Quality::default(),
             vessels: false,
+            brain: crate::passes::brain::BrainSwitch::Auto,
         }
     }
 }

@@ -13,6 +13,7 @@
 //!   `recipe.effects` once, before the file is read, and the scene gets the planned (possibly
 //!   degraded) effects afterwards.
 
+use super::classification::{HeadRecipe, HeadStyle};
 use super::{Camera, Classification, Clip, Colormap, Effects, Scene, TissueClass, VesselStyle};
 use crate::analysis::TissueReport;
 
@@ -42,6 +43,8 @@ pub struct SceneRecipe {
     /// The vessel channel's style (window on the vesselness, colour, opacity); None keeps the
     /// default. Whether it is drawn is `effects.vessels`.
     pub vessel_style: Option<VesselStyle>,
+    /// The head layer around an extracted brain (hidden unless asked for).
+    pub head: HeadRecipe,
     /// A classification to use as it is, instead of `windows`, `visible`, `window`, `opacity`
     /// and `colour` (a client opening a volume again for the scene it shows).
     pub classification: Option<Classification>,
@@ -116,6 +119,7 @@ impl SceneRecipe {
             opacity: Vec::new(),
             colour: Vec::new(),
             vessel_style: None,
+            head: HeadRecipe::default(),
             classification: Some(scene.classification),
             camera: scene.camera,
             effects: scene.effects,
@@ -172,6 +176,9 @@ impl SceneRecipe {
         if let Some(style) = self.vessel_style {
             classification.vessels = style;
         }
+        classification.head = self
+            .head
+            .apply(HeadStyle::above(report.background_threshold));
         classification
     }
 }
@@ -204,6 +211,7 @@ mod tests {
             &report.adaptive_windows,
         ));
         expected.minip_floor = report.background_threshold as f32;
+        expected.classification.head = HeadStyle::above(report.background_threshold);
         assert_eq!(scene, expected);
     }
 

@@ -72,6 +72,10 @@ pub struct RaymarchUniforms {
     pub vessel_window: [f32; 4],
     /// Vessel channel: rgb, opacity.
     pub vessel_colour: [f32; 4],
+    /// Head layer (issue 27): window on I_norm (lo, hi, edge, visible).
+    pub head_window: [f32; 4],
+    /// Head layer: rgb, opacity (0 when hidden).
+    pub head_colour: [f32; 4],
 }
 
 /// Where a bricked volume's bricks are (zeros for a whole volume).
@@ -168,7 +172,21 @@ impl RaymarchUniforms {
             .map(|[r, g, b]| [r, g, b, 0.0]);
         let vessels = &scene.classification.vessels;
         let [vr, vg, vb] = vessels.colour;
+        let head = &scene.classification.head;
+        let [hr, hg, hb] = head.colour;
+        let head_opacity = if head.visible {
+            head.opacity.clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
         RaymarchUniforms {
+            head_window: [
+                head.window.lo as f32,
+                head.window.hi as f32,
+                head.window.edge.max(MIN_EDGE) as f32,
+                head.visible as u32 as f32,
+            ],
+            head_colour: [hr, hg, hb, head_opacity],
             vessel_window: [
                 vessels.window.lo as f32,
                 vessels.window.hi as f32,

@@ -54,6 +54,8 @@ impl RaymarchVariant {
             labels: false,
             vessels: dvr && effects.vessels,
             long_steps: dvr && q.empty_space_skipping && q.long_steps.is_on(),
+            // Set by the engine where the derived volumes hold a brain mask in use.
+            brain: false,
         }
     }
 }

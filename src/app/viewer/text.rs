@@ -80,6 +80,7 @@ mod tests {
             normal,
             precision: Default::default(),
             vesselness: false,
+            brain: crate::passes::brain::BrainSwitch::Off,
         };
         assert_eq!(
             describe(o(true, true, false)),

@@ -82,6 +82,9 @@ pub(super) fn build(
         if outputs.vesselness && !ctx.bricked {
             all.extend(vesselness(&ctx));
         }
+        if outputs.brain != crate::passes::brain::BrainSwitch::Off && !ctx.bricked {
+            all.extend(brain(&ctx));
+        }
     }
     if ctx.effects.mode == RenderMode::Dvr && ctx.effects.quality.empty_space_skipping {
         all.extend(empty_space_skipping(&ctx));
@@ -315,6 +318,36 @@ fn vesselness(ctx: &PlanContext) -> PassDeclaration {
                 transient: true,
                 ..Declared::held_image(scratch_b)
             },
+        ],
+    }
+}
+
+/// Brain extraction (`passes::brain`, `engine/brain.rs`): the mask is held, the smoothed
+/// volume, the two distance volumes and the two coarse-cell buffers live for the extraction;
+/// its cost is `cost::brain`.
+fn brain(ctx: &PlanContext) -> PassDeclaration {
+    use crate::passes::brain::{brain_descs, cells_desc};
+    let [mask, smoothed, a, b] = brain_descs(ctx.extent);
+    let cells = ctx.extent.map(|n| n.div_ceil(2) as usize).iter().product::<usize>();
+    let transient = |desc| Declared {
+        transient: true,
+        ..Declared::held_image(desc)
+    };
+    PassDeclaration {
+        passes: vec![pass(
+            "brain extraction",
+            "per volume (when the scene shows brain tissues)",
+            "brain extraction".into(),
+            cost::brain(ctx.voxels() as f64),
+        )],
+        variants: vec!["brain extraction".into()],
+        allocations: vec![
+            Declared::held_image(mask),
+            transient(smoothed),
+            transient(a),
+            transient(b),
+            Declared::transient(cells_desc("brain cells", cells)),
+            Declared::transient(cells_desc("brain band cells", cells)),
         ],
     }
 }

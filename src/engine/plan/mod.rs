@@ -166,6 +166,10 @@ pub fn measured_cost(setting: &str) -> &'static str {
         }
         "I_norm R8" => "46.42 dB vs the f64 reference (default 46.42 dB): no measurable change",
         "vessels off" => "the vessel channel is not drawn (the tissues are unchanged)",
+        "brain off" => {
+            "a head scan shows its scalp and face where the brain would be (tissues are classified \
+             everywhere, as on a skull-stripped scan)"
+        }
         "gradient on the fly" => {
             "35.57 dB vs the f64 reference (default 46.42 dB): -10.9 dB (a gradient of the \
              interpolated field, not of the voxels; see ACCURACY.md)"
@@ -363,6 +367,16 @@ pub fn plan(
             accuracy_cost: measured_cost("vessels off"),
         });
     }
+    if choices.bricked && choices.effects.brain != crate::passes::brain::BrainSwitch::Off {
+        // Brain extraction needs the whole volume (`Engine::brain_mask`).
+        choices.effects.brain = crate::passes::brain::BrainSwitch::Off;
+        degradations.push(Degradation {
+            what: "brain extraction off: a bricked volume has no brain mask".to_string(),
+            saved_bytes: 0,
+            accuracy_setting: "brain off",
+            accuracy_cost: measured_cost("brain off"),
+        });
+    }
     if choices.bricked {
         degradations.push(Degradation {
             what: if !too_large && !samples_too_large {
@@ -381,7 +395,7 @@ pub fn plan(
         p.peak_bytes <= input.budget
             && (p.layout == Layout::Whole || p.peak_bytes <= bricking_limit(input.dims))
     };
-    let ladder: [LadderStep; 5] = [
+    let ladder: [LadderStep; 6] = [
         (
             "derived volumes stored as 8-bit SNORM",
             "default (8-bit derived volumes)",
@@ -416,11 +430,21 @@ pub fn plan(
             },
         ),
         (
+            "brain extraction off (its mask and scratch volumes are not held)",
+            "brain off",
+            |c| {
+                let on = c.effects.brain != crate::passes::brain::BrainSwitch::Off;
+                c.effects.brain = crate::passes::brain::BrainSwitch::Off;
+                on
+            },
+        ),
+        (
             "bricked: only bricks a visible tissue can occupy are held",
             "default (bricking is lossless for the visible tissues)",
             |c| {
-                // A bricked volume has no vesselness (see above).
+                // A bricked volume has no vesselness nor brain mask (see above).
                 c.effects.vessels = false;
+                c.effects.brain = crate::passes::brain::BrainSwitch::Off;
                 if c.bricked {
                     false
                 } else {

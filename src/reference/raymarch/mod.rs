@@ -179,6 +179,7 @@ pub struct ReferenceRaymarch<'a> {
     labels: Option<ReferenceLabels<'a>>,
     vesselness: Option<Grid<'a, f64>>,
     vessels_on: bool,
+    brain_mask: Option<Grid<'a, f64>>,
     // The scene's long steps (DVR with skipping only) and, once given, the brick bounds.
     long_step_setting: Option<crate::scene::occupancy::LongSteps>,
     long_steps: Option<ReferenceLongSteps<'a>>,
@@ -349,6 +350,7 @@ impl<'a> ReferenceRaymarch<'a> {
             labels: None,
             vesselness: None,
             vessels_on: dvr && effects.vessels,
+            brain_mask: None,
             long_step_setting: {
                 let q = effects.quality;
                 (dvr && q.empty_space_skipping && q.long_steps.is_on()).then_some(q.long_steps)
@@ -367,6 +369,17 @@ impl<'a> ReferenceRaymarch<'a> {
             dims,
             data: vesselness,
         });
+        Ok(self)
+    }
+
+    /// Classifies tissues inside a brain mask (DVR; issue 27), as the GPU does where the
+    /// derived volumes hold a mask in use: `mask` (0 or 1 per voxel, the GPU's R8 mask read back)
+    /// is sampled like the derived volumes and weighs the tissues, `1 - mask` the head layer
+    /// (`Classification::classify_masked`).
+    pub fn with_brain_mask(mut self, mask: &'a [f64]) -> Result<Self, ReferenceError> {
+        let dims = self.volume.dims;
+        check_values("brain mask", dims, mask, |v| (0.0..=1.0).contains(v))?;
+        self.brain_mask = Some(Grid { dims, data: mask });
         Ok(self)
     }
 
@@ -555,7 +568,10 @@ impl<'a> ReferenceRaymarch<'a> {
             .vesselness
             .filter(|_| self.vessels_on)
             .map(|grid| grid.fetch(p, |v| [v], self.interpolation)[0]);
-        let (f, mut colour) = self.classification.classify_with_vessels(value, vessels);
+        let brain = self
+            .brain_mask
+            .map(|grid| grid.fetch(p, |v| [v], self.interpolation)[0]);
+        let (f, mut colour) = self.classification.classify_masked(value, vessels, brain);
         if f <= 0.0 {
             return None;
         }

@@ -1,0 +1,306 @@
+//! Brain extraction of a prepared volume (`passes::brain` on the GPU, the coarse-grid host steps
+//! of `reference::brain`), the algorithm whose text and f64 twin are `reference::brain`.
+//!
+//! Decisions:
+//! - Three submissions: the GPU work up to the eroded band's coarse cells; the host's largest
+//!   connected component (a few ms on the coarse grid: one cell is `coarse` voxels on an edge);
+//!   the re-growth, closing and the closed mask's cells; the host's hole filling; the final mask.
+//!   The host steps read and write the cells in host-visible buffers, so nothing else is copied.
+//! - Whole volumes only: the distance transforms read up to `erode_mm` across brick faces, which
+//!   the atlas's 2-voxel halo does not hold, so a bricked volume is a typed refusal.
+//! - The decision (head, already stripped, nothing brain-like) comes from the coarse cells
+//!   (`reference::brain::decide`), so no volume-sized readback is needed.
+
+use super::Engine;
+use super::prepare::{PreparedVolume, VolumeLayout};
+use crate::gpu::{Access, Buffer, GpuError, GpuResult, Image, PassTiming, Recording};
+use crate::passes::brain::{
+    BrainGrid, BrainPass, BrainSwitch, PoolMode, StepMode, Tracked, brain_descs, cells_desc,
+};
+use crate::reference::brain_report::{BrainDecision, BrainReport};
+use crate::reference::brain_tmp::{self as twin, BrainParams};
+use std::sync::Arc;
+use std::time::Instant;
+
+/// The brain mask and how it was decided.
+pub struct BrainMask {
+    /// R8_UNORM, 1 inside the brain; left in `Access::ComputeSampled`. None when no component
+    /// was found (the chain stopped before the mask).
+    pub image: Option<Arc<Image>>,
+    /// Whether the raymarch classifies tissues inside the mask (the switch and the decision:
+    /// [`BrainMask::use_for`]).
+    pub used: bool,
+    /// Band, sizes, decision and times.
+    pub report: BrainReport,
+    /// GPU time of the passes.
+    pub gpu_timings: Vec<PassTiming>,
+}
+
+/// The images and buffers of one extraction.
+struct Work {
+    grid: BrainGrid,
+    mask: Tracked,
+    smoothed: Tracked,
+    a: Tracked,
+    b: Tracked,
+    cells: Arc<Buffer>,
+    band_cells: Arc<Buffer>,
+}
+
+impl BrainMask {
+    /// Whether `switch` masks with this outcome: `Auto` a head only, `On` any brain found.
+    pub fn use_for(&self, switch: BrainSwitch) -> bool {
+        self.image.is_some()
+            && match switch {
+                BrainSwitch::Off => false,
+                BrainSwitch::Auto => self.report.decision == BrainDecision::Head,
+                BrainSwitch::On => self.report.decision != BrainDecision::NotFound,
+            }
+    }
+}
+
+impl Engine {
+    /// Brain extraction as a scene's `switch` asks for it (not `Off`): the band from the
+    /// histogram and the analysed contrast, then [`Engine::brain_mask`]; `used` set by the switch.
+    pub fn extract_brain(
+        &mut self,
+        prepared: &PreparedVolume,
+        switch: BrainSwitch,
+    ) -> GpuResult<BrainMask> {
+        if matches!(prepared.layout, VolumeLayout::Bricked(_)) {
+            // The plan turns extraction off for bricked volumes; a caller asking anyway gets
+            // nothing masked rather than an error.
+            let params = BrainParams::with_band(0.0, 1.0);
+            return Ok(BrainMask {
+                image: None,
+                used: false,
+                report: BrainReport::not_found(&params, std::time::Duration::ZERO),
+                gpu_timings: Vec::new(),
+            });
+        }
+        let contrast = self.analyze(prepared).contrast.contrast;
+        let t2_like = contrast == crate::analysis::Contrast::T2;
+        let Some((lo, hi)) = twin::band_for(&prepared.histogram, t2_like) else {
+            let params = BrainParams::with_band(0.0, 1.0);
+            return Ok(BrainMask {
+                image: None,
+                used: false,
+                report: BrainReport::not_found(&params, std::time::Duration::ZERO),
+                gpu_timings: Vec::new(),
+            });
+        };
+        let mut mask = self.brain_mask(prepared, &BrainParams::with_band(lo, hi))?;
+        mask.used = mask.use_for(switch);
+        Ok(mask)
+    }
+
+    /// Extracts the brain of `prepared` with `params` (module decisions). The caller chooses the
+    /// band (`reference::brain::band_for`) from the histogram and the contrast.
+    pub fn brain_mask(
+        &mut self,
+        prepared: &PreparedVolume,
+        params: &BrainParams,
+    ) -> GpuResult<BrainMask> {
+        let _span = crate::files::trace::span("brain extraction", "prepare");
+        if matches!(prepared.layout, VolumeLayout::Bricked(_)) {
+            return Err(GpuError::InvalidRequest(
+                "brain extraction needs the whole volume on the GPU; this one is bricked (raise the memory budget, or pass --brain off)".into(),
+            ));
+        }
+        params.validate().map_err(GpuError::InvalidRequest)?;
+        let started = Instant::now();
+        let device = self.device.clone();
+        let pass = BrainPass::new(&device, self.pipeline_cache.raw())?;
+        let mut work = self.brain_work(prepared, params)?;
+        let mut timings = Vec::new();
+        let mut host_ms = 0.0;
+
+        // 1. Smooth, band, erode; the eroded band's and the band's coarse cells.
+        let mut rec = Recording::new(&device, "brain extraction: erosion")?;
+        rec.begin_pass("brain extraction: erosion");
+        self.record_erosion(&pass, &mut rec, &mut work, prepared, params)?;
+        rec.end_pass();
+        timings.extend(rec.submit()?.wait()?);
+
+        let coarse = work.grid.coarse.map(|c| c as usize);
+        let host = Instant::now();
+        let eroded = read_cells(&work.cells)?;
+        let band_cells = read_cells(&work.band_cells)?;
+        let Some(selected) = twin::largest_component_selection(&eroded, coarse) else {
+            return Ok(BrainMask {
+                image: None,
+                used: false,
+                report: BrainReport::not_found(params, started.elapsed()),
+                gpu_timings: timings,
+            });
+        };
+        write_cells(&work.cells, &selected)?;
+        host_ms += host.elapsed().as_secs_f64() * 1e3;
+
+        // 2. Core, re-growth, closing; the closed mask's coarse cells.
+        let mut rec = Recording::new(&device, "brain extraction: closing")?;
+        rec.begin_pass("brain extraction: closing");
+        // Orders the host's writes of the selection before the core step's reads.
+        rec.barriers(
+            &[(&work.cells, Access::HostWrite, Access::ComputeReadBuffer)],
+            &[],
+        );
+        self.record_closing(&pass, &mut rec, &mut work, params)?;
+        rec.end_pass();
+        timings.extend(rec.submit()?.wait()?);
+
+        let host = Instant::now();
+        let closed = read_cells(&work.cells)?;
+        let fill = twin::hole_fill_cells(&closed, coarse, twin::slab_axis(work.grid.spacing));
+        write_cells(&work.cells, &fill)?;
+        let cell_mm3 = work.grid.spacing.iter().product::<f64>() * f64::from(work.grid.cell).powi(3);
+        let report = BrainReport::decide(
+            params,
+            cell_mm3,
+            &band_cells,
+            &closed,
+            &fill,
+            started.elapsed(),
+        );
+        host_ms += host.elapsed().as_secs_f64() * 1e3;
+
+        // 3. The mask.
+        let mut rec = Recording::new(&device, "brain extraction: mask")?;
+        rec.begin_pass("brain extraction: mask");
+        // Orders the host's writes of the filled cells before the final step's reads.
+        rec.barriers(
+            &[(&work.cells, Access::HostWrite, Access::ComputeReadBuffer)],
+            &[],
+        );
+        pass.record_step(
+            &mut rec,
+            &work.grid,
+            &self.nearest,
+            StepMode::Final,
+            twin::close_threshold(params),
+            [&work.b, &work.smoothed],
+            &work.cells,
+            &mut work.mask,
+        )?;
+        rec.end_pass();
+        timings.extend(rec.submit()?.wait()?);
+        let mut report = report;
+        report.host_ms = host_ms;
+        report.total_ms = started.elapsed().as_secs_f64() * 1e3;
+        Ok(BrainMask {
+            image: Some(work.mask.image.clone()),
+            used: false,
+            report,
+            gpu_timings: timings,
+        })
+    }
+
+    fn brain_work(&self, prepared: &PreparedVolume, params: &BrainParams) -> GpuResult<Work> {
+        let extent = prepared.dims;
+        let spacing = twin::spacing_mm(prepared.linear_part);
+        let cell = params.coarse as u32;
+        let coarse = extent.map(|n| n.div_ceil(cell));
+        let cells = (coarse[0] * coarse[1] * coarse[2]) as usize;
+        let [mask, smoothed, a, b] = brain_descs(extent).map(|d| Image::new(&self.device, d));
+        let grid = BrainGrid {
+            extent,
+            spacing,
+            coarse,
+            cell,
+            band: (params.lo as f32, params.hi as f32),
+        };
+        Ok(Work {
+            grid,
+            mask: Tracked::new(mask?),
+            smoothed: Tracked::new(smoothed?),
+            a: Tracked::new(a?),
+            b: Tracked::new(b?),
+            cells: Buffer::new(&self.device, cells_desc("brain cells", cells))?,
+            band_cells: Buffer::new(&self.device, cells_desc("brain band cells", cells))?,
+        })
+    }
+
+    fn record_erosion(
+        &self,
+        pass: &BrainPass,
+        rec: &mut Recording,
+        work: &mut Work,
+        prepared: &PreparedVolume,
+        params: &BrainParams,
+    ) -> GpuResult<()> {
+        let kernels = crate::passes::vesselness::axis_kernels(
+            prepared.linear_part,
+            params.sigma_mm as f32,
+        );
+        let Work {
+            grid,
+            smoothed,
+            a,
+            b,
+            cells,
+            band_cells,
+            ..
+        } = work;
+        let nearest = &self.nearest;
+        pass.record_smooth(
+            rec,
+            grid,
+            nearest,
+            &prepared.normalized,
+            [smoothed, a, b],
+            kernels,
+        )?;
+        pass.record_pool(rec, grid, nearest, PoolMode::Band, 0.0, [smoothed, smoothed], band_cells)?;
+        pass.record_step(rec, grid, nearest, StepMode::BandSources, 0.0, [smoothed, smoothed], cells, a)?;
+        pass.record_distance(rec, grid, nearest, [a, b], params.erode_mm)?;
+        let r2 = params.erode_mm * params.erode_mm;
+        pass.record_pool(rec, grid, nearest, PoolMode::All, r2, [b, smoothed], cells)
+    }
+
+    fn record_closing(
+        &self,
+        pass: &BrainPass,
+        rec: &mut Recording,
+        work: &mut Work,
+        params: &BrainParams,
+    ) -> GpuResult<()> {
+        let Work {
+            grid,
+            smoothed,
+            a,
+            b,
+            cells,
+            ..
+        } = work;
+        let nearest = &self.nearest;
+        let r2 = params.erode_mm * params.erode_mm;
+        let rc = params.close_mm;
+        // The core (b holds the erosion's distances) -> a; its dilation, inside the band -> a.
+        pass.record_step(rec, grid, nearest, StepMode::CoreSources, r2, [b, smoothed], cells, a)?;
+        pass.record_distance(rec, grid, nearest, [a, b], params.erode_mm)?;
+        pass.record_step(rec, grid, nearest, StepMode::GrownSources, r2, [b, smoothed], cells, a)?;
+        // Closing: dilate by rc, then erode by rc - grow.
+        pass.record_distance(rec, grid, nearest, [a, b], rc)?;
+        pass.record_step(rec, grid, nearest, StepMode::OutsideSources, rc * rc, [b, smoothed], cells, a)?;
+        pass.record_distance(rec, grid, nearest, [a, b], rc - params.grow_mm)?;
+        let t = twin::close_threshold(params);
+        pass.record_pool(rec, grid, nearest, PoolMode::Any, t, [b, smoothed], cells)
+    }
+}
+
+fn read_cells(buffer: &Arc<Buffer>) -> GpuResult<Vec<u8>> {
+    let mut bytes = vec![0u8; buffer.size() as usize];
+    buffer.read(0, &mut bytes)?;
+    Ok(bytes
+        .chunks_exact(4)
+        .map(|w| u8::from(u32::from_le_bytes([w[0], w[1], w[2], w[3]]) != 0))
+        .collect())
+}
+
+fn write_cells(buffer: &Arc<Buffer>, flags: &[u8]) -> GpuResult<()> {
+    let bytes: Vec<u8> = flags
+        .iter()
+        .flat_map(|&f| u32::from(f != 0).to_le_bytes())
+        .collect();
+    buffer.write(0, &bytes)
+}

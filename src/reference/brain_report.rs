@@ -1,0 +1,113 @@
+//! What brain extraction decided and why (shared by the GPU path, `engine/brain.rs`, and the f64
+//! twin): a head whose brain is masked, a volume already skull-stripped (left alone), or nothing
+//! brain-like found.
+//!
+//! Decisions (measured on the real scans named in ACCURACY.md "Brain extraction"):
+//! - From the coarse cells only, so the GPU path reads back no volume: band cells (any voxel of
+//!   the cell in the tissue band), brain cells (any voxel of the closed mask, or filled).
+//! - A head has much tissue-band signal outside the brain: scalp muscle, skin, marrow.
+//!   `outside_fraction >= HEAD_OUTSIDE_FRACTION` says head; a skull-stripped brain has almost
+//!   none (its band cells are the brain's).
+//! - A brain is 500 to 3000 cm^3 (adult brains with their CSF are 1100-1900; the bounds leave room
+//!   for children, large heads and the coarse cells' clipped faces); outside it the component
+//!   found is not a brain (a phantom, an organ, a limb) and nothing is masked.
+
+use super::brain_tmp::BrainParams;
+use std::time::Duration;
+
+/// Band-cell fraction outside the brain above which the volume is a head.
+pub const HEAD_OUTSIDE_FRACTION: f64 = 0.25;
+/// Plausible brain volumes in cm^3 (inclusive).
+pub const BRAIN_CM3: (f64, f64) = (500.0, 3000.0);
+
+/// The outcome.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BrainDecision {
+    /// A head: tissue is classified only inside the mask.
+    Head,
+    /// Already skull-stripped: left alone.
+    SkullStripped,
+    /// No brain-like component (or one of implausible size): left alone.
+    NotFound,
+}
+
+impl BrainDecision {
+    /// One line for reports.
+    pub fn describe(self) -> &'static str {
+        match self {
+            BrainDecision::Head => "head: the brain is extracted, the rest is the head layer",
+            BrainDecision::SkullStripped => "already skull-stripped: left alone",
+            BrainDecision::NotFound => "no brain-like region found: left alone",
+        }
+    }
+}
+
+/// Band, sizes, decision and times of one extraction.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct BrainReport {
+    /// The parameters (band included).
+    pub params: BrainParams,
+    /// Brain volume from the coarse cells, cm^3.
+    pub brain_cm3: f64,
+    /// Band cells outside the brain over band cells.
+    pub outside_fraction: f64,
+    /// The outcome.
+    pub decision: BrainDecision,
+    /// Host time of the coarse-grid steps, ms.
+    pub host_ms: f64,
+    /// Wall time of the whole extraction, ms.
+    pub total_ms: f64,
+}
+
+impl BrainReport {
+    /// No component at all.
+    pub fn not_found(params: &BrainParams, elapsed: Duration) -> Self {
+        BrainReport {
+            params: *params,
+            brain_cm3: 0.0,
+            outside_fraction: 0.0,
+            decision: BrainDecision::NotFound,
+            host_ms: 0.0,
+            total_ms: elapsed.as_secs_f64() * 1e3,
+        }
+    }
+
+    /// The decision from the coarse cells (module decisions). `cell_mm3` is one cell's volume.
+    pub fn decide(
+        params: &BrainParams,
+        cell_mm3: f64,
+        band_cells: &[u8],
+        closed_cells: &[u8],
+        fill_cells: &[u8],
+        elapsed: Duration,
+    ) -> Self {
+        let brain = |i: usize| closed_cells[i] != 0 || fill_cells[i] != 0;
+        let n = band_cells.len().min(closed_cells.len()).min(fill_cells.len());
+        let brain_count = (0..n).filter(|&i| brain(i)).count();
+        let band_count = (0..n).filter(|&i| band_cells[i] != 0).count();
+        let outside = (0..n).filter(|&i| band_cells[i] != 0 && !brain(i)).count();
+        let outside_fraction = if band_count == 0 {
+            0.0
+        } else {
+            outside as f64 / band_count as f64
+        };
+        let brain_cm3 = brain_count as f64 * cell_mm3 / 1000.0;
+        let plausible = (BRAIN_CM3.0..=BRAIN_CM3.1).contains(&brain_cm3);
+        let decision = if !plausible {
+            BrainDecision::NotFound
+        } else if outside_fraction >= HEAD_OUTSIDE_FRACTION {
+            BrainDecision::Head
+        } else {
+            BrainDecision::SkullStripped
+        };
+        BrainReport {
+            params: *params,
+            brain_cm3,
+            outside_fraction,
+            decision,
+            host_ms: 0.0,
+            total_ms: elapsed.as_secs_f64() * 1e3,
+        }
+    }
+}
