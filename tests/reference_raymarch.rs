@@ -107,6 +107,7 @@ fn all_effect_combinations() -> Vec<Effects> {
                     gradient_source,
                     quality: Default::default(),
                     vessels: false,
+                    brain: morphray::passes::brain::BrainSwitch::Off,
                 });
             }
         }
@@ -480,6 +481,7 @@ fn camera_inside_the_volume_gives_finite_non_background_pixels() {
         gradient_source: GradientSource::OnTheFly,
         quality: Default::default(),
         vessels: false,
+        brain: morphray::passes::brain::BrainSwitch::Off,
     };
     // Zoom 8 puts the eye at 3.86 / 8 = 0.48 bounding radii from the centre, inside the cube
     // (half side = 0.577 radii). Check that, then that every ray starts at t = 0.
@@ -614,6 +616,7 @@ fn grazing_rays_are_finite() {
             gradient_source: source,
             quality: Default::default(),
             vessels: false,
+            brain: morphray::passes::brain::BrainSwitch::Off,
         };
         for (az, el) in [
             (90.0, 0.0),
@@ -707,6 +710,7 @@ fn object_scene() -> Scene {
         gradient_source: GradientSource::OnTheFly,
         quality: Default::default(),
         vessels: false,
+        brain: morphray::passes::brain::BrainSwitch::Off,
     };
     scene.camera = Camera {
         azimuth_deg: 30.0,
@@ -879,6 +883,7 @@ fn hiding_a_tissue_removes_exactly_its_contribution() {
         gradient_source: GradientSource::OnTheFly,
         quality: Default::default(),
         vessels: false,
+        brain: morphray::passes::brain::BrainSwitch::Off,
     };
     let size = 48;
     let draw = |scene: &Scene| {
@@ -1252,6 +1257,7 @@ proptest! {
             gradient_source: if flags[2] { GradientSource::OnTheFly } else { GradientSource::Precomputed },
             quality: Default::default(),
             vessels: false,
+            brain: morphray::passes::brain::BrainSwitch::Off,
         };
         scene.jitter = flags[3];
         scene.frame = seed as u32;

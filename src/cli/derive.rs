@@ -1,14 +1,15 @@
 //! `morphray derive FILE -o DIR`: the derived maps the scene computes, as NIfTI-1 files beside
 //! each other in DIR, named `<name>_normalized.nii.gz`, `<name>_gradient.nii.gz`,
-//! `<name>_curvature.nii.gz`, `<name>_vesselness.nii.gz` and (with `--denoise`)
-//! `<name>_denoised.nii.gz`, for use in other tools.
+//! `<name>_curvature.nii.gz`, `<name>_vesselness.nii.gz`, `<name>_brain.nii.gz` (uint8 0/1,
+//! with `--maps brain`) and (with `--denoise`) `<name>_denoised.nii.gz`, for use in other tools.
 //!
 //! Decisions:
 //! - The maps come from the engine's one function (`Engine::derived_maps`), in world units
 //!   (I_norm, per mm, per mm^2, vesselness in [0, 1]), as float32 with the input's affine (the
 //!   volume's RAS orientation, as `convert` writes it).
+//! - DIR is created when it is missing (with its parents), as `mkdir -p` would.
 //! - Every output is checked before anything is read (`check_output`: never the input, the
-//!   folder exists and takes files), and an existing file is replaced only with `--force`: without
+//!   folder takes files), and an existing file is replaced only with `--force`: without
 //!   it the command refuses to start, and each write refuses a file that appeared meanwhile.
 //! - `<name>` is the input's file name without `.nii`/`.nii.gz`/`.hdr`/`.img` (DICOM: the folder's
 //!   name); `phantom` without a file.
@@ -31,10 +32,13 @@ pub struct DeriveArgs {
     /// series); without one, the built-in digital phantom.
     #[arg(value_name = "FILE")]
     pub file: Vec<PathBuf>,
-    /// Folder the maps are written into (must exist).
+    /// Folder the maps are written into (created when missing).
     #[arg(short, long, value_name = "DIR")]
     pub output: PathBuf,
-    /// Maps to write, comma-separated: normalized, gradient, curvature, vesselness.
+    /// Maps to write, comma-separated: normalized, gradient, curvature, vesselness, brain
+    ///
+    /// brain is the extracted brain mask (uint8 0/1 on the input's grid; `--brain`'s extraction
+    /// with any brain found used), for FSL, ANTs or nibabel.
     #[arg(
         long,
         value_delimiter = ',',
@@ -96,6 +100,10 @@ pub fn run(args: &DeriveArgs, global: &super::GlobalOptions) -> Result<(), Error
                 request.curvature = true;
                 "curvature"
             }
+            "brain" => {
+                request.brain = true;
+                "brain"
+            }
             "vesselness" => {
                 let mut params = VesselnessParams::default();
                 if !args.vessel_scales.is_empty() {
@@ -107,7 +115,7 @@ pub fn run(args: &DeriveArgs, global: &super::GlobalOptions) -> Result<(), Error
             }
             other => {
                 return Err(Error::Usage(format!(
-                    "unknown map `{other}`: use normalized, gradient, curvature or vesselness"
+                    "unknown map `{other}`: use normalized, gradient, curvature, vesselness or brain"
                 )));
             }
         };
@@ -123,6 +131,14 @@ pub fn run(args: &DeriveArgs, global: &super::GlobalOptions) -> Result<(), Error
         .iter()
         .map(|m| (*m, args.output.join(format!("{stem}_{m}.nii.gz"))))
         .collect();
+    if !args.output.is_dir() {
+        std::fs::create_dir_all(&args.output).map_err(|e| {
+            Error::Usage(format!(
+                "cannot create the output folder {}: {e}",
+                args.output.display()
+            ))
+        })?;
+    }
     // Before any work: every target is new, none is the input, the folder takes files.
     let inputs: Vec<&Path> = args.file.iter().map(PathBuf::as_path).collect();
     for (_, path) in &paths {
@@ -139,7 +155,33 @@ pub fn run(args: &DeriveArgs, global: &super::GlobalOptions) -> Result<(), Error
     let prepared = opened.twin.prepared.clone();
     let maps = opened.engine.derived_maps(&prepared, &request)?;
     let source = &opened.source.volume;
+    if let Some(report) = &maps.brain_report {
+        print_line(&format!(
+            "brain: {} ({:.0} cm^3, {:.0} % of the tissue band outside it)",
+            report.decision.describe(),
+            report.brain_cm3,
+            100.0 * report.outside_fraction
+        ));
+    }
     for (name, path) in &paths {
+        if *name == "brain" {
+            let Some(mask) = &maps.brain else {
+                print_line("no brain-like region was found: no brain mask written");
+                continue;
+            };
+            let map = Volume {
+                name: format!("{stem}_brain"),
+                dims: source.dims,
+                spacing_mm: source.spacing_mm,
+                orientation: source.orientation.clone(),
+                samples: Samples::from_u8(mask.clone()),
+                to_physical: LinearMap::IDENTITY,
+                warnings: vec![],
+            };
+            write_map(&map, path, args.force)?;
+            print_line(&format!("wrote {}", path.display()));
+            continue;
+        }
         let values = match *name {
             "normalized" => Some(&maps.normalized),
             "gradient" => maps.gradient.as_ref(),
@@ -157,18 +199,23 @@ pub fn run(args: &DeriveArgs, global: &super::GlobalOptions) -> Result<(), Error
             to_physical: LinearMap::IDENTITY,
             warnings: vec![],
         };
-        if args.force {
-            crate::volume::nifti::write_nifti1(&map, path, true)?;
-        } else {
-            // No clobbering even of a file that appeared while the maps were computed.
-            crate::volume::nifti::write_new_nifti1(&map, path, true)?;
-        }
+        write_map(&map, path, args.force)?;
         print_line(&format!("wrote {}", path.display()));
     }
     if global.validation {
         session::check_validation(&opened.engine)?;
     }
     session::persist_pipeline_cache(&opened.engine);
+    Ok(())
+}
+
+fn write_map(map: &Volume, path: &Path, force: bool) -> Result<(), Error> {
+    if force {
+        crate::volume::nifti::write_nifti1(map, path, true)?;
+    } else {
+        // No clobbering even of a file that appeared while the maps were computed.
+        crate::volume::nifti::write_new_nifti1(map, path, true)?;
+    }
     Ok(())
 }
 

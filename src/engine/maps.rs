@@ -27,6 +27,8 @@ pub struct MapRequest {
     pub vesselness: Option<VesselnessParams>,
     /// Denoising applied before the other maps (its result is a map too unless `None`).
     pub denoise: Denoise,
+    /// The brain mask (`Engine::extract_brain`, any brain found: `BrainSwitch::On`).
+    pub brain: bool,
 }
 
 /// The maps, x fastest, one f32 per voxel; None where not requested.
@@ -42,6 +44,11 @@ pub struct DerivedMaps {
     pub vesselness: Option<Vec<f32>>,
     /// Denoised I_norm.
     pub denoised: Option<Vec<f32>>,
+    /// The brain mask (0 or 1) when one was found, with the extraction's report (also when none
+    /// was found: it says why).
+    pub brain: Option<Vec<u8>>,
+    /// What brain extraction decided, when requested.
+    pub brain_report: Option<crate::reference::brain_report::BrainReport>,
 }
 
 impl Engine {
@@ -56,9 +63,6 @@ impl Engine {
                 "derived maps need the whole volume on the GPU; this one is bricked (raise --memory-budget)".into(),
             ));
         }
-        let read = |engine: &Engine, image| -> GpuResult<Vec<f32>> {
-            Ok(read_image(engine.device(), image, Access::ComputeSampled)?.values)
-        };
         let mut maps = DerivedMaps {
             normalized: read(self, &prepared.normalized)?,
             ..Default::default()
@@ -102,6 +106,20 @@ impl Engine {
             let v = self.vesselness(source, params)?;
             maps.vesselness = Some(read(self, &v.image)?);
         }
+        if request.brain {
+            // From the volume as it is (not the denoised one): extraction smooths on its own.
+            let brain = self.extract_brain(prepared, crate::passes::brain::BrainSwitch::On)?;
+            if let (true, Some(image)) = (brain.used, &brain.image) {
+                let mask = read(self, image)?;
+                maps.brain = Some(mask.iter().map(|&v| u8::from(v > 0.5)).collect());
+            }
+            maps.brain_report = Some(brain.report.clone());
+        }
         Ok(maps)
     }
+}
+
+/// The f32 values of a sampled image.
+fn read(engine: &Engine, image: &std::sync::Arc<crate::gpu::Image>) -> GpuResult<Vec<f32>> {
+    Ok(read_image(engine.device(), image, Access::ComputeSampled)?.values)
 }

@@ -44,7 +44,7 @@ impl BrainDecision {
 }
 
 /// Band, sizes, decision and times of one extraction.
-#[derive(Clone, Debug, serde::Serialize)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct BrainReport {
     /// The parameters (band included).
     pub params: BrainParams,

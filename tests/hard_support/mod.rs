@@ -24,6 +24,7 @@ pub const ALL_OUTPUTS: DerivativeOutputs = DerivativeOutputs {
     normal: true,
     precision: morphray::scene::DerivedPrecision::F16,
     vesselness: false,
+    brain: morphray::passes::brain::BrainSwitch::Off,
 };
 
 /// A volume on a diagonal affine with the given spacing (mm) and origin at voxel (0, 0, 0).

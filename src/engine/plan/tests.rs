@@ -6,11 +6,46 @@ use crate::scene::{CurvatureSource, Quality, RenderMode};
 use ash::vk;
 
 /// The effects these tests were written for: derived volumes in f16 (the library default is
-/// 8-bit, checked in `the_default_stores_derived_volumes_in_8_bits`).
+/// 8-bit, checked in `the_default_stores_derived_volumes_in_8_bits`), no brain extraction (its
+/// plan: `brain_extraction_is_planned_and_dropped_before_bricking`).
 fn f16_effects() -> Effects {
     let mut e = Effects::default();
     e.quality.derived_precision = DerivedPrecision::F16;
+    e.brain = crate::passes::brain::BrainSwitch::Off;
     e
+}
+
+#[test]
+fn brain_extraction_is_planned_and_dropped_before_bricking() {
+    let brain = Effects {
+        brain: crate::passes::brain::BrainSwitch::Auto,
+        ..f16_effects()
+    };
+    let p = plan(brain, &input(), &TexelSizes).unwrap();
+    assert!(passes(&p).contains(&"brain extraction"), "{:?}", passes(&p));
+    // The mask is held (R8, a byte a voxel); the scratch lives for the extraction only.
+    assert_eq!(held(&p, "brain mask"), ("R8_UNORM".into(), N));
+    let without = plan(f16_effects(), &input(), &TexelSizes).unwrap();
+    assert!(p.peak_bytes > without.peak_bytes);
+    // A budget that holds everything but the extraction drops it (the 8-bit and R8 steps before
+    // it save too little), with its degradation, and does not brick.
+    let mut tight = input();
+    tight.budget = without.peak_bytes;
+    let degraded = plan(brain, &tight, &TexelSizes).unwrap();
+    let settings: Vec<_> = degraded
+        .degradations
+        .iter()
+        .map(|d| d.accuracy_setting)
+        .collect();
+    assert_eq!(settings, ["brain off"]);
+    assert_eq!(degraded.layout, Layout::Whole);
+    assert_eq!(degraded.effects.brain, crate::passes::brain::BrainSwitch::Off);
+    // A bricked volume has no brain mask, and says so.
+    let mut bricked = input();
+    bricked.force_bricking = true;
+    let p = plan(brain, &bricked, &TexelSizes).unwrap();
+    assert!(!passes(&p).contains(&"brain extraction"));
+    assert!(p.degradations[0].what.contains("brain extraction off"));
 }
 
 #[test]

@@ -269,6 +269,7 @@ fn inconsistent_inputs_are_typed_errors() {
         gradient_source: GradientSource::Precomputed,
         quality: Default::default(),
         vessels: true,
+        brain: crate::passes::brain::BrainSwitch::Off,
     };
     assert!(run(&scene, &none).is_ok());
     // A given derived volume is validated even when unused.
