@@ -101,6 +101,7 @@ layout(set = 0, binding = 4, std140) uniform Params {
     // Brain extraction (issue 27): the head layer outside the brain mask.
     vec4 head_window;       // lo, hi, edge on I_norm, visible
     vec4 head_colour;       // rgb, opacity (0 when hidden)
+    vec4 brain_grid;        // xyz: the extent in voxels the brain mask's texture spans
 } params;
 
 // Benchmark counters (COUNT_SAMPLES only): samples marched and samples that passed
@@ -297,7 +298,7 @@ void main() {
             vec4 cls;
             if (BRAIN) {
                 float vessel_weight = VESSELS ? window_weight(fetch_volume(vesselness_volume, p).r, params.vessel_window) * params.vessel_colour.a : 0.0;
-                cls = classify_in_brain(v, vessel_weight, fetch_volume(brain_mask, p).r);
+                cls = classify_in_brain(v, vessel_weight, brain_weight(p));
             } else {
                 cls = VESSELS ? classify_with_vessels(v, fetch_volume(vesselness_volume, p).r) : classify(v);
             }

@@ -37,6 +37,14 @@ vec4 classify(float v) {
     return classify_sums(v, 0.0, 1.0);
 }
 
+// The brain mask at volume position p (BRAIN): the mask is on a working grid of whole blocks of
+// voxels spanning params.brain_grid voxels, so a volume position maps to its texture by that
+// extent; trilinear (or nearest) as the sampler bound for the interpolation (twin:
+// reference::brain::mask_at).
+float brain_weight(vec3 p) {
+    return texture(brain_mask, (p + 0.5) / params.brain_grid.xyz).r;
+}
+
 // classify() inside the brain mask (BRAIN; issue 27).
 vec4 classify_in_brain(float v, float vessel_weight, float brain) {
     return classify_sums(v, vessel_weight, brain);

@@ -16,6 +16,7 @@ use super::prepare::{PreparedVolume, VolumeLayout};
 use crate::gpu::{Access, Buffer, GpuError, GpuResult, Image, PassTiming, Recording};
 use crate::passes::brain::{
     BrainGrid, BrainPass, BrainSwitch, PoolMode, StepMode, Tracked, brain_descs, cells_desc,
+    working_extent, working_factors,
 };
 use crate::reference::brain_report::{BrainDecision, BrainReport};
 use crate::reference::brain_tmp::{self as twin, BrainParams};
@@ -24,9 +25,12 @@ use std::time::Instant;
 
 /// The brain mask and how it was decided.
 pub struct BrainMask {
-    /// R8_UNORM, 1 inside the brain; left in `Access::ComputeSampled`. None when no component
-    /// was found (the chain stopped before the mask).
+    /// R8_UNORM on the working grid, 1 inside the brain; left in `Access::ComputeSampled`. None
+    /// when no component was found (the chain stopped before the mask).
     pub image: Option<Arc<Image>>,
+    /// Block edge per axis of the working grid the mask is on (voxel `q` of the mask covers the
+    /// volume's voxels `q * factors ..`).
+    pub factors: [u32; 3],
     /// Whether the raymarch classifies tissues inside the mask (the switch and the decision:
     /// [`BrainMask::use_for`]).
     pub used: bool,
@@ -48,6 +52,18 @@ struct Work {
 }
 
 impl BrainMask {
+    /// The extent in the volume's voxels the mask's texture spans (its dimensions times the
+    /// block edges; at least the volume's), for the raymarch's texture coordinates.
+    pub fn grid_extent(&self) -> [f32; 3] {
+        match &self.image {
+            Some(image) => {
+                let e = image.extent();
+                std::array::from_fn(|a| (e[a] * self.factors[a]) as f32)
+            }
+            None => [1.0; 3],
+        }
+    }
+
     /// Whether `switch` masks with this outcome: `Auto` a head only, `On` any brain found.
     pub fn use_for(&self, switch: BrainSwitch) -> bool {
         self.image.is_some()
@@ -73,6 +89,7 @@ impl Engine {
             let params = BrainParams::with_band(0.0, 1.0);
             return Ok(BrainMask {
                 image: None,
+                factors: [1, 1, 1],
                 used: false,
                 report: BrainReport::not_found(&params, std::time::Duration::ZERO),
                 gpu_timings: Vec::new(),
@@ -84,6 +101,7 @@ impl Engine {
             let params = BrainParams::with_band(0.0, 1.0);
             return Ok(BrainMask {
                 image: None,
+                factors: [1, 1, 1],
                 used: false,
                 report: BrainReport::not_found(&params, std::time::Duration::ZERO),
                 gpu_timings: Vec::new(),
@@ -129,6 +147,7 @@ impl Engine {
         let Some(selected) = twin::largest_component_selection(&eroded, coarse) else {
             return Ok(BrainMask {
                 image: None,
+                factors: [1, 1, 1],
                 used: false,
                 report: BrainReport::not_found(params, started.elapsed()),
                 gpu_timings: timings,
@@ -189,6 +208,7 @@ impl Engine {
         report.total_ms = started.elapsed().as_secs_f64() * 1e3;
         Ok(BrainMask {
             image: Some(work.mask.image.clone()),
+            factors: work.grid.factors,
             used: false,
             report,
             gpu_timings: timings,
@@ -196,13 +216,17 @@ impl Engine {
     }
 
     fn brain_work(&self, prepared: &PreparedVolume, params: &BrainParams) -> GpuResult<Work> {
-        let extent = prepared.dims;
-        let spacing = twin::spacing_mm(prepared.linear_part);
+        let fine_spacing = twin::spacing_mm(prepared.linear_part);
+        let factors = working_factors(fine_spacing);
+        let extent = working_extent(prepared.dims, factors);
+        let spacing: [f64; 3] = std::array::from_fn(|a| fine_spacing[a] * f64::from(factors[a]));
         let cell = params.coarse as u32;
         let coarse = extent.map(|n| n.div_ceil(cell));
         let cells = (coarse[0] * coarse[1] * coarse[2]) as usize;
         let [mask, smoothed, a, b] = brain_descs(extent).map(|d| Image::new(&self.device, d));
         let grid = BrainGrid {
+            fine: prepared.dims,
+            factors,
             extent,
             spacing,
             coarse,
@@ -228,10 +252,16 @@ impl Engine {
         prepared: &PreparedVolume,
         params: &BrainParams,
     ) -> GpuResult<()> {
-        let kernels = crate::passes::vesselness::axis_kernels(
-            prepared.linear_part,
-            params.sigma_mm as f32,
-        );
+        // The Gaussian in voxels of the working grid: the linear part's columns scaled by the
+        // block edges.
+        let mut working_linear = prepared.linear_part;
+        for row in &mut working_linear {
+            for (a, v) in row.iter_mut().enumerate() {
+                *v *= f64::from(work.grid.factors[a]);
+            }
+        }
+        let kernels =
+            crate::passes::vesselness::axis_kernels(working_linear, params.sigma_mm as f32);
         let Work {
             grid,
             smoothed,
@@ -242,14 +272,10 @@ impl Engine {
             ..
         } = work;
         let nearest = &self.nearest;
-        pass.record_smooth(
-            rec,
-            grid,
-            nearest,
-            &prepared.normalized,
-            [smoothed, a, b],
-            kernels,
-        )?;
+        // Block means into `smoothed`, then the Gaussian from there back into it.
+        pass.record_downsample(rec, grid, nearest, &prepared.normalized, smoothed)?;
+        let means = smoothed.image.clone();
+        pass.record_smooth(rec, grid, nearest, &means, [smoothed, a, b], kernels)?;
         pass.record_pool(rec, grid, nearest, PoolMode::Band, 0.0, [smoothed, smoothed], band_cells)?;
         pass.record_step(rec, grid, nearest, StepMode::BandSources, 0.0, [smoothed, smoothed], cells, a)?;
         pass.record_distance(rec, grid, nearest, [a, b], params.erode_mm)?;

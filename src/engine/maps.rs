@@ -110,8 +110,13 @@ impl Engine {
             // From the volume as it is (not the denoised one): extraction smooths on its own.
             let brain = self.extract_brain(prepared, crate::passes::brain::BrainSwitch::On)?;
             if let (true, Some(image)) = (brain.used, &brain.image) {
-                let mask = read(self, image)?;
-                maps.brain = Some(mask.iter().map(|&v| u8::from(v > 0.5)).collect());
+                let values: Vec<f64> = read(self, image)?.iter().map(|&v| f64::from(v)).collect();
+                let mask = crate::reference::brain_mask::WorkingMask {
+                    values: &values,
+                    dims: image.extent().map(|d| d as usize),
+                    factors: brain.factors,
+                };
+                maps.brain = Some(mask.export(prepared.dims.map(|d| d as usize)));
             }
             maps.brain_report = Some(brain.report.clone());
         }

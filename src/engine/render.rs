@@ -409,6 +409,10 @@ impl Engine {
                 width: target.width,
                 height: target.height,
                 atlas,
+                brain_grid: derived
+                    .and_then(|d| d.brain.as_ref())
+                    .filter(|_| variant.brain)
+                    .map_or([1.0; 3], |b| b.grid_extent()),
             },
         );
         let uniforms = target.uniforms[frame_slot].clone();

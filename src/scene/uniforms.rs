@@ -76,6 +76,8 @@ pub struct RaymarchUniforms {
     pub head_window: [f32; 4],
     /// Head layer: rgb, opacity (0 when hidden).
     pub head_colour: [f32; 4],
+    /// Brain mask: xyz the extent in voxels its texture spans (w unused).
+    pub brain_grid: [f32; 4],
 }
 
 /// Where a bricked volume's bricks are (zeros for a whole volume).
@@ -108,6 +110,9 @@ pub struct FrameInputs {
     pub height: u32,
     /// The atlas of a bricked volume (default for a whole volume).
     pub atlas: AtlasInfo,
+    /// The extent in voxels the brain mask's texture spans (its working grid times the block
+    /// edges); ones without a mask.
+    pub brain_grid: [f32; 3],
 }
 
 /// Gradient statistics of the volume the raymarch needs (from the derivative pass).
@@ -179,7 +184,9 @@ impl RaymarchUniforms {
         } else {
             0.0
         };
+        let [bx, by, bz] = frame.brain_grid;
         RaymarchUniforms {
+            brain_grid: [bx, by, bz, 0.0],
             head_window: [
                 head.window.lo as f32,
                 head.window.hi as f32,

@@ -63,6 +63,11 @@ pub(super) fn reports(
     ];
     let planned: Vec<(String, DerivativeOutputs)> = effects
         .derivative_outputs()
+        // The brain mask has its own row below.
+        .map(|o| DerivativeOutputs {
+            brain: crate::passes::brain::BrainSwitch::Off,
+            ..o
+        })
         .map(|o| (format!("derivatives (planned, {:?})", o.precision), o))
         .into_iter()
         .collect();
@@ -116,6 +121,33 @@ pub(super) fn reports(
             c,
             rates.copy,
             rates.documented,
+        ));
+    }
+    // Brain extraction (its three submissions' GPU time together), when the scene asks for it.
+    if effects.mode == crate::scene::RenderMode::Dvr
+        && effects.brain != crate::passes::brain::BrainSwitch::Off
+    {
+        let mut times = Vec::new();
+        let mut host = Vec::new();
+        for _ in 0..rates.repeat {
+            let b = engine.extract_brain(prepared, effects.brain)?;
+            times.push(b.gpu_timings.iter().map(|t| t.gpu_ms).sum::<f64>());
+            host.push(b.report.total_ms);
+        }
+        let c = cost::brain(texels);
+        passes.push(pass_report(
+            "brain extraction",
+            &times,
+            c,
+            rates.copy,
+            rates.documented,
+        ));
+        passes.push(pass_report(
+            "brain extraction (wall, host steps included)",
+            &host,
+            cost::PassCost::default(),
+            None,
+            None,
         ));
     }
     Ok(passes)

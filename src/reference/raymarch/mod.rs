@@ -179,7 +179,7 @@ pub struct ReferenceRaymarch<'a> {
     labels: Option<ReferenceLabels<'a>>,
     vesselness: Option<Grid<'a, f64>>,
     vessels_on: bool,
-    brain_mask: Option<Grid<'a, f64>>,
+    brain_mask: Option<crate::reference::brain_mask::WorkingMask<'a>>,
     // The scene's long steps (DVR with skipping only) and, once given, the brick bounds.
     long_step_setting: Option<crate::scene::occupancy::LongSteps>,
     long_steps: Option<ReferenceLongSteps<'a>>,
@@ -373,13 +373,22 @@ impl<'a> ReferenceRaymarch<'a> {
     }
 
     /// Classifies tissues inside a brain mask (DVR; issue 27), as the GPU does where the
-    /// derived volumes hold a mask in use: `mask` (0 or 1 per voxel, the GPU's R8 mask read back)
-    /// is sampled like the derived volumes and weighs the tissues, `1 - mask` the head layer
+    /// derived volumes hold a mask in use: `mask` (0 or 1 per working voxel, the GPU's R8 mask
+    /// read back, on the working grid of `factors`-voxel blocks) is sampled as
+    /// `reference::brain_mask` says and weighs the tissues, `1 - mask` the head layer
     /// (`Classification::classify_masked`).
-    pub fn with_brain_mask(mut self, mask: &'a [f64]) -> Result<Self, ReferenceError> {
-        let dims = self.volume.dims;
-        check_values("brain mask", dims, mask, |v| (0.0..=1.0).contains(v))?;
-        self.brain_mask = Some(Grid { dims, data: mask });
+    pub fn with_brain_mask(
+        mut self,
+        mask: &'a [f64],
+        dims: [usize; 3],
+        factors: [u32; 3],
+    ) -> Result<Self, ReferenceError> {
+        check_values("brain mask", dims.map(|d| d as u32), mask, |v| (0.0..=1.0).contains(v))?;
+        self.brain_mask = Some(crate::reference::brain_mask::WorkingMask {
+            values: mask,
+            dims,
+            factors,
+        });
         Ok(self)
     }
 
@@ -568,9 +577,10 @@ impl<'a> ReferenceRaymarch<'a> {
             .vesselness
             .filter(|_| self.vessels_on)
             .map(|grid| grid.fetch(p, |v| [v], self.interpolation)[0]);
+        let nearest = self.interpolation == crate::scene::Interpolation::Nearest;
         let brain = self
             .brain_mask
-            .map(|grid| grid.fetch(p, |v| [v], self.interpolation)[0]);
+            .map(|mask| mask.at([p.x, p.y, p.z], nearest));
         let (f, mut colour) = self.classification.classify_masked(value, vessels, brain);
         if f <= 0.0 {
             return None;
