@@ -1,0 +1,176 @@
+//! The tissue band of brain extraction (BRAIN_SPEC.md, `band_for`): which smoothed intensities
+//! count as brain tissue, from the 256-bin histogram of `I_norm` and the contrast.
+//!
+//! Decisions:
+//! - Otsu's threshold over bins 1..=255 (bin 0 holds masked zeros and the clamped dark end; it
+//!   would pull the split down to the air). Class 0 is bins `1..=k`, class 1 bins `k+1..=255`,
+//!   `k` maximizes the between-class variance `w0 w1 (mu0 - mu1)^2` (ties: the lowest `k`), and
+//!   the threshold is the edge between the classes, `t = (k + 1) / 256` in `I_norm` (bin `b`
+//!   holds `[b, b + 1) / 256`, `reference::histogram::bin_of`). Bin 255 is included: with the
+//!   robust range's headroom it holds few voxels.
+//! - T1 (CSF dark): `lo = t`; the WM peak `wm` is the centre `(b + 0.5) / 256` of the largest
+//!   bin above the threshold (bins `k+1..=255`) of the histogram smoothed with sigma 1 bin
+//!   (`analysis::smoothing::gaussian`, bin 0 zeroed first so masked zeros do not leak into
+//!   bin 1..4); ties: the darkest. `hi = wm + 0.45 (wm - lo)`: WM's upper flank is kept, fat
+//!   (brighter than WM on T1) is cut.
+//! - T2 and PD (CSF bright): `lo = 0.6 t` (GM and WM sit near Otsu's split between the dark air
+//!   and skull and the tissue; 0.6 keeps the darker WM), `hi = 2.0`, i.e. no upper bound (CSF is
+//!   the brightest tissue and belongs to the brain).
+//! - `None` when the histogram has fewer than two occupied bins in 1..=255 (empty or constant:
+//!   no split exists).
+//!
+//! Half a bin (0.002 of `I_norm`) separates the edge and centre conventions; the analysis reports
+//! mode positions at `position / 256` (`peaks::Mode::norm`), which differs from the centre by the
+//! same half bin.
+
+use super::contrast::Contrast;
+use super::smoothing;
+use crate::reference::BINS;
+
+/// Fraction of `wm - lo` kept above the WM peak for T1.
+pub const T1_HI_FRACTION: f64 = 0.45;
+/// T2/PD lower end as a fraction of Otsu's threshold.
+pub const T2_LO_FRACTION: f64 = 0.6;
+/// T2/PD upper end (above every `I_norm`: no upper bound).
+pub const T2_HI: f64 = 2.0;
+/// Smoothing of the histogram before the WM peak is taken, in bins.
+pub const WM_SIGMA_BINS: f64 = 1.0;
+
+/// Otsu's split over bins 1..=255: the last bin `k` of the dark class. None without two
+/// occupied bins.
+pub fn otsu_bin(hist: &[u32; BINS]) -> Option<usize> {
+    let h: Vec<f64> = hist.iter().map(|&c| f64::from(c)).collect();
+    let total: f64 = h[1..].iter().sum();
+    let moment: f64 = (1..BINS).map(|b| b as f64 * h[b]).sum();
+    let (mut w0, mut m0) = (0.0, 0.0);
+    let mut best: Option<(usize, f64)> = None;
+    for k in 1..BINS - 1 {
+        w0 += h[k];
+        m0 += k as f64 * h[k];
+        let w1 = total - w0;
+        if w0 <= 0.0 || w1 <= 0.0 {
+            continue;
+        }
+        let diff = m0 / w0 - (moment - m0) / w1;
+        let between = w0 * w1 * diff * diff;
+        if best.is_none_or(|(_, v)| between > v) {
+            best = Some((k, between));
+        }
+    }
+    best.filter(|&(_, v)| v > 0.0).map(|(k, _)| k)
+}
+
+/// The tissue band `(lo, hi)` in `I_norm` for this histogram and contrast (module doc); None for
+/// an empty or constant histogram.
+pub fn band_for(hist: &[u32; BINS], contrast: Contrast) -> Option<(f64, f64)> {
+    let k = otsu_bin(hist)?;
+    let t = (k + 1) as f64 / BINS as f64;
+    // A helper may add PD and FLAIR to `Contrast`: FLAIR (CSF dark) takes the T1 arm, PD the
+    // T2 arm (module doc).
+    match contrast {
+        Contrast::T1 => {
+            let wm = wm_peak(hist, k)?;
+            Some((t, wm + T1_HI_FRACTION * (wm - t)))
+        }
+        Contrast::T2 => Some((T2_LO_FRACTION * t, T2_HI)),
+    }
+}
+
+/// Centre of the largest smoothed bin above `k` (module doc).
+fn wm_peak(hist: &[u32; BINS], k: usize) -> Option<f64> {
+    let mut h = hist.map(f64::from);
+    h[0] = 0.0;
+    let s = smoothing::gaussian(&h, WM_SIGMA_BINS);
+    let mut best: Option<usize> = None;
+    for b in k + 1..BINS {
+        if best.is_none_or(|m| s[b] > s[m]) {
+            best = Some(b);
+        }
+    }
+    best.map(|b| (b as f64 + 0.5) / BINS as f64)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Gaussian modes `(centre bin, sd bins, count)` added to bin 0's `zeros`.
+    fn modes(zeros: u32, parts: &[(f64, f64, f64)]) -> [u32; BINS] {
+        let mut h = [0u32; BINS];
+        h[0] = zeros;
+        for (b, v) in h.iter_mut().enumerate() {
+            for &(c, sd, n) in parts {
+                let x = (b as f64 - c) / sd;
+                *v += (n * (-0.5 * x * x).exp()).round() as u32;
+            }
+        }
+        h
+    }
+
+    #[test]
+    fn empty_and_constant_histograms_have_no_band() {
+        assert_eq!(band_for(&[0; BINS], Contrast::T1), None);
+        let mut one = [0u32; BINS];
+        one[100] = 5000;
+        assert_eq!(band_for(&one, Contrast::T1), None);
+        assert_eq!(band_for(&one, Contrast::T2), None);
+        // Only masked zeros besides one bin: still constant over 1..=255.
+        one[0] = 1_000_000;
+        assert_eq!(band_for(&one, Contrast::T1), None);
+    }
+
+    #[test]
+    fn two_bins_split_between_them_and_bin_zero_is_ignored() {
+        let mut h = [0u32; BINS];
+        (h[0], h[40], h[200]) = (1_000_000, 100, 100);
+        assert_eq!(otsu_bin(&h), Some(40));
+        let (lo, hi) = band_for(&h, Contrast::T1).expect("two classes");
+        assert!((lo - 41.0 / 256.0).abs() < 1e-15);
+        let wm = 200.5 / 256.0;
+        assert!((hi - (wm + 0.45 * (wm - lo))).abs() < 1e-15, "{hi}");
+        let (lo2, hi2) = band_for(&h, Contrast::T2).expect("two classes");
+        assert!((lo2 - 0.6 * 41.0 / 256.0).abs() < 1e-15 && hi2 == 2.0);
+    }
+
+    #[test]
+    fn t1_head_band_spans_gm_and_wm_and_cuts_fat() {
+        // Air/skull near 20, CSF 60, GM 140, WM 185, fat 240 (bins).
+        let h = modes(
+            200_000,
+            &[
+                (20.0, 8.0, 40_000.0),
+                (60.0, 10.0, 3_000.0),
+                (140.0, 8.0, 20_000.0),
+                (185.0, 6.0, 25_000.0),
+                (240.0, 4.0, 2_000.0),
+            ],
+        );
+        let (lo, hi) = band_for(&h, Contrast::T1).expect("a head");
+        let bin = |x: f64| x * 256.0;
+        assert!(bin(lo) > 60.0 && bin(lo) < 125.0, "lo {}", bin(lo));
+        // WM peak at 185.5 (centre of bin 185), hi = wm + 0.45 (wm - lo).
+        let wm = 185.5 / 256.0;
+        assert!((hi - (wm + 0.45 * (wm - lo))).abs() < 1e-12);
+        assert!(bin(hi) > 200.0 && bin(hi) < 235.0, "hi {}", bin(hi));
+    }
+
+    #[test]
+    fn t2_band_is_open_above() {
+        // T2 with its air and skull in the low bins (most of a head's field of view): WM 60,
+        // GM 80, CSF 180, air and skull 10.
+        let h = modes(
+            0,
+            &[
+                (10.0, 5.0, 200_000.0),
+                (60.0, 6.0, 20_000.0),
+                (80.0, 6.0, 18_000.0),
+                (180.0, 10.0, 5_000.0),
+            ],
+        );
+        let k = otsu_bin(&h).expect("split");
+        let (lo, hi) = band_for(&h, Contrast::T2).expect("a head");
+        assert!((lo - 0.6 * (k + 1) as f64 / 256.0).abs() < 1e-15);
+        assert!(lo * 256.0 < 45.0 && lo * 256.0 > 10.0, "lo {}", lo * 256.0);
+        assert_eq!(hi, 2.0);
+    }
+}
