@@ -4,10 +4,15 @@
 //! Decisions:
 //! - Otsu's threshold over bins 1..=255 (bin 0 holds masked zeros and the clamped dark end; it
 //!   would pull the split down to the air). Class 0 is bins `1..=k`, class 1 bins `k+1..=255`,
-//!   `k` maximizes the between-class variance `w0 w1 (mu0 - mu1)^2` (ties: the lowest `k`), and
-//!   the threshold is the edge between the classes, `t = (k + 1) / 256` in `I_norm` (bin `b`
+//!   `k` maximizes the between-class variance `w0 w1 (mu0 - mu1)^2`, and the threshold is the
+//!   edge between the classes, `t = (k + 1) / 256` in `I_norm` (bin `b`
 //!   holds `[b, b + 1) / 256`, `reference::histogram::bin_of`). Bin 255 is included: with the
 //!   robust range's headroom it holds few voxels.
+//! - Ties: empty bins after `k` give the same classes, hence the same variance, so a gap in the
+//!   histogram is a run of equal maxima; the split is the middle of the first such run (the
+//!   middle of the gap), not its first bin. Quantized scans (8-bit data spread over 256 bins)
+//!   and two-valued phantoms have such gaps; the first bin would put `lo` right on the dark
+//!   class's upper edge, where smoothing lifts it into the band.
 //! - T1 (CSF dark): `lo = t`; the WM peak `wm` is the centre `(b + 0.5) / 256` of the largest
 //!   bin above the threshold (bins `k+1..=255`) of the histogram smoothed with sigma 1 bin
 //!   (`analysis::smoothing::gaussian`, bin 0 zeroed first so masked zeros do not leak into
@@ -36,14 +41,15 @@ pub const T2_HI: f64 = 2.0;
 /// Smoothing of the histogram before the WM peak is taken, in bins.
 pub const WM_SIGMA_BINS: f64 = 1.0;
 
-/// Otsu's split over bins 1..=255: the last bin `k` of the dark class. None without two
-/// occupied bins.
+/// Otsu's split over bins 1..=255: the last bin `k` of the dark class (ties: the middle of the
+/// first run of equal maxima, module doc). None without two occupied bins.
 pub fn otsu_bin(hist: &[u32; BINS]) -> Option<usize> {
     let h: Vec<f64> = hist.iter().map(|&c| f64::from(c)).collect();
     let total: f64 = h[1..].iter().sum();
     let moment: f64 = (1..BINS).map(|b| b as f64 * h[b]).sum();
     let (mut w0, mut m0) = (0.0, 0.0);
-    let mut best: Option<(usize, f64)> = None;
+    // (first k, last k of its run, value)
+    let mut best: Option<(usize, usize, f64)> = None;
     for k in 1..BINS - 1 {
         w0 += h[k];
         m0 += k as f64 * h[k];
@@ -53,11 +59,17 @@ pub fn otsu_bin(hist: &[u32; BINS]) -> Option<usize> {
         }
         let diff = m0 / w0 - (moment - m0) / w1;
         let between = w0 * w1 * diff * diff;
-        if best.is_none_or(|(_, v)| between > v) {
-            best = Some((k, between));
+        match best {
+            // Empty bins leave w0 and m0 unchanged, so a gap repeats the value exactly.
+            Some((first, last, v)) if between == v && last + 1 == k => {
+                best = Some((first, k, v));
+            }
+            Some((_, _, v)) if between <= v => {}
+            _ => best = Some((k, k, between)),
         }
     }
-    best.filter(|&(_, v)| v > 0.0).map(|(k, _)| k)
+    best.filter(|&(_, _, v)| v > 0.0)
+        .map(|(first, last, _)| (first + last) / 2)
 }
 
 /// The tissue band `(lo, hi)` in `I_norm` for this histogram and contrast (module doc); None for
@@ -123,13 +135,14 @@ mod tests {
     fn two_bins_split_between_them_and_bin_zero_is_ignored() {
         let mut h = [0u32; BINS];
         (h[0], h[40], h[200]) = (1_000_000, 100, 100);
-        assert_eq!(otsu_bin(&h), Some(40));
+        // Every k in 40..=199 splits the same classes: the middle of the gap.
+        assert_eq!(otsu_bin(&h), Some(119));
         let (lo, hi) = band_for(&h, Contrast::T1).expect("two classes");
-        assert!((lo - 41.0 / 256.0).abs() < 1e-15);
+        assert!((lo - 120.0 / 256.0).abs() < 1e-15);
         let wm = 200.5 / 256.0;
         assert!((hi - (wm + 0.45 * (wm - lo))).abs() < 1e-15, "{hi}");
         let (lo2, hi2) = band_for(&h, Contrast::T2).expect("two classes");
-        assert!((lo2 - 0.6 * 41.0 / 256.0).abs() < 1e-15 && hi2 == 2.0);
+        assert!((lo2 - 0.6 * 120.0 / 256.0).abs() < 1e-15 && hi2 == 2.0);
     }
 
     #[test]
