@@ -16,7 +16,13 @@
 //! - T1 (CSF dark): `lo = t`; the WM peak `wm` is the centre `(b + 0.5) / 256` of the largest
 //!   bin above the threshold (bins `k+1..=255`) of the histogram smoothed with sigma 1 bin
 //!   (`analysis::smoothing::gaussian`, bin 0 zeroed first so masked zeros do not leak into
-//!   bin 1..4); ties: the darkest. `hi = wm + 0.45 (wm - lo)`: WM's upper flank is kept, fat
+//!   bin 1..4); ties: the darkest. Before smoothing, the analysis's binning repairs
+//!   (`analysis::spikes`) apply: the top bin (the robust range's clamped tail) is capped at its
+//!   neighbour, single-bin quantization bumps and dip patterns of a dense histogram are replaced
+//!   by their neighbours' mean, and sigma is raised to a comb's quantization gap
+//!   (`smoothing::effective_sigma`, at most 8 bins). Without them the 8-bit MNI152 template (255 values over
+//!   257.4 units: one bin holds two values, 39 k voxels against 20 k around it) put "WM" on
+//!   that bin, at GM's upper flank. CPU only: the GPU never sees the histogram. `hi = wm + 0.45 (wm - lo)`: WM's upper flank is kept, fat
 //!   (brighter than WM on T1) is cut.
 //! - T2 and PD (CSF bright): `lo = 0.6 t` (GM and WM sit near Otsu's split between the dark air
 //!   and skull and the tissue; 0.6 keeps the darker WM), `hi = 2.0`, i.e. no upper bound (CSF is
@@ -29,7 +35,8 @@
 //! same half bin.
 
 use super::contrast::Contrast;
-use super::smoothing;
+use super::params::AnalysisParams;
+use super::{smoothing, spikes};
 use crate::reference::BINS;
 
 /// Fraction of `wm - lo` kept above the WM peak for T1.
@@ -40,6 +47,9 @@ pub const T2_LO_FRACTION: f64 = 0.6;
 pub const T2_HI: f64 = 2.0;
 /// Smoothing of the histogram before the WM peak is taken, in bins.
 pub const WM_SIGMA_BINS: f64 = 1.0;
+/// A comb's quantization gap raises that sigma up to this many bins; larger gaps are not combs
+/// but few-valued data (a two-valued phantom has one gap of 100+ bins), which keep sigma 1.
+pub const MAX_COMB_SIGMA_BINS: f64 = 8.0;
 
 /// Otsu's split over bins 1..=255: the last bin `k` of the dark class (ties: the middle of the
 /// first run of equal maxima, module doc). None without two occupied bins.
@@ -92,7 +102,9 @@ pub fn band_for(hist: &[u32; BINS], contrast: Contrast) -> Option<(f64, f64)> {
 fn wm_peak(hist: &[u32; BINS], k: usize) -> Option<f64> {
     let mut h = hist.map(f64::from);
     h[0] = 0.0;
-    let s = smoothing::gaussian(&h, WM_SIGMA_BINS);
+    let h = clean(&h);
+    let sigma = smoothing::effective_sigma(&h, WM_SIGMA_BINS).min(MAX_COMB_SIGMA_BINS);
+    let s = smoothing::gaussian(&h, sigma);
     let mut best: Option<usize> = None;
     for b in k + 1..BINS {
         if best.is_none_or(|m| s[b] > s[m]) {
@@ -100,6 +112,17 @@ fn wm_peak(hist: &[u32; BINS], k: usize) -> Option<f64> {
         }
     }
     best.map(|b| (b as f64 + 0.5) / BINS as f64)
+}
+
+/// The analysis's binning repairs (module doc): the top bin capped at its neighbour, and for a
+/// dense histogram the single-bin quantization outliers replaced by their neighbours' mean.
+fn clean(h: &[f64; BINS]) -> [f64; BINS] {
+    let capped = spikes::cap_top_bin(h);
+    if smoothing::quantization_gap(&capped) != 1 {
+        return capped;
+    }
+    let z = AnalysisParams::default().quantization_z;
+    spikes::remove_spikes(&capped, &spikes::find_quantization_outliers(&capped, z))
 }
 
 #[cfg(test)]
@@ -185,5 +208,35 @@ mod tests {
         assert!((lo - 0.6 * (k + 1) as f64 / 256.0).abs() < 1e-15);
         assert!(lo * 256.0 < 45.0 && lo * 256.0 > 10.0, "lo {}", lo * 256.0);
         assert_eq!(hi, 2.0);
+    }
+
+    #[test]
+    fn a_quantization_bump_is_not_the_wm_peak() {
+        // A skull-stripped T1 like the 8-bit MNI152 template: a broad dark tail, GM 175, WM
+        // 222; Otsu splits below GM, and one bin on GM's upper flank holds two integer values
+        // (twice its neighbours: its smoothed count beats WM's top without the repairs).
+        let parts = [
+            (110.0, 30.0, 8_000.0),
+            (175.0, 10.0, 24_000.0),
+            (222.0, 8.0, 25_800.0),
+        ];
+        let mut h = modes(0, &parts);
+        let k = otsu_bin(&h).expect("split");
+        let bump = 178;
+        h[bump] *= 2;
+        assert!(
+            k < bump && h[bump] > h[222],
+            "k {k}, bump {}, WM {}",
+            h[bump],
+            h[222]
+        );
+        assert_eq!(otsu_bin(&h).map(|k2| k2.abs_diff(k) <= 1), Some(true));
+        let (lo, hi) = band_for(&h, Contrast::T1).expect("a band");
+        let wm = (hi + T1_HI_FRACTION * lo) / (1.0 + T1_HI_FRACTION);
+        assert!(
+            (wm * 256.0 - 222.5).abs() < 1e-9,
+            "wm at bin {}",
+            wm * 256.0
+        );
     }
 }
