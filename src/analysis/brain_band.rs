@@ -8,6 +8,14 @@
 //!   edge between the classes, `t = (k + 1) / 256` in `I_norm` (bin `b`
 //!   holds `[b, b + 1) / 256`, `reference::histogram::bin_of`). Bin 255 is included: with the
 //!   robust range's headroom it holds few voxels.
+//! - **Masked background** (a skull-stripped volume: zeros outside the brain and nothing just
+//!   above them, no air noise): then bin 0 is the background class and Otsu runs over bins
+//!   0..=255. Without it the 8-bit MNI152 template (78 % zeros, bins 1..=26 empty) split GM from
+//!   WM (raw 171), the band held WM only, the mask was a WM blob and the head test called the
+//!   stripped template a head (outside fraction 0.33). A head has air noise above its zeros
+//!   (chris_t1: 44 % zeros but 53 k voxels in bins 1..=2), so it keeps the 1..=255 rule. The
+//!   test: bin 0 holds at least 10 % of the voxels and bins 1..=4 together less than 1 % of bin
+//!   0 ([`masked_background`]).
 //! - Ties: empty bins after `k` give the same classes, hence the same variance, so a gap in the
 //!   histogram is a run of equal maxima; the split is the middle of the first such run (the
 //!   middle of the gap), not its first bin. Quantized scans (8-bit data spread over 256 bins)
@@ -45,22 +53,42 @@ pub const T1_HI_FRACTION: f64 = 0.45;
 pub const T2_LO_FRACTION: f64 = 0.6;
 /// T2/PD upper end (above every `I_norm`: no upper bound).
 pub const T2_HI: f64 = 2.0;
+/// A masked background: bin 0 holds at least this fraction of the voxels ...
+pub const MASKED_MIN_FRACTION: f64 = 0.1;
+/// ... and the bins 1..=this one ...
+pub const MASKED_GAP_BINS: usize = 4;
+/// ... hold together less than this fraction of bin 0's count.
+pub const MASKED_GAP_RATIO: f64 = 0.01;
 /// Smoothing of the histogram before the WM peak is taken, in bins.
 pub const WM_SIGMA_BINS: f64 = 1.0;
 /// A comb's quantization gap raises that sigma up to this many bins; larger gaps are not combs
 /// but few-valued data (a two-valued phantom has one gap of 100+ bins), which keep sigma 1.
 pub const MAX_COMB_SIGMA_BINS: f64 = 8.0;
 
-/// Otsu's split over bins 1..=255: the last bin `k` of the dark class (ties: the middle of the
-/// first run of equal maxima, module doc). None without two occupied bins.
+/// Whether bin 0 is a masked background (module doc): at least `MASKED_MIN_FRACTION` of the
+/// voxels, and bins 1..=`MASKED_GAP_BINS` together below `MASKED_GAP_RATIO` of it.
+pub fn masked_background(hist: &[u32; BINS]) -> bool {
+    let total: f64 = hist.iter().map(|&c| f64::from(c)).sum();
+    let zeros = f64::from(hist[0]);
+    let above: f64 = hist[1..=MASKED_GAP_BINS]
+        .iter()
+        .map(|&c| f64::from(c))
+        .sum();
+    total > 0.0 && zeros >= MASKED_MIN_FRACTION * total && above < MASKED_GAP_RATIO * zeros
+}
+
+/// Otsu's split over bins 1..=255, or 0..=255 for a masked background: the last bin `k` of the
+/// dark class (ties: the middle of the first run of equal maxima, module doc). None without two
+/// occupied bins.
 pub fn otsu_bin(hist: &[u32; BINS]) -> Option<usize> {
+    let first = usize::from(!masked_background(hist));
     let h: Vec<f64> = hist.iter().map(|&c| f64::from(c)).collect();
-    let total: f64 = h[1..].iter().sum();
-    let moment: f64 = (1..BINS).map(|b| b as f64 * h[b]).sum();
+    let total: f64 = h[first..].iter().sum();
+    let moment: f64 = (first..BINS).map(|b| b as f64 * h[b]).sum();
     let (mut w0, mut m0) = (0.0, 0.0);
     // (first k, last k of its run, value)
     let mut best: Option<(usize, usize, f64)> = None;
-    for k in 1..BINS - 1 {
+    for k in first..BINS - 1 {
         w0 += h[k];
         m0 += k as f64 * h[k];
         let w1 = total - w0;
@@ -149,15 +177,45 @@ mod tests {
         one[100] = 5000;
         assert_eq!(band_for(&one, Contrast::T1), None);
         assert_eq!(band_for(&one, Contrast::T2), None);
-        // Only masked zeros besides one bin: still constant over 1..=255.
-        one[0] = 1_000_000;
+        // Only a few zeros besides one bin: still constant over 1..=255.
+        one[0] = 100;
         assert_eq!(band_for(&one, Contrast::T1), None);
+        // Many zeros with an empty gap above them are a masked background, a class of its own:
+        // a binary mask splits in the middle of its gap.
+        one[0] = 1_000_000;
+        assert_eq!(otsu_bin(&one), Some(49));
+    }
+
+    #[test]
+    fn a_masked_background_joins_the_split() {
+        // Stripped like the MNI152 template: zeros, nothing in bins 1..=4, a broad dark tail
+        // (CSF and partial volume), GM 175, WM 222.
+        let parts = [
+            (110.0, 30.0, 8_000.0),
+            (175.0, 10.0, 24_000.0),
+            (222.0, 8.0, 25_800.0),
+        ];
+        let mut h = modes(2_000_000, &parts);
+        h[1..=4].fill(0);
+        assert!(masked_background(&h));
+        let k = otsu_bin(&h).expect("split");
+        // With bin 0 the split falls below GM; without it, into GM's flank.
+        assert!(k < 140, "split {k} below GM");
+        let mut unmasked = h;
+        unmasked[0] = 0;
+        let k_unmasked = otsu_bin(&unmasked).expect("split");
+        assert!(k_unmasked > k + 20, "{k_unmasked} vs {k}");
+        // The same with air noise above the zeros: a head, bin 0 excluded, split above CSF.
+        let head = modes(2_000_000, &[&parts[..], &[(3.0, 3.0, 100_000.0)]].concat());
+        assert!(!masked_background(&head));
+        let k = otsu_bin(&head).expect("split");
+        assert!(k > 100 && k < 175, "split {k} above the dark tail");
     }
 
     #[test]
     fn two_bins_split_between_them_and_bin_zero_is_ignored() {
         let mut h = [0u32; BINS];
-        (h[0], h[40], h[200]) = (1_000_000, 100, 100);
+        (h[0], h[40], h[200]) = (100, 100, 100);
         // Every k in 40..=199 splits the same classes: the middle of the gap.
         assert_eq!(otsu_bin(&h), Some(119));
         let (lo, hi) = band_for(&h, Contrast::T1).expect("two classes");
