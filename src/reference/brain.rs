@@ -41,8 +41,12 @@ use crate::analysis::components::{hole_fill_cells, largest_component_selection, 
 pub const BIG: f64 = 1e30;
 /// Most taps each side of a distance pass.
 pub const MAX_TAPS: usize = 64;
-/// The head test: at least this fraction of the foreground outside the mask ...
-pub const HEAD_MIN_OUTSIDE_FRACTION: f64 = 0.25;
+/// The head test: at least this fraction of the foreground outside the mask ... BRAIN_SPEC.md
+/// said 0.25, to be checked: measured with the twin and defaults (`brain_twin` example, this
+/// machine), the skull-stripped MNI152 template gives 0.000, chris_t1 (a head) 0.42, the clinical
+/// T2w head with thick slices and a slab that covers little below the brain 0.22; 0.1 calls all
+/// three right with margin on both sides.
+pub const HEAD_MIN_OUTSIDE_FRACTION: f64 = 0.1;
 /// ... and a mask of at least this many cm^3 ...
 pub const HEAD_MIN_CM3: f64 = 500.0;
 /// ... and at most this many.
@@ -386,7 +390,7 @@ pub struct HeadTest {
     pub outside_fraction: f64,
     /// Mask volume in cm^3.
     pub mask_cm3: f64,
-    /// A head: the fraction is at least 0.25 and the mask 500..=3000 cm^3.
+    /// A head: the fraction is at least 0.1 and the mask 500..=3000 cm^3.
     pub is_head: bool,
 }
 

@@ -4,11 +4,11 @@
 //! morphology's radii.
 //!
 //! Run: `cargo run --release --example brain_twin -- IN.nii[.gz] [--reference MASK.nii[.gz]]
-//! [--out OUT.nii.gz] [--contrast t1|t2] [--erode MM[,MM..]] [--close MM[,..]] [--grow MM[,..]]
+//! [--out OUT.nii.gz] [--contrast t1|t2] [--band LO,HI] [--erode MM[,MM..]] [--close MM[,..]] [--grow MM[,..]]
 //! [--sigma MM] [--coarse F]`
 //!
 //! Prints the band, the time of each part, the mask's volume in cm^3, the head test and (with
-//! `--reference`, any nonzero voxel is brain) the Dice; with lists of radii, one line per
+//! `--reference`, any nonzero voxel is brain) the Dice; `--band` replaces `band_for`'s band; with lists of radii, one line per
 //! combination. `--out` writes the mask of the first combination as uint8 0/1 NIfTI with the
 //! input's affine (never replacing an existing file).
 
@@ -24,13 +24,14 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 const USAGE: &str = "usage: brain_twin IN.nii[.gz] [--reference MASK] [--out OUT.nii.gz] \
-[--contrast t1|t2] [--erode MM[,MM..]] [--close MM[,..]] [--grow MM[,..]] [--sigma MM] [--coarse F]";
+[--contrast t1|t2] [--band LO,HI] [--erode MM[,MM..]] [--close MM[,..]] [--grow MM[,..]] [--sigma MM] [--coarse F]";
 
 struct Args {
     input: PathBuf,
     reference: Option<PathBuf>,
     out: Option<PathBuf>,
     contrast: Option<Contrast>,
+    band: Option<(f64, f64)>,
     erode: Vec<f64>,
     close: Vec<f64>,
     grow: Vec<f64>,
@@ -61,6 +62,7 @@ fn parse() -> Result<Args, String> {
         reference: None,
         out: None,
         contrast: None,
+        band: None,
         erode: vec![d.erode_mm],
         close: vec![d.close_mm],
         grow: vec![d.grow_mm],
@@ -84,6 +86,10 @@ fn parse() -> Result<Args, String> {
                     other => return Err(format!("unknown contrast {other:?}\n{USAGE}")),
                 })
             }
+            "--band" => match list(&value()?)?[..] {
+                [lo, hi] => a.band = Some((lo, hi)),
+                _ => return Err(format!("--band takes LO,HI\n{USAGE}")),
+            },
             "--erode" => a.erode = list(&value()?)?,
             "--close" => a.close = list(&value()?)?,
             "--grow" => a.grow = list(&value()?)?,
@@ -138,7 +144,10 @@ fn run() -> Result<(), String> {
     let hist = histogram(&f32s, |i| volume.samples.get(i).is_finite());
     let report = analyze(&hist, range.lo, range.hi, norm.len(), 0);
     let contrast = args.contrast.unwrap_or(report.contrast.contrast);
-    let (lo, hi) = band_for(&hist, contrast).ok_or("the histogram has no split (constant)")?;
+    let (lo, hi) = match args.band {
+        Some(band) => band,
+        None => band_for(&hist, contrast).ok_or("the histogram has no split (constant)")?,
+    };
     // The twin takes the GPU's f32 values as f64.
     let input: Vec<f64> = f32s.iter().map(|&v| f64::from(v)).collect();
     let prep_s = t.elapsed().as_secs_f64();
