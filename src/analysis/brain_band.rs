@@ -88,9 +88,9 @@ pub fn otsu_bin(hist: &[u32; BINS]) -> Option<usize> {
     let (mut w0, mut m0) = (0.0, 0.0);
     // (first k, last k of its run, value)
     let mut best: Option<(usize, usize, f64)> = None;
-    for k in first..BINS - 1 {
-        w0 += h[k];
-        m0 += k as f64 * h[k];
+    for (k, &count) in h.iter().enumerate().take(BINS - 1).skip(first) {
+        w0 += count;
+        m0 += k as f64 * count;
         let w1 = total - w0;
         if w0 <= 0.0 || w1 <= 0.0 {
             continue;

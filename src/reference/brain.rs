@@ -229,8 +229,8 @@ pub fn squared_distance(
         .iter()
         .map(|&s| if s != 0 { 0.0 } else { BIG })
         .collect();
-    for axis in 0..3 {
-        g = sqd_axis(&g, dims, axis, spacing[axis], taps(bound_mm, spacing[axis]));
+    for (axis, &h) in spacing.iter().enumerate() {
+        g = sqd_axis(&g, dims, axis, h, taps(bound_mm, h));
     }
     g
 }
