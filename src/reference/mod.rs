@@ -17,6 +17,7 @@
 //!   typed errors.
 //! - Volumes are x fastest: voxel `(i, j, k)` is at `i + nx * (j + ny * k)`.
 
+pub mod brain;
 pub mod denoise;
 pub mod derivatives;
 pub mod eigen;
