@@ -34,8 +34,6 @@
 pub mod assign;
 pub mod background;
 pub mod brain_band;
-pub mod brain_params;
-pub mod components;
 pub mod contrast;
 pub mod params;
 pub mod peaks;
@@ -45,7 +43,7 @@ pub mod spikes;
 pub mod table1;
 pub mod windows;
 
-pub use brain_params::{BrainParams, BrainParamsError};
+pub use crate::reference::brain_params::{BrainParams, BrainParamsError};
 pub use contrast::{Contrast, ContrastBasis, ContrastChoice, ContrastReport};
 pub use params::AnalysisParams;
 pub use range::{NormalizeMode, RangeChoice, RobustRange};

@@ -19,7 +19,10 @@ use crate::passes::brain::{
     working_extent, working_factors,
 };
 use crate::reference::brain_report::{BrainDecision, BrainReport};
-use crate::reference::brain_tmp::{self as twin, BrainParams};
+use crate::reference::brain_components::{
+    hole_fill_cells, largest_component_selection, slab_axis,
+};
+use crate::reference::brain_params::{BrainParams, close_threshold, spacing_mm};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -86,7 +89,7 @@ impl Engine {
         if matches!(prepared.layout, VolumeLayout::Bricked(_)) {
             // The plan turns extraction off for bricked volumes; a caller asking anyway gets
             // nothing masked rather than an error.
-            let params = BrainParams::with_band(0.0, 1.0);
+            let params = BrainParams::default();
             return Ok(BrainMask {
                 image: None,
                 factors: [1, 1, 1],
@@ -96,9 +99,9 @@ impl Engine {
             });
         }
         let contrast = self.analyze(prepared).contrast.contrast;
-        let t2_like = contrast == crate::analysis::Contrast::T2;
-        let Some((lo, hi)) = twin::band_for(&prepared.histogram, t2_like) else {
-            let params = BrainParams::with_band(0.0, 1.0);
+        let Some((lo, hi)) = crate::analysis::brain_band::band_for(&prepared.histogram, contrast)
+        else {
+            let params = BrainParams::default();
             return Ok(BrainMask {
                 image: None,
                 factors: [1, 1, 1],
@@ -107,7 +110,7 @@ impl Engine {
                 gpu_timings: Vec::new(),
             });
         };
-        let mut mask = self.brain_mask(prepared, &BrainParams::with_band(lo, hi))?;
+        let mut mask = self.brain_mask(prepared, &BrainParams::for_band(lo, hi))?;
         mask.used = mask.use_for(switch);
         Ok(mask)
     }
@@ -125,7 +128,9 @@ impl Engine {
                 "brain extraction needs the whole volume on the GPU; this one is bricked (raise the memory budget, or pass --brain off)".into(),
             ));
         }
-        params.validate().map_err(GpuError::InvalidRequest)?;
+        params
+            .validate()
+            .map_err(|e| GpuError::InvalidRequest(e.to_string()))?;
         let started = Instant::now();
         let device = self.device.clone();
         let pass = BrainPass::new(&device, self.pipeline_cache.raw())?;
@@ -144,7 +149,7 @@ impl Engine {
         let host = Instant::now();
         let eroded = read_cells(&work.cells)?;
         let band_cells = read_cells(&work.band_cells)?;
-        let Some(selected) = twin::largest_component_selection(&eroded, coarse) else {
+        let Some(selected) = largest_component_selection(&eroded, coarse) else {
             return Ok(BrainMask {
                 image: None,
                 factors: [1, 1, 1],
@@ -170,7 +175,7 @@ impl Engine {
 
         let host = Instant::now();
         let closed = read_cells(&work.cells)?;
-        let fill = twin::hole_fill_cells(&closed, coarse, twin::slab_axis(work.grid.spacing));
+        let fill = hole_fill_cells(&closed, coarse, slab_axis(work.grid.spacing));
         write_cells(&work.cells, &fill)?;
         let cell_mm3 = work.grid.spacing.iter().product::<f64>() * f64::from(work.grid.cell).powi(3);
         let report = BrainReport::decide(
@@ -196,7 +201,7 @@ impl Engine {
             &work.grid,
             &self.nearest,
             StepMode::Final,
-            twin::close_threshold(params),
+            close_threshold(params),
             [&work.b, &work.smoothed],
             &work.cells,
             &mut work.mask,
@@ -216,7 +221,7 @@ impl Engine {
     }
 
     fn brain_work(&self, prepared: &PreparedVolume, params: &BrainParams) -> GpuResult<Work> {
-        let fine_spacing = twin::spacing_mm(prepared.linear_part);
+        let fine_spacing = spacing_mm(prepared.linear_part);
         let factors = working_factors(fine_spacing);
         let extent = working_extent(prepared.dims, factors);
         let spacing: [f64; 3] = std::array::from_fn(|a| fine_spacing[a] * f64::from(factors[a]));
@@ -309,7 +314,7 @@ impl Engine {
         pass.record_distance(rec, grid, nearest, [a, b], rc)?;
         pass.record_step(rec, grid, nearest, StepMode::OutsideSources, rc * rc, [b, smoothed], cells, a)?;
         pass.record_distance(rec, grid, nearest, [a, b], rc - params.grow_mm)?;
-        let t = twin::close_threshold(params);
+        let t = close_threshold(params);
         pass.record_pool(rec, grid, nearest, PoolMode::Any, t, [b, smoothed], cells)
     }
 }

@@ -314,7 +314,9 @@ impl Engine {
         occupied_fraction: f64,
     ) -> crate::engine::plan::PlanInput {
         let dims = volume.dims.map(|d| u32::try_from(d).unwrap_or(u32::MAX));
-        self.plan_input_for(dims, volume.samples.kind(), image, occupied_fraction)
+        let mut input = self.plan_input_for(dims, volume.samples.kind(), image, occupied_fraction);
+        input.spacing_mm = volume.spacing_mm;
+        input
     }
 
     /// [`Engine::plan_input`] from a volume's size and sample kind (a volume that is open).
@@ -338,6 +340,7 @@ impl Engine {
             force_bricking: self.config.force_bricking,
             robust_range: self.config.normalize == crate::analysis::NormalizeMode::Robust,
             denoise: crate::passes::denoise::Denoise::None,
+            spacing_mm: [1.0; 3],
         }
     }
 

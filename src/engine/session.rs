@@ -261,7 +261,8 @@ impl Engine {
             }
         };
         let prepared = &twin.prepared;
-        let input = self.plan_input_for(prepared.dims, prepared.kind, image, fraction);
+        let mut input = self.plan_input_for(prepared.dims, prepared.kind, image, fraction);
+        input.spacing_mm = crate::reference::brain_params::spacing_mm(prepared.linear_part);
         crate::engine::plan::plan(effects, &input, &super::DeviceImageSizes(self.device()))
     }
 }

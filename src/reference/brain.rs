@@ -4,7 +4,7 @@
 //!
 //! The chain: Gaussian smoothing in mm, the tissue band `lo < S < hi`, erosion by a ball of
 //! `erode_mm`, the ALL-pool onto a coarse grid of `coarse`-voxel cells, its largest 6-connected
-//! component dilated by one cell (CPU, `analysis::components`), the fine core inside it,
+//! component dilated by one cell (CPU, `reference::brain_components`), the fine core inside it,
 //! re-growth by the same ball kept inside the band, closing by `close_mm` with a net
 //! growth of `grow_mm`, the ANY-pool, hole filling on the coarse grid (CPU) and the final mask
 //! `M0 || fill(cell)`.
@@ -24,8 +24,8 @@
 //! - `BIG = 1e30` stands for "no source in reach"; `1e30 + (t h)^2` stays far above any `R^2`.
 //! - The twin uses `reference::vesselness`'s Gaussian (the same taps and clamp-to-edge faces the
 //!   GPU's `gaussian_axis` pass applies) and the same CPU steps as the engine
-//!   (`analysis::components`: this file, like the raymarch twin with `scene`, imports a layer
-//!   above `reference` so the twin and the engine run one definition; nothing below imports it).
+//!   (`reference::brain_components`, the lowest layer both reach, so the twin and the engine run
+//!   one definition).
 //! - Speed: the distance passes run over z-slabs on all cores (`std::thread::scope`, no new
 //!   dependency) with the tap loop outermost, so each row is a vectorizable min; the Gaussian is
 //!   the reference's serial one.
@@ -34,8 +34,10 @@
 //!   and returns [`BrainError`] instead.
 
 use super::vesselness::{gaussian_axis, sigma_voxels};
-use crate::analysis::brain_params::{BrainParams, BrainParamsError};
-use crate::analysis::components::{hole_fill_cells, largest_component_selection, slab_axis};
+use crate::reference::brain_params::{BrainParams, BrainParamsError};
+use crate::reference::brain_components::{
+    hole_fill_cells, largest_component_selection, slab_axis,
+};
 
 /// Squared distance of voxels with no source within reach.
 pub const BIG: f64 = 1e30;

@@ -12,7 +12,7 @@
 //!   for children, large heads and the coarse cells' clipped faces); outside it the component
 //!   found is not a brain (a phantom, an organ, a limb) and nothing is masked.
 
-use super::brain_tmp::BrainParams;
+use super::brain_params::BrainParams;
 use std::time::Duration;
 
 /// Band-cell fraction outside the brain above which the volume is a head.

@@ -36,6 +36,8 @@ pub use derivatives::{
 pub use histogram::{BINS, bin_of, histogram, histogram_of_samples};
 pub use minmax::{finite_min_max, nonfinite_count};
 pub use normalize::{normalize, normalize_value, physical_range};
+pub mod brain_components;
 pub mod brain_mask;
+pub mod brain_params;
 pub mod brain_report;
-pub mod brain_tmp;
+pub mod brain_working;

@@ -13,7 +13,7 @@
 //! input's affine (never replacing an existing file).
 
 use morphray::analysis::brain_band::band_for;
-use morphray::analysis::components::{hole_fill_cells, largest_component_selection, slab_axis};
+use morphray::reference::brain_components::{hole_fill_cells, largest_component_selection, slab_axis};
 use morphray::analysis::range::exact_robust_range;
 use morphray::analysis::{BrainParams, Contrast, analyze};
 use morphray::reference::brain::{extract, is_head};

@@ -128,26 +128,19 @@ pub(super) fn reports(
         && effects.brain != crate::passes::brain::BrainSwitch::Off
     {
         let mut times = Vec::new();
-        let mut host = Vec::new();
         for _ in 0..rates.repeat {
             let b = engine.extract_brain(prepared, effects.brain)?;
             times.push(b.gpu_timings.iter().map(|t| t.gpu_ms).sum::<f64>());
-            host.push(b.report.total_ms);
         }
-        let c = cost::brain(texels);
+        let spacing = crate::reference::brain_params::spacing_mm(prepared.linear_part);
+        let factors = crate::passes::brain::working_factors(spacing);
+        let c = cost::brain(texels / f64::from(factors.iter().product::<u32>()));
         passes.push(pass_report(
             "brain extraction",
             &times,
             c,
             rates.copy,
             rates.documented,
-        ));
-        passes.push(pass_report(
-            "brain extraction (wall, host steps included)",
-            &host,
-            cost::PassCost::default(),
-            None,
-            None,
         ));
     }
     Ok(passes)

@@ -326,9 +326,10 @@ fn vesselness(ctx: &PlanContext) -> PassDeclaration {
 /// volume, the two distance volumes and the two coarse-cell buffers live for the extraction;
 /// its cost is `cost::brain`.
 fn brain(ctx: &PlanContext) -> PassDeclaration {
-    use crate::passes::brain::{brain_descs, cells_desc};
-    let [mask, smoothed, a, b] = brain_descs(ctx.extent);
-    let cells = ctx.extent.map(|n| n.div_ceil(2) as usize).iter().product::<usize>();
+    use crate::passes::brain::{brain_descs, cells_desc, working_extent, working_factors};
+    let working = working_extent(ctx.extent, working_factors(ctx.input.spacing_mm));
+    let [mask, smoothed, a, b] = brain_descs(working);
+    let cells = working.map(|n| n.div_ceil(2) as usize).iter().product::<usize>();
     let transient = |desc| Declared {
         transient: true,
         ..Declared::held_image(desc)
@@ -338,7 +339,7 @@ fn brain(ctx: &PlanContext) -> PassDeclaration {
             "brain extraction",
             "per volume (when the scene shows brain tissues)",
             "brain extraction".into(),
-            cost::brain(ctx.voxels() as f64),
+            cost::brain(working.iter().map(|&n| f64::from(n)).product()),
         )],
         variants: vec!["brain extraction".into()],
         allocations: vec![

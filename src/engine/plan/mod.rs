@@ -88,6 +88,8 @@ pub struct PlanInput {
     /// Denoising of I_norm after the preparation (whole volumes only): its output replaces
     /// I_norm, so it adds to the preparation's peak only (`engine::denoise`).
     pub denoise: crate::passes::denoise::Denoise,
+    /// Voxel lengths in mm (brain extraction's working grid depends on them).
+    pub spacing_mm: [f64; 3],
 }
 
 /// How the normalized volume is laid out on the GPU.

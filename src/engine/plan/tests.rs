@@ -24,7 +24,8 @@ fn brain_extraction_is_planned_and_dropped_before_bricking() {
     let p = plan(brain, &input(), &TexelSizes).unwrap();
     assert!(passes(&p).contains(&"brain extraction"), "{:?}", passes(&p));
     // The mask is held (R8, a byte a voxel); the scratch lives for the extraction only.
-    assert_eq!(held(&p, "brain mask"), ("R8_UNORM".into(), N));
+    // On the working grid of 2 mm blocks (1 mm voxels: 2x2x2).
+    assert_eq!(held(&p, "brain mask"), ("R8_UNORM".into(), N / 8));
     let without = plan(f16_effects(), &input(), &TexelSizes).unwrap();
     assert!(p.peak_bytes > without.peak_bytes);
     // A budget that holds everything but the extraction drops it (the 8-bit and R8 steps before
@@ -77,6 +78,7 @@ fn input() -> PlanInput {
         force_bricking: false,
         robust_range: true,
         denoise: crate::passes::denoise::Denoise::None,
+        spacing_mm: [1.0; 3],
     }
 }
 

@@ -227,5 +227,5 @@ pub fn hole_fill_cells(set: &[u8], dims: [usize; 3], slab_axis: usize) -> Vec<u8
 }
 
 #[cfg(test)]
-#[path = "components_tests.rs"]
+#[path = "brain_components_tests.rs"]
 mod tests;

@@ -44,6 +44,21 @@ pub struct BrainParams {
     pub coarse: usize,
 }
 
+/// Voxel lengths in mm of each index axis: the column norms of the index-to-world linear part
+/// (exact for rotations, the usual oblique affines; a sheared one is treated as its lengths).
+pub fn spacing_mm(linear: [[f64; 3]; 3]) -> [f64; 3] {
+    std::array::from_fn(|c| {
+        (linear[0][c] * linear[0][c] + linear[1][c] * linear[1][c] + linear[2][c] * linear[2][c])
+            .sqrt()
+    })
+}
+
+/// The squared radius the closing's erosion compares with: `(close_mm - grow_mm)^2`.
+pub fn close_threshold(params: &BrainParams) -> f64 {
+    let r = params.close_mm - params.grow_mm;
+    r * r
+}
+
 impl Default for BrainParams {
     fn default() -> Self {
         BrainParams {
