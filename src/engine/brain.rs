@@ -18,11 +18,9 @@ use crate::passes::brain::{
     BrainGrid, BrainPass, BrainSwitch, PoolMode, StepMode, Tracked, brain_descs, cells_desc,
     working_extent, working_factors,
 };
-use crate::reference::brain_report::{BrainDecision, BrainReport};
-use crate::reference::brain_components::{
-    hole_fill_cells, largest_component_selection, slab_axis,
-};
+use crate::reference::brain_components::{hole_fill_cells, largest_component_selection, slab_axis};
 use crate::reference::brain_params::{BrainParams, close_threshold, spacing_mm};
+use crate::reference::brain_report::{BrainDecision, BrainReport};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -177,7 +175,8 @@ impl Engine {
         let closed = read_cells(&work.cells)?;
         let fill = hole_fill_cells(&closed, coarse, slab_axis(work.grid.spacing));
         write_cells(&work.cells, &fill)?;
-        let cell_mm3 = work.grid.spacing.iter().product::<f64>() * f64::from(work.grid.cell).powi(3);
+        let cell_mm3 =
+            work.grid.spacing.iter().product::<f64>() * f64::from(work.grid.cell).powi(3);
         let report = BrainReport::decide(
             params,
             cell_mm3,
@@ -281,8 +280,25 @@ impl Engine {
         pass.record_downsample(rec, grid, nearest, &prepared.normalized, smoothed)?;
         let means = smoothed.image.clone();
         pass.record_smooth(rec, grid, nearest, &means, [smoothed, a, b], kernels)?;
-        pass.record_pool(rec, grid, nearest, PoolMode::Band, 0.0, [smoothed, smoothed], band_cells)?;
-        pass.record_step(rec, grid, nearest, StepMode::BandSources, 0.0, [smoothed, smoothed], cells, a)?;
+        pass.record_pool(
+            rec,
+            grid,
+            nearest,
+            PoolMode::Band,
+            0.0,
+            [smoothed, smoothed],
+            band_cells,
+        )?;
+        pass.record_step(
+            rec,
+            grid,
+            nearest,
+            StepMode::BandSources,
+            0.0,
+            [smoothed, smoothed],
+            cells,
+            a,
+        )?;
         pass.record_distance(rec, grid, nearest, [a, b], params.erode_mm)?;
         let r2 = params.erode_mm * params.erode_mm;
         pass.record_pool(rec, grid, nearest, PoolMode::All, r2, [b, smoothed], cells)
@@ -307,12 +323,39 @@ impl Engine {
         let r2 = params.erode_mm * params.erode_mm;
         let rc = params.close_mm;
         // The core (b holds the erosion's distances) -> a; its dilation, inside the band -> a.
-        pass.record_step(rec, grid, nearest, StepMode::CoreSources, r2, [b, smoothed], cells, a)?;
+        pass.record_step(
+            rec,
+            grid,
+            nearest,
+            StepMode::CoreSources,
+            r2,
+            [b, smoothed],
+            cells,
+            a,
+        )?;
         pass.record_distance(rec, grid, nearest, [a, b], params.erode_mm)?;
-        pass.record_step(rec, grid, nearest, StepMode::GrownSources, r2, [b, smoothed], cells, a)?;
+        pass.record_step(
+            rec,
+            grid,
+            nearest,
+            StepMode::GrownSources,
+            r2,
+            [b, smoothed],
+            cells,
+            a,
+        )?;
         // Closing: dilate by rc, then erode by rc - grow.
         pass.record_distance(rec, grid, nearest, [a, b], rc)?;
-        pass.record_step(rec, grid, nearest, StepMode::OutsideSources, rc * rc, [b, smoothed], cells, a)?;
+        pass.record_step(
+            rec,
+            grid,
+            nearest,
+            StepMode::OutsideSources,
+            rc * rc,
+            [b, smoothed],
+            cells,
+            a,
+        )?;
         pass.record_distance(rec, grid, nearest, [a, b], rc - params.grow_mm)?;
         let t = close_threshold(params);
         pass.record_pool(rec, grid, nearest, PoolMode::Any, t, [b, smoothed], cells)

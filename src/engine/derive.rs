@@ -61,7 +61,9 @@ impl Engine {
         }
         if outputs.brain != crate::passes::brain::BrainSwitch::Off {
             let brain = self.extract_brain(prepared, outputs.brain)?;
-            derived.gpu_timings.extend(brain.gpu_timings.iter().cloned());
+            derived
+                .gpu_timings
+                .extend(brain.gpu_timings.iter().cloned());
             derived.brain = Some(Arc::new(brain));
             derived.volumes.outputs.brain = outputs.brain;
         }

@@ -431,7 +431,10 @@ impl Engine {
             }
         };
         let brain_mask = match derived.and_then(|d| d.brain.as_ref()) {
-            Some(b) if variant.brain => b.image.clone().unwrap_or_else(|| self.placeholders.gradient.clone()),
+            Some(b) if variant.brain => b
+                .image
+                .clone()
+                .unwrap_or_else(|| self.placeholders.gradient.clone()),
             _ => self.placeholders.gradient.clone(),
         };
         let pass = self.raymarch_pass(variant)?;

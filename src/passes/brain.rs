@@ -77,7 +77,11 @@ pub const WORKING_MM: f64 = 1.75;
 pub fn working_factors(spacing: [f64; 3]) -> [u32; 3] {
     spacing.map(|h| {
         let f = (WORKING_MM / h).round();
-        if f.is_finite() { f.clamp(1.0, 8.0) as u32 } else { 1 }
+        if f.is_finite() {
+            f.clamp(1.0, 8.0) as u32
+        } else {
+            1
+        }
     })
 }
 
@@ -449,7 +453,10 @@ impl BrainPass {
         let groups = self.pool.workgroups_for(grid.coarse);
         rec.dispatch(&self.pool, &[set], bytemuck::bytes_of(&p), groups)?;
         // Orders the shader's writes before the host's reads after the fence.
-        rec.barriers(&[(cells, Access::ComputeWriteBuffer, Access::HostRead)], &[]);
+        rec.barriers(
+            &[(cells, Access::ComputeWriteBuffer, Access::HostRead)],
+            &[],
+        );
         Ok(())
     }
 }

@@ -34,10 +34,8 @@
 //!   and returns [`BrainError`] instead.
 
 use super::vesselness::{gaussian_axis, sigma_voxels};
+use crate::reference::brain_components::{hole_fill_cells, largest_component_selection, slab_axis};
 use crate::reference::brain_params::{BrainParams, BrainParamsError};
-use crate::reference::brain_components::{
-    hole_fill_cells, largest_component_selection, slab_axis,
-};
 
 /// Squared distance of voxels with no source within reach.
 pub const BIG: f64 = 1e30;

@@ -83,7 +83,10 @@ impl BrainReport {
         elapsed: Duration,
     ) -> Self {
         let brain = |i: usize| closed_cells[i] != 0 || fill_cells[i] != 0;
-        let n = band_cells.len().min(closed_cells.len()).min(fill_cells.len());
+        let n = band_cells
+            .len()
+            .min(closed_cells.len())
+            .min(fill_cells.len());
         let brain_count = (0..n).filter(|&i| brain(i)).count();
         let band_count = (0..n).filter(|&i| band_cells[i] != 0).count();
         let outside = (0..n).filter(|&i| band_cells[i] != 0 && !brain(i)).count();

@@ -314,7 +314,8 @@ impl Classification {
         }
         if brain.is_some() && self.head.visible {
             let head = &self.head;
-            let w = (1.0 - b) * render_weight(&head.window, v) * head.opacity.clamp(0.0, 1.0) as f64;
+            let w =
+                (1.0 - b) * render_weight(&head.window, v) * head.opacity.clamp(0.0, 1.0) as f64;
             total += w;
             for (c, s) in colour.iter_mut().zip(head.colour) {
                 *c += w * s as f64;

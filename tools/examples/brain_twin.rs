@@ -13,10 +13,12 @@
 //! input's affine (never replacing an existing file).
 
 use morphray::analysis::brain_band::band_for;
-use morphray::reference::brain_components::{hole_fill_cells, largest_component_selection, slab_axis};
 use morphray::analysis::range::exact_robust_range;
 use morphray::analysis::{BrainParams, Contrast, analyze};
 use morphray::reference::brain::{extract, is_head};
+use morphray::reference::brain_components::{
+    hole_fill_cells, largest_component_selection, slab_axis,
+};
 use morphray::reference::{histogram, normalize};
 use morphray::volume::nifti::write_new_nifti1;
 use morphray::volume::{LinearMap, Samples, Volume};

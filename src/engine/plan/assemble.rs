@@ -329,7 +329,10 @@ fn brain(ctx: &PlanContext) -> PassDeclaration {
     use crate::passes::brain::{brain_descs, cells_desc, working_extent, working_factors};
     let working = working_extent(ctx.extent, working_factors(ctx.input.spacing_mm));
     let [mask, smoothed, a, b] = brain_descs(working);
-    let cells = working.map(|n| n.div_ceil(2) as usize).iter().product::<usize>();
+    let cells = working
+        .map(|n| n.div_ceil(2) as usize)
+        .iter()
+        .product::<usize>();
     let transient = |desc| Declared {
         transient: true,
         ..Declared::held_image(desc)

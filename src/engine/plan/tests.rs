@@ -40,7 +40,10 @@ fn brain_extraction_is_planned_and_dropped_before_bricking() {
         .collect();
     assert_eq!(settings, ["brain off"]);
     assert_eq!(degraded.layout, Layout::Whole);
-    assert_eq!(degraded.effects.brain, crate::passes::brain::BrainSwitch::Off);
+    assert_eq!(
+        degraded.effects.brain,
+        crate::passes::brain::BrainSwitch::Off
+    );
     // A bricked volume has no brain mask, and says so.
     let mut bricked = input();
     bricked.force_bricking = true;

@@ -383,7 +383,9 @@ impl<'a> ReferenceRaymarch<'a> {
         dims: [usize; 3],
         factors: [u32; 3],
     ) -> Result<Self, ReferenceError> {
-        check_values("brain mask", dims.map(|d| d as u32), mask, |v| (0.0..=1.0).contains(v))?;
+        check_values("brain mask", dims.map(|d| d as u32), mask, |v| {
+            (0.0..=1.0).contains(v)
+        })?;
         self.brain_mask = Some(crate::reference::brain_mask::WorkingMask {
             values: mask,
             dims,
