@@ -1,5 +1,8 @@
 //! The built-in digital phantom: a deterministic, brain-like T1 volume with known tissue labels,
-//! used wherever no file is given and as ground truth in tests.
+//! used wherever no file is given and as ground truth in tests. [`PhantomSpec::anatomy`] swaps
+//! the dark shell for a layered head with eyes and a neck (phantom_head.rs, which also gives
+//! the true brain mask) and [`PhantomSpec::contrast`] picks T1, T2, PD, FLAIR or CT
+//! (phantom_contrast.rs); the defaults (shell, T1) give the bytes described here, unchanged.
 //!
 //! Decisions:
 //! - Nominal raw intensities (int16, T1 contrast order), see [`NOMINAL`]: background 0,
@@ -49,153 +52,7 @@ use super::phantom_head::{Anatomy, Frame, HEAD_BRAIN_SEMI, HEAD_COHORT_A_BMIN, H
 use super::phantom_math::{PI, det_cos, det_sin, mix, norm3, normal, ramp};
 use crate::volume::{AffineSource, LinearMap, Orientation, Samples, Volume};
 
-/// Tissue classes of the phantom (the values of [`Phantom::labels`]).
-#[repr(u8)]
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Tissue {
-    /// Air outside the head.
-    Background = 0,
-    /// Skull and scalp shell (dark).
-    SkullFat = 1,
-    /// Cerebrospinal fluid: ventricles, sulci, fissure, subarachnoid layer.
-    Csf = 2,
-    /// Cortical grey matter.
-    Gm = 3,
-    /// White matter.
-    Wm = 4,
-    /// A bright lesion in the left hemisphere's white matter.
-    Lesion = 5,
-    /// Bright vessels (contrast-enhanced).
-    Vessel = 6,
-    /// Perilesional edema: a low-contrast shell around the lesion (src/volume/phantom_edema.rs).
-    Edema = 7,
-    /// Skin of the head phantom (src/volume/phantom_head.rs; so are the labels below).
-    Skin = 8,
-    /// Subcutaneous and orbital fat.
-    Fat = 9,
-    /// Muscle: temporalis-like on the sides and back of the head, the neck, the face.
-    Muscle = 10,
-    /// Cortical bone: the skull's outer and inner tables, the vertebrae.
-    Bone = 11,
-    /// Fatty marrow of the skull's diploe.
-    Marrow = 12,
-    /// Vitreous of the eye globes.
-    Eye = 13,
-    /// Spinal cord below the foramen magnum (the brainstem above it is labelled WM).
-    Cord = 14,
-}
-
-impl Tissue {
-    /// Every class, in label order.
-    pub const ALL: [Tissue; 15] = [
-        Tissue::Background,
-        Tissue::SkullFat,
-        Tissue::Csf,
-        Tissue::Gm,
-        Tissue::Wm,
-        Tissue::Lesion,
-        Tissue::Vessel,
-        Tissue::Edema,
-        Tissue::Skin,
-        Tissue::Fat,
-        Tissue::Muscle,
-        Tissue::Bone,
-        Tissue::Marrow,
-        Tissue::Eye,
-        Tissue::Cord,
-    ];
-
-    /// The class with label value `label`.
-    pub fn from_label(label: u8) -> Option<Tissue> {
-        Tissue::ALL.get(usize::from(label)).copied()
-    }
-
-    /// Lowercase name.
-    pub fn name(self) -> &'static str {
-        match self {
-            Tissue::Background => "background",
-            Tissue::SkullFat => "skull_fat",
-            Tissue::Csf => "csf",
-            Tissue::Gm => "gm",
-            Tissue::Wm => "wm",
-            Tissue::Lesion => "lesion",
-            Tissue::Vessel => "vessel",
-            Tissue::Edema => "edema",
-            Tissue::Skin => "skin",
-            Tissue::Fat => "fat",
-            Tissue::Muscle => "muscle",
-            Tissue::Bone => "bone",
-            Tissue::Marrow => "marrow",
-            Tissue::Eye => "eye",
-            Tissue::Cord => "cord",
-        }
-    }
-}
-
-/// Nominal raw (int16) intensity of the plain phantom's tissues in T1, before bias, partial
-/// volume and noise (every contrast and tissue: [`Contrast::nominal`]).
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
-pub struct Nominal {
-    /// Air.
-    pub background: f64,
-    /// Skull and scalp shell.
-    pub skull_fat: f64,
-    /// Cerebrospinal fluid.
-    pub csf: f64,
-    /// Grey matter.
-    pub gm: f64,
-    /// White matter.
-    pub wm: f64,
-    /// Lesion.
-    pub lesion: f64,
-    /// Vessels.
-    pub vessel: f64,
-}
-
-impl Nominal {
-    /// Nominal intensity of `tissue`.
-    pub fn of(&self, tissue: Tissue) -> f64 {
-        match tissue {
-            Tissue::Background => self.background,
-            Tissue::SkullFat => self.skull_fat,
-            Tissue::Csf => self.csf,
-            Tissue::Gm => self.gm,
-            Tissue::Wm => self.wm,
-            Tissue::Lesion => self.lesion,
-            Tissue::Vessel => self.vessel,
-            Tissue::Edema => super::phantom_edema::EDEMA_NOMINAL,
-            other => Contrast::T1.nominal(other),
-        }
-    }
-}
-
-impl Nominal {
-    /// The plain phantom's tissues in `contrast`.
-    pub fn of_contrast(contrast: Contrast) -> Nominal {
-        let n = |t| contrast.nominal(t);
-        Nominal {
-            background: n(Tissue::Background),
-            skull_fat: n(Tissue::SkullFat),
-            csf: n(Tissue::Csf),
-            gm: n(Tissue::Gm),
-            wm: n(Tissue::Wm),
-            lesion: n(Tissue::Lesion),
-            vessel: n(Tissue::Vessel),
-        }
-    }
-}
-
-/// The phantom's nominal intensities (module doc).
-pub const NOMINAL: Nominal = Nominal {
-    background: 0.0,
-    skull_fat: 80.0,
-    csf: 250.0,
-    gm: 600.0,
-    wm: 850.0,
-    lesion: 1350.0,
-    vessel: 1450.0,
-};
+pub use super::phantom_tissue::{NOMINAL, Nominal, Tissue};
 
 /// Standard deviation of each noise component, in raw units (2.4 % of WM; MR contrasts).
 pub const NOISE_SIGMA: f64 = super::phantom_contrast::MR_NOISE_SIGMA;

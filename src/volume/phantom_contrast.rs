@@ -12,9 +12,9 @@
 //!   relaxation times and proton densities (e.g. Stanisz et al. 2005, MRM 54:507, for WM, GM
 //!   and muscle; CSF and vitreous: very long T1 and T2, proton density ~1; fat: short T1, and
 //!   bright on fast-spin-echo T2 through J-coupling; cortical bone: almost no MR signal):
-//!   - T1: fat (1150) > diploe marrow (1050) > WM (850) > GM (600) ~ skin (620) ~ muscle (560)
-//!     > CSF (250) ~ vitreous (240) > cortical bone (60). Fat brighter than WM is what makes the
-//!     scalp a bright ring that brain extraction must cut away.
+//!   - T1: fat (1150) > diploe marrow (1050) > WM (850) > GM (600) ~ skin (620) ~ muscle
+//!     (560) > CSF (250) ~ vitreous (240) > cortical bone (60). Fat brighter than WM is what
+//!     makes the scalp a bright ring that brain extraction must cut away.
 //!   - T2: CSF (1500) ~ vitreous (1450) brightest; lesion (1200) and edema (1050) hyperintense;
 //!     fat (950) and marrow (850) bright-ish; GM (750) > WM (600); muscle (320) dark (T2 ~ 40 ms
 //!     vs WM ~ 70 ms); bone (60) dark; vessels are flow voids (120).
@@ -22,8 +22,8 @@
 //!     fat (1000) and marrow (950) bright; muscle (720); bone (60); vessels flow voids (200).
 //!   - FLAIR: CSF and vitreous nulled (100); lesion (1400) > edema (1150) > GM (800) > WM
 //!     (620); fat not nulled (900); muscle (350); bone (60); vessels flow voids (150).
-//!   The cord (spinal cord, below the foramen magnum) has WM's value in every contrast, so the
-//!   brainstem-cord bridge has no edge a brain extractor could follow.
+//!   - Cord (spinal cord, below the foramen magnum): WM's value in every contrast, so the
+//!     brainstem-cord bridge has no edge a brain extractor could follow.
 //! - CT in Hounsfield units (textbook ranges): air -1000, fat -100, CSF 8, vitreous 10, edema
 //!   18 (hypodense, below WM), WM 30, GM 40, skin 50, muscle 50, lesion 70 (hyperdense, like an
 //!   acute haematoma), contrast-filled vessels 300 (CT angiography), diploe 300, cortical bone
