@@ -138,6 +138,33 @@ fn every_head_tissue_is_present_and_the_shell_is_gone() {
 }
 
 #[test]
+fn the_scalp_anatomy_has_the_layers_without_eyes_or_neck() {
+    let spec = PhantomSpec {
+        dims: ODD,
+        anatomy: Anatomy::Scalp,
+        ..PhantomSpec::cube(1)
+    };
+    let p = generate(&spec).unwrap();
+    let has = |t: Tissue| p.labels.contains(&(t as u8));
+    for t in [
+        Tissue::Skin,
+        Tissue::Fat,
+        Tissue::Muscle,
+        Tissue::Bone,
+        Tissue::Marrow,
+    ] {
+        assert!(has(t), "no {}", t.name());
+    }
+    for t in [Tissue::Eye, Tissue::Cord, Tissue::SkullFat] {
+        assert!(!has(t), "{} in the scalp-only head", t.name());
+    }
+    // Without a neck, the truth is every intracranial label.
+    let truth = p.brain_mask();
+    let intracranial = p.labels.iter().filter(|&&l| (2..=7).contains(&l)).count();
+    assert_eq!(truth.iter().filter(|&&b| b).count(), intracranial);
+}
+
+#[test]
 fn eyes_are_two_globes_in_front_below_the_brain_centre() {
     let p = head_phantom(SMALL, Contrast::T1, false).unwrap();
     let centre = SMALL.map(|n| (n as f64 - 1.0) / 2.0);

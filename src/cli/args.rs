@@ -120,15 +120,16 @@ pub struct Cli {
     #[arg(long, global = true, help_heading = "Input", value_enum, default_value_t = NormalizeArg::Robust)]
     pub normalize: NormalizeArg,
 
-    /// Which MR contrast the tissues are labelled for: T1 = CSF < GM < WM, T2 = WM < GM < CSF.
+    /// Which MR contrast the tissues are labelled for: T1 = CSF < GM < WM, T2 = WM < GM < CSF;
+    /// for `phantom`, the contrast to make (t1, t2, pd, flair or ct).
     ///
     /// `auto` = read it from the histogram: T2 when the largest tissue mode is dark and sharp and a
     /// large broad mode (CSF) is more than twice as bright, T1 when the tissue bulk is at the
     /// bright end; when the histogram cannot tell (one mode, conflicting shapes, a bright mode that
     /// may be CSF or fat), T1 is assumed and `peaks` and `render` say so with the reason. `t1` /
     /// `t2` = take it as given. FLAIR looks like T1 in a histogram and is read as T1, GM and WM
-    /// swapped (no setting fixes that yet). `--windows paper` uses T1 windows. `morphray phantom`:
-    /// the contrast to make (auto = t1; pd, flair and ct are for the phantom only).
+    /// swapped (no setting fixes that yet). `--windows paper` uses T1 windows. `morphray phantom`
+    /// makes t1 for auto; pd, flair and ct are for the phantom only.
     #[arg(long, global = true, help_heading = "Input", value_enum, default_value_t = ContrastArg::Auto)]
     pub contrast: ContrastArg,
 
@@ -448,6 +449,11 @@ pub struct PhantomArgs {
     /// Make a whole head: skin, fat, muscle, a three-layer skull, eyes, a face and a neck with
     /// the spinal cord joining the brainstem, instead of the plain dark shell (for brain
     /// extraction).
+    ///
+    /// The image contrast is the global --contrast: t1 (also for auto, the default), t2, pd,
+    /// flair or ct (Hounsfield units), for the plain phantom and --head alike. The output name is
+    /// yours; BIDS-style names say the contrast, e.g. sub-01_T1w.nii.gz, sub-01_T2w.nii.gz,
+    /// sub-01_PDw.nii.gz, sub-01_FLAIR.nii.gz or sub-01_ct.nii.gz.
     #[arg(long)]
     pub head: bool,
 }

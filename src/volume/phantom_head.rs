@@ -20,8 +20,8 @@
 //!     in orbital fat 3 mm thick (floor 1), centred along the brain surface's outward normal at
 //!     brain direction (+-0.3, 0.85, -0.3) at the distance of the CSF, the skull, the fat and
 //!     the globe radius, so the orbit touches the skull but never the intracranial space (at
-//!     cohort A the centres are 60 mm apart, 28 mm below the brain's centre); skin wraps the
-//!     orbit (closed eyelids, bulging a little in front of the face).
+//!     cohort A the centres are 60 mm apart, 27 mm below and 90 mm in front of the brain's
+//!     centre); skin wraps the orbit (closed eyelids, bulging in front of the face).
 //!   - a face: an ellipsoid (centre (0, 0.78, -0.62), semi-axes (0.70, 0.58, 0.55) in brain
 //!     units) and a nose (centre (0, 1.22, -0.88), semi-axes (0.15, 0.22, 0.40)), muscle under
 //!     the skin and fat, around and below the eyes;
