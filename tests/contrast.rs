@@ -32,6 +32,8 @@ fn t2_value(tissue: Tissue) -> f64 {
         Tissue::Vessel => 80.0,
         // Vasogenic edema: extra water, bright on T2 (between GM and the lesion).
         Tissue::Edema => 600.0,
+        // The head's layers (src/volume/phantom_head.rs) are not in the plain phantom used here.
+        other => unreachable!("{} is not in the plain phantom", other.name()),
     }
 }
 

@@ -120,14 +120,16 @@ pub struct Cli {
     #[arg(long, global = true, help_heading = "Input", value_enum, default_value_t = NormalizeArg::Robust)]
     pub normalize: NormalizeArg,
 
-    /// Which MR contrast the tissues are labelled for: T1 = CSF < GM < WM, T2 = WM < GM < CSF.
+    /// Which MR contrast the tissues are labelled for: T1 = CSF < GM < WM, T2 = WM < GM < CSF;
+    /// for `phantom`, the contrast to make (t1, t2, pd, flair or ct).
     ///
     /// `auto` = read it from the histogram: T2 when the largest tissue mode is dark and sharp and a
     /// large broad mode (CSF) is more than twice as bright, T1 when the tissue bulk is at the
     /// bright end; when the histogram cannot tell (one mode, conflicting shapes, a bright mode that
     /// may be CSF or fat), T1 is assumed and `peaks` and `render` say so with the reason. `t1` /
     /// `t2` = take it as given. FLAIR looks like T1 in a histogram and is read as T1, GM and WM
-    /// swapped (no setting fixes that yet). `--windows paper` uses T1 windows.
+    /// swapped (no setting fixes that yet). `--windows paper` uses T1 windows. `morphray phantom`
+    /// makes t1 for auto; pd, flair and ct are for the phantom only.
     #[arg(long, global = true, help_heading = "Input", value_enum, default_value_t = ContrastArg::Auto)]
     pub contrast: ContrastArg,
 
@@ -176,20 +178,44 @@ impl From<NormalizeArg> for crate::analysis::NormalizeMode {
 /// `--contrast`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum ContrastArg {
-    /// Detect from the histogram (T1 when it cannot tell).
+    /// Detect from the histogram (T1 when it cannot tell); `phantom`: T1.
     Auto,
     /// T1-weighted: CSF < GM < WM.
     T1,
     /// T2-weighted: WM < GM < CSF.
     T2,
+    /// Proton-density-weighted: WM < GM < CSF with low contrast (`phantom` only).
+    Pd,
+    /// T2-FLAIR: CSF dark, WM < GM, lesions bright (`phantom` only).
+    Flair,
+    /// CT in Hounsfield units: air -1000, fat -100, brain 30-40, bone 1200 (`phantom` only).
+    Ct,
 }
 
-impl From<ContrastArg> for crate::analysis::ContrastChoice {
-    fn from(arg: ContrastArg) -> Self {
-        match arg {
-            ContrastArg::Auto => crate::analysis::ContrastChoice::Auto,
-            ContrastArg::T1 => crate::analysis::ContrastChoice::T1,
-            ContrastArg::T2 => crate::analysis::ContrastChoice::T2,
+impl ContrastArg {
+    /// The analysis' choice; pd, flair and ct are refused (only `phantom` makes them).
+    pub fn analysis(self) -> Result<crate::analysis::ContrastChoice, String> {
+        use crate::analysis::ContrastChoice;
+        match self {
+            ContrastArg::Auto => Ok(ContrastChoice::Auto),
+            ContrastArg::T1 => Ok(ContrastChoice::T1),
+            ContrastArg::T2 => Ok(ContrastChoice::T2),
+            other => Err(format!(
+                "--contrast {} is only for `morphray phantom`; tissue analysis takes auto, t1 or t2",
+                other.phantom().name()
+            )),
+        }
+    }
+
+    /// The phantom's contrast (auto: T1).
+    pub fn phantom(self) -> crate::volume::phantom_contrast::Contrast {
+        use crate::volume::phantom_contrast::Contrast;
+        match self {
+            ContrastArg::Auto | ContrastArg::T1 => Contrast::T1,
+            ContrastArg::T2 => Contrast::T2,
+            ContrastArg::Pd => Contrast::Pd,
+            ContrastArg::Flair => Contrast::Flair,
+            ContrastArg::Ct => Contrast::Ct,
         }
     }
 }
@@ -416,9 +442,20 @@ pub struct PhantomArgs {
     #[arg(long, default_value = "256x256x192", value_parser = parse_dims)]
     pub dims: [usize; 3],
     /// Also write the phantom's ground-truth tissue labels here (an integer label map for
-    /// `slice --overlay`: 1 skull, 2 CSF, 3 GM, 4 WM, 5 lesion, 6 vessels, 7 edema).
+    /// `slice --overlay`: 1 skull/scalp shell, 2 CSF, 3 GM, 4 WM, 5 lesion, 6 vessels, 7 edema;
+    /// with --head: 8 skin, 9 fat, 10 muscle, 11 bone, 12 marrow, 13 eye, 14 spinal cord).
     #[arg(long, value_name = "NII")]
     pub labels: Option<PathBuf>,
+    /// Make a whole head: skin, fat, muscle, a three-layer skull, eyes, a face and a neck with
+    /// the spinal cord joining the brainstem, instead of the plain dark shell (for brain
+    /// extraction).
+    ///
+    /// The image contrast is the global --contrast: t1 (also for auto, the default), t2, pd,
+    /// flair or ct (Hounsfield units), for the plain phantom and --head alike. The output name is
+    /// yours; BIDS-style names say the contrast, e.g. sub-01_T1w.nii.gz, sub-01_T2w.nii.gz,
+    /// sub-01_PDw.nii.gz, sub-01_FLAIR.nii.gz or sub-01_ct.nii.gz.
+    #[arg(long)]
+    pub head: bool,
 }
 
 /// Options of `convert`.

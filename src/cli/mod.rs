@@ -21,6 +21,7 @@ mod movie;
 pub mod output;
 mod overlay;
 mod peaks;
+mod phantom;
 mod plan;
 mod progress;
 pub mod render;
@@ -163,7 +164,11 @@ pub fn run(cli: &Cli) -> Result<(), CommandError> {
         tuning,
         pipeline_cache: pipeline_cache_config(cli.pipeline_cache.as_deref()),
         normalize: cli.normalize.into(),
-        contrast: cli.contrast.into(),
+        contrast: match (&cli.command, cli.contrast.analysis()) {
+            // The phantom reads --contrast itself (below); it analyses nothing.
+            (Command::Phantom(_), _) => crate::analysis::ContrastChoice::Auto,
+            (_, choice) => choice.map_err(Error::Usage)?,
+        },
     };
     let global = &global;
     if let Some(path) = &cli.trace {
@@ -176,6 +181,9 @@ pub fn run(cli: &Cli) -> Result<(), CommandError> {
     let result = match &cli.command {
         #[cfg(feature = "viewer")]
         Command::View(args) => view::run(args, global),
+        Command::Phantom(args) => {
+            phantom::run(args, cli.contrast.phantom()).map_err(CommandError::from)
+        }
         other => run_engine_command(other, global).map_err(CommandError::from),
     };
     if let Some(path) = &cli.trace {
@@ -205,64 +213,7 @@ fn run_engine_command(command: &Command, global: &GlobalOptions) -> Result<(), E
         Command::Convert(args) => convert::run(args),
         Command::Derive(args) => derive::run(args, global),
         Command::Slice(args) => slice::run(args, global),
-        Command::Phantom(args) => {
-            // Before generating: an existing scan is never replaced without --force.
-            use crate::files::write::{OutputKind, check_output};
-            check_output(&args.output, OutputKind::Nifti, &[], args.force)?;
-            let spec = crate::volume::phantom::PhantomSpec {
-                dims: args.dims,
-                ..crate::volume::phantom::PhantomSpec::cohort_a()
-            };
-            let phantom = crate::volume::phantom::generate(&spec)?;
-            let gzip = args
-                .output
-                .extension()
-                .is_some_and(|e| e.eq_ignore_ascii_case("gz"));
-            if args.force {
-                crate::volume::nifti::write_nifti1(&phantom.volume, &args.output, gzip)?;
-            } else {
-                // No clobbering even of a file that appeared while the phantom was generated.
-                crate::volume::nifti::write_new_nifti1(&phantom.volume, &args.output, gzip)?;
-            }
-            if let Some(path) = &args.labels {
-                write_phantom_labels(&phantom, path, args.force)?;
-            }
-            output::print_line(&format!(
-                "wrote {} ({}x{}x{}, int16, 1 mm)",
-                args.output.display(),
-                args.dims[0],
-                args.dims[1],
-                args.dims[2]
-            ));
-            Ok(())
-        }
+        // In `run`: it reads the global --contrast.
+        Command::Phantom(_) => Ok(()),
     }
-}
-
-/// Writes the phantom's tissue labels (u8, the phantom's grid) as a NIfTI label map.
-fn write_phantom_labels(
-    phantom: &crate::volume::phantom::Phantom,
-    path: &std::path::Path,
-    force: bool,
-) -> Result<(), Error> {
-    use crate::files::write::{OutputKind, check_output};
-    check_output(path, OutputKind::Nifti, &[], force)?;
-    let v = &phantom.volume;
-    let labels = crate::volume::Volume::from_voxels(
-        "phantom labels",
-        v.dims,
-        crate::volume::Samples::from_u8(phantom.labels.clone()),
-        v.orientation.affine,
-        crate::volume::LinearMap::IDENTITY,
-    )?;
-    let gzip = path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("gz"));
-    if force {
-        crate::volume::nifti::write_nifti1(&labels, path, gzip)?;
-    } else {
-        crate::volume::nifti::write_new_nifti1(&labels, path, gzip)?;
-    }
-    output::print_line(&format!("wrote {} (tissue labels)", path.display()));
-    Ok(())
 }

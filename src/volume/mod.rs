@@ -16,7 +16,11 @@
 pub mod host_memory;
 pub mod nifti;
 pub mod phantom;
+pub mod phantom_contrast;
 mod phantom_edema;
+pub mod phantom_head;
+mod phantom_math;
+mod phantom_tissue;
 pub mod phantom_vessels;
 pub mod samples;
 pub mod source;

@@ -1,5 +1,8 @@
 //! The built-in digital phantom: a deterministic, brain-like T1 volume with known tissue labels,
-//! used wherever no file is given and as ground truth in tests.
+//! used wherever no file is given and as ground truth in tests. [`PhantomSpec::anatomy`] swaps
+//! the dark shell for a layered head with eyes and a neck (phantom_head.rs, which also gives
+//! the true brain mask) and [`PhantomSpec::contrast`] picks T1, T2, PD, FLAIR or CT
+//! (phantom_contrast.rs); the defaults (shell, T1) give the bytes described here, unchanged.
 //!
 //! Decisions:
 //! - Nominal raw intensities (int16, T1 contrast order), see [`NOMINAL`]: background 0,
@@ -44,112 +47,15 @@
 //! - Fast: slabs of k-planes in parallel with `std::thread::scope`; voxels outside the head
 //!   skip the anatomy; the sulcal field is evaluated only near the cortex.
 
+use super::phantom_contrast::Contrast;
+use super::phantom_head::{Anatomy, Frame, HEAD_BRAIN_SEMI, HEAD_COHORT_A_BMIN, HeadGeometry};
+use super::phantom_math::{PI, det_cos, det_sin, mix, norm3, normal, ramp};
 use crate::volume::{AffineSource, LinearMap, Orientation, Samples, Volume};
 
-/// Tissue classes of the phantom (the values of [`Phantom::labels`]).
-#[repr(u8)]
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Tissue {
-    /// Air outside the head.
-    Background = 0,
-    /// Skull and scalp shell (dark).
-    SkullFat = 1,
-    /// Cerebrospinal fluid: ventricles, sulci, fissure, subarachnoid layer.
-    Csf = 2,
-    /// Cortical grey matter.
-    Gm = 3,
-    /// White matter.
-    Wm = 4,
-    /// A bright lesion in the left hemisphere's white matter.
-    Lesion = 5,
-    /// Bright vessels (contrast-enhanced).
-    Vessel = 6,
-    /// Perilesional edema: a low-contrast shell around the lesion (src/volume/phantom_edema.rs).
-    Edema = 7,
-}
+pub use super::phantom_tissue::{NOMINAL, Nominal, Tissue};
 
-impl Tissue {
-    /// Every class, in label order.
-    pub const ALL: [Tissue; 8] = [
-        Tissue::Background,
-        Tissue::SkullFat,
-        Tissue::Csf,
-        Tissue::Gm,
-        Tissue::Wm,
-        Tissue::Lesion,
-        Tissue::Vessel,
-        Tissue::Edema,
-    ];
-
-    /// The class with label value `label`.
-    pub fn from_label(label: u8) -> Option<Tissue> {
-        Tissue::ALL.get(usize::from(label)).copied()
-    }
-
-    /// Lowercase name.
-    pub fn name(self) -> &'static str {
-        match self {
-            Tissue::Background => "background",
-            Tissue::SkullFat => "skull_fat",
-            Tissue::Csf => "csf",
-            Tissue::Gm => "gm",
-            Tissue::Wm => "wm",
-            Tissue::Lesion => "lesion",
-            Tissue::Vessel => "vessel",
-            Tissue::Edema => "edema",
-        }
-    }
-}
-
-/// Nominal raw (int16) intensity of each tissue, before bias, partial volume and noise.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
-pub struct Nominal {
-    /// Air.
-    pub background: f64,
-    /// Skull and scalp shell.
-    pub skull_fat: f64,
-    /// Cerebrospinal fluid.
-    pub csf: f64,
-    /// Grey matter.
-    pub gm: f64,
-    /// White matter.
-    pub wm: f64,
-    /// Lesion.
-    pub lesion: f64,
-    /// Vessels.
-    pub vessel: f64,
-}
-
-impl Nominal {
-    /// Nominal intensity of `tissue`.
-    pub fn of(&self, tissue: Tissue) -> f64 {
-        match tissue {
-            Tissue::Background => self.background,
-            Tissue::SkullFat => self.skull_fat,
-            Tissue::Csf => self.csf,
-            Tissue::Gm => self.gm,
-            Tissue::Wm => self.wm,
-            Tissue::Lesion => self.lesion,
-            Tissue::Vessel => self.vessel,
-            Tissue::Edema => super::phantom_edema::EDEMA_NOMINAL,
-        }
-    }
-}
-
-/// The phantom's nominal intensities (module doc).
-pub const NOMINAL: Nominal = Nominal {
-    background: 0.0,
-    skull_fat: 80.0,
-    csf: 250.0,
-    gm: 600.0,
-    wm: 850.0,
-    lesion: 1350.0,
-    vessel: 1450.0,
-};
-
-/// Standard deviation of each noise component, in raw units (2.4 % of WM).
-pub const NOISE_SIGMA: f64 = 20.0;
+/// Standard deviation of each noise component, in raw units (2.4 % of WM; MR contrasts).
+pub const NOISE_SIGMA: f64 = super::phantom_contrast::MR_NOISE_SIGMA;
 
 /// Amplitude of the multiplicative bias field (+-7 %).
 pub const BIAS_AMPLITUDE: f64 = 0.07;
@@ -163,8 +69,12 @@ pub struct PhantomSpec {
     pub spacing_mm: [f64; 3],
     /// Seed of the noise.
     pub seed: u64,
-    /// Add Rician noise (the bias field is always applied).
+    /// Add noise: Rician for MR, additive for CT (the bias field is always applied in MR).
     pub noise: bool,
+    /// What surrounds the brain: today's dark shell (default) or a layered head.
+    pub anatomy: Anatomy,
+    /// Intensity table and noise model (T1 by default).
+    pub contrast: Contrast,
 }
 
 impl PhantomSpec {
@@ -178,6 +88,8 @@ impl PhantomSpec {
             spacing_mm: [1.0; 3],
             seed: Self::DEFAULT_SEED,
             noise: true,
+            anatomy: Anatomy::Shell,
+            contrast: Contrast::T1,
         }
     }
 
@@ -188,6 +100,21 @@ impl PhantomSpec {
             spacing_mm: [1.0; 3],
             seed: Self::DEFAULT_SEED,
             noise: true,
+            anatomy: Anatomy::Shell,
+            contrast: Contrast::T1,
+        }
+    }
+
+    /// The head phantom (scalp layers, skull, eyes, neck; src/volume/phantom_head.rs) of
+    /// `dims` 1 mm voxels in `contrast`, with or without noise.
+    pub fn head(dims: [usize; 3], contrast: Contrast, noise: bool) -> Self {
+        PhantomSpec {
+            dims,
+            spacing_mm: [1.0; 3],
+            seed: Self::DEFAULT_SEED,
+            noise,
+            anatomy: Anatomy::Head,
+            contrast,
         }
     }
 }
@@ -228,8 +155,11 @@ pub struct Phantom {
     pub volume: Volume,
     /// [`Tissue`] value per voxel, in the same order as the samples.
     pub labels: Vec<u8>,
-    /// Nominal intensity per tissue.
+    /// Nominal intensity of the plain phantom's tissues in this contrast (all of them:
+    /// [`Phantom::intensity`]).
     pub nominal: Nominal,
+    /// What was generated.
+    pub spec: PhantomSpec,
 }
 
 impl Phantom {
@@ -237,72 +167,18 @@ impl Phantom {
     pub fn tissue(&self, index: usize) -> Option<Tissue> {
         self.labels.get(index).copied().and_then(Tissue::from_label)
     }
-}
 
-// ---------------------------------------------------------------------------------------------
-// Deterministic arithmetic helpers.
-
-const PI: f64 = std::f64::consts::PI;
-
-/// sin(x) from basic IEEE operations only (bit-identical on every platform). Accurate to about
-/// 1e-9 for |x| up to a few thousand, far below what the int16 rounding can see.
-fn det_sin(x: f64) -> f64 {
-    // Reduce to [-pi, pi], then fold to [-pi/2, pi/2].
-    let turns = (x / (2.0 * PI)).round();
-    let mut y = x - turns * (2.0 * PI);
-    if y > PI / 2.0 {
-        y = PI - y;
-    } else if y < -PI / 2.0 {
-        y = -PI - y;
+    /// Nominal intensity of `tissue` in this phantom's contrast.
+    pub fn intensity(&self, tissue: Tissue) -> f64 {
+        self.spec.contrast.nominal(tissue)
     }
-    let y2 = y * y;
-    // Taylor series to y^15 in Horner form (error < 1e-10 on [-pi/2, pi/2]); the coefficients
-    // are exact-rounded compile-time constants, so the result is the same everywhere.
-    const C: [f64; 7] = [
-        -1.0 / 6.0,
-        1.0 / 120.0,
-        -1.0 / 5040.0,
-        1.0 / 362_880.0,
-        -1.0 / 39_916_800.0,
-        1.0 / 6_227_020_800.0,
-        -1.0 / 1_307_674_368_000.0,
-    ];
-    let mut p = C[6];
-    for &c in C[..6].iter().rev() {
-        p = c + y2 * p;
+
+    /// The true brain mask, one per voxel in sample order: intracranial CSF, GM, WM, lesion,
+    /// vessels and edema, without the spinal canal below the foramen magnum
+    /// ([`super::phantom_head::brain_truth`]).
+    pub fn brain_mask(&self) -> Vec<bool> {
+        super::phantom_head::brain_truth(&self.labels, self.volume.dims, self.spec.anatomy)
     }
-    y + y * y2 * p
-}
-
-fn det_cos(x: f64) -> f64 {
-    det_sin(x + PI / 2.0)
-}
-
-/// SplitMix64 finaliser.
-fn mix(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^ (z >> 31)
-}
-
-/// Approximately standard normal value from 64 random bits (Irwin-Hall, n = 4).
-fn normal(bits: u64) -> f64 {
-    let mut sum = 0.0;
-    for shift in [0, 16, 32, 48] {
-        sum += (((bits >> shift) & 0xffff) as f64 + 0.5) / 65536.0;
-    }
-    (sum - 2.0) * 3.0f64.sqrt()
-}
-
-/// Weight of a structure whose signed distance (voxels, positive inside) is `d`: a linear ramp
-/// over one voxel centred on the boundary.
-fn ramp(d: f64) -> f64 {
-    (d + 0.5).clamp(0.0, 1.0)
-}
-
-fn norm3(v: [f64; 3]) -> f64 {
-    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
 }
 
 /// Normalised sulcal directions and phases (fixed anatomy; the seed only drives noise).
@@ -339,25 +215,49 @@ struct Geometry {
     vessels: super::phantom_vessels::Vessels,
     waves: [([f64; 3], f64); 4],
     frequency: f64,
+    contrast: Contrast,
+    /// The layered head around the brain (None: the plain dark shell).
+    layered: Option<HeadGeometry>,
+}
+
+/// The brain frame of a phantom of `dims` whose brain has semi-axes `semi` (fractions of the
+/// half-extent) and whose phantom mm is `cohort_bmin` voxels at cohort A over the smallest one.
+fn frame(dims: [usize; 3], semi: [f64; 3], cohort_bmin: f64) -> Frame {
+    let d = dims.map(|n| n as f64);
+    let brain: [f64; 3] = std::array::from_fn(|a| semi[a] * d[a] / 2.0);
+    let bmin = brain.iter().fold(f64::INFINITY, |m, &b| m.min(b));
+    let voxels_per_mm = bmin / cohort_bmin;
+    Frame {
+        brain,
+        voxels_per_mm,
+        csf_layer: (3.0 * voxels_per_mm).max(1.5),
+        centre: d.map(|n| (n - 1.0) / 2.0),
+    }
+}
+
+/// The brain frame of a layered (head) phantom of `dims`.
+pub(super) fn head_frame(dims: [usize; 3]) -> Frame {
+    frame(dims, HEAD_BRAIN_SEMI, HEAD_COHORT_A_BMIN)
 }
 
 impl Geometry {
-    fn new(dims: [usize; 3]) -> Geometry {
-        let d = dims.map(|n| n as f64);
-        let half = d.map(|n| n / 2.0);
-        let brain: [f64; 3] = std::array::from_fn(|a| BRAIN_SEMI[a] * half[a]);
+    fn new(dims: [usize; 3], anatomy: Anatomy, contrast: Contrast) -> Geometry {
+        let f = if anatomy.is_layered() {
+            head_frame(dims)
+        } else {
+            frame(dims, BRAIN_SEMI, COHORT_A_BMIN)
+        };
+        let (brain, s, csf_layer) = (f.brain, f.voxels_per_mm, f.csf_layer);
         let bmin = brain.iter().fold(f64::INFINITY, |m, &b| m.min(b));
-        let s = bmin / COHORT_A_BMIN;
         let len = |mm: f64, floor: f64| (mm * s).max(floor);
-        let csf_layer = len(3.0, 1.5);
         let head_t = len(14.0, csf_layer + 2.5);
         let waves = SULCUS_WAVES.map(|(u, phase)| {
             let n = norm3(u);
             ([u[0] / n, u[1] / n, u[2] / n], phase)
         });
         Geometry {
-            centre: d.map(|n| (n - 1.0) / 2.0),
-            half,
+            centre: f.centre,
+            half: dims.map(|n| n as f64 / 2.0),
             brain,
             head: brain.map(|b| b + head_t),
             gm: len(3.0, 2.0),
@@ -371,6 +271,8 @@ impl Geometry {
             vessels: super::phantom_vessels::Vessels::new(brain, s),
             waves,
             frequency: (PI * bmin / 7.0).min(22.0),
+            contrast,
+            layered: anatomy.is_layered().then(|| HeadGeometry::new(&f, anatomy)),
         }
     }
 
@@ -459,27 +361,9 @@ impl Geometry {
     /// Noise-free signal and label of the voxel at index (i, j, k).
     fn voxel(&self, ijk: [f64; 3]) -> (f64, Tissue) {
         let v: [f64; 3] = std::array::from_fn(|a| ijk[a] - self.centre[a]);
-        let mut signal = NOMINAL.background;
-        let mut label = Tissue::Background;
-        let layer = |signal: &mut f64, label: &mut Tissue, sd: f64, tissue: Tissue| {
-            let w = ramp(sd);
-            *signal += w * (NOMINAL.of(tissue) - *signal);
-            if w >= 0.5 {
-                *label = tissue;
-            }
-        };
+        let mut b = Blend::new(self.contrast);
 
-        // Head (skull and scalp): ellipsoid.
-        let qh: [f64; 3] = std::array::from_fn(|a| v[a] / self.head[a]);
-        let rh = norm3(qh);
-        let gh = norm3(std::array::from_fn(|a| qh[a] / self.head[a])) / rh.max(1e-12);
-        let head = (1.0 - rh) / gh.max(1e-12);
-        if head < -0.5 {
-            return (signal, label);
-        }
-        layer(&mut signal, &mut label, head, Tissue::SkullFat);
-
-        // Brain hull and the subarachnoid CSF layer around it.
+        // Brain hull: q brain-normalised, hull the signed distance to it (> 0 inside).
         let q: [f64; 3] = std::array::from_fn(|a| v[a] / self.brain[a]);
         let r = norm3(q);
         let g_r = (norm3(std::array::from_fn(|a| q[a] / self.brain[a])) / r.max(1e-12)).max(1e-12);
@@ -488,34 +372,101 @@ impl Geometry {
         } else {
             f64::INFINITY
         };
-        if hull + self.csf_layer < -0.5 {
-            return (signal * Self::bias(self.normalised(v)), label);
+
+        match &self.layered {
+            None => {
+                // Head (skull and scalp): ellipsoid.
+                let qh: [f64; 3] = std::array::from_fn(|a| v[a] / self.head[a]);
+                let rh = norm3(qh);
+                let gh = norm3(std::array::from_fn(|a| qh[a] / self.head[a])) / rh.max(1e-12);
+                let head = (1.0 - rh) / gh.max(1e-12);
+                if head < -0.5 {
+                    return (b.signal, b.label);
+                }
+                b.add(head, Tissue::SkullFat);
+            }
+            Some(layered) => {
+                if !layered.outer(v, q, r, -hull, &mut b) {
+                    return (b.signal, b.label);
+                }
+            }
         }
-        layer(&mut signal, &mut label, hull + self.csf_layer, Tissue::Csf);
+        self.brain(v, q, r, g_r, hull, &mut b);
+        if let Some(layered) = &self.layered {
+            layered.canal(v, hull, &mut b);
+        }
+        (self.biased(b.signal, v), b.label)
+    }
+
+    /// Blends the subarachnoid CSF and everything inside it (nothing when outside the CSF).
+    fn brain(&self, v: [f64; 3], q: [f64; 3], r: f64, g_r: f64, hull: f64, b: &mut Blend) {
+        if hull + self.csf_layer < -0.5 {
+            return;
+        }
+        b.add(hull + self.csf_layer, Tissue::Csf);
 
         let cortex = self.cortex_distance(v, q, r, g_r, hull);
-        layer(&mut signal, &mut label, cortex, Tissue::Gm);
-        layer(&mut signal, &mut label, cortex - self.gm, Tissue::Wm);
+        b.add(cortex, Tissue::Gm);
+        b.add(cortex - self.gm, Tissue::Wm);
 
         let ventricles = self.ventricle(q, -1.0).max(self.ventricle(q, 1.0));
-        layer(&mut signal, &mut label, ventricles, Tissue::Csf);
+        b.add(ventricles, Tissue::Csf);
 
         let dl = norm3(std::array::from_fn(|a| v[a] - self.lesion_centre[a]));
         let edema = super::phantom_edema::inside(dl, self.lesion_radius, self.edema_thickness);
-        layer(&mut signal, &mut label, edema, Tissue::Edema);
-        let lesion = self.lesion_radius - dl;
-        layer(&mut signal, &mut label, lesion, Tissue::Lesion);
+        b.add(edema, Tissue::Edema);
+        b.add(self.lesion_radius - dl, Tissue::Lesion);
 
         // The older vessels (radius floored) and the known radii, as one structure.
         let vessel =
             (self.vessel_radius - self.vessel_distance(v, q, hull)).max(self.vessels.inside(v));
-        layer(&mut signal, &mut label, vessel, Tissue::Vessel);
+        // Inside a layered head, the vessels in the CSF layer (radius floored in voxels) stay
+        // intracranial on small grids instead of cutting the inner table.
+        let vessel = match self.layered {
+            Some(_) => vessel.min(hull + self.csf_layer),
+            None => vessel,
+        };
+        b.add(vessel, Tissue::Vessel);
+    }
 
-        (signal * Self::bias(self.normalised(v)), label)
+    /// `signal` times the bias field at offset `v` (MR only; CT is quantitative).
+    fn biased(&self, signal: f64, v: [f64; 3]) -> f64 {
+        if self.contrast.is_mr() {
+            signal * Self::bias(self.normalised(v))
+        } else {
+            signal
+        }
     }
 
     fn normalised(&self, v: [f64; 3]) -> [f64; 3] {
         std::array::from_fn(|a| v[a] / self.half[a])
+    }
+}
+
+/// Partial-volume blending of nested structures at one voxel (module doc): each structure
+/// replaces the signal by its weight, and labels the voxel where it weighs >= 0.5.
+pub(super) struct Blend {
+    pub(super) signal: f64,
+    pub(super) label: Tissue,
+    contrast: Contrast,
+}
+
+impl Blend {
+    fn new(contrast: Contrast) -> Blend {
+        Blend {
+            signal: contrast.nominal(Tissue::Background),
+            label: Tissue::Background,
+            contrast,
+        }
+    }
+
+    /// Blends `tissue` whose signed distance (voxels, > 0 inside) is `sd`.
+    pub(super) fn add(&mut self, sd: f64, tissue: Tissue) {
+        let w = ramp(sd);
+        self.signal += w * (self.contrast.nominal(tissue) - self.signal);
+        if w >= 0.5 {
+            self.label = tissue;
+        }
     }
 }
 
@@ -560,7 +511,7 @@ pub fn generate_with_threads(spec: &PhantomSpec, threads: usize) -> Result<Phant
     samples.resize(bytes, 0u8);
     labels.resize(count, 0u8);
 
-    let geometry = Geometry::new(dims);
+    let geometry = Geometry::new(dims, spec.anatomy, spec.contrast);
     let plane = dims[0] * dims[1];
     let threads = threads.clamp(1, dims[2]);
     let slab = dims[2].div_ceil(threads);
@@ -601,7 +552,8 @@ pub fn generate_with_threads(spec: &PhantomSpec, threads: usize) -> Result<Phant
     Ok(Phantom {
         volume,
         labels,
-        nominal: NOMINAL,
+        nominal: Nominal::of_contrast(spec.contrast),
+        spec: spec.clone(),
     })
 }
 
@@ -628,9 +580,7 @@ fn fill(
             let stream = spec.seed ^ (index as u64).wrapping_mul(0xd1b5_4a32_d192_ed03);
             let n1 = normal(mix(stream));
             let n2 = normal(mix(stream ^ 0x5851_f42d_4c95_7f2d));
-            let re = signal + NOISE_SIGMA * n1;
-            let im = NOISE_SIGMA * n2;
-            (re * re + im * im).sqrt()
+            spec.contrast.with_noise(signal, n1, n2)
         } else {
             signal
         };
@@ -645,39 +595,6 @@ fn fill(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn deterministic_sine_matches_libm() {
-        let mut worst = 0.0f64;
-        for i in -20_000..=20_000 {
-            let x = f64::from(i) * 0.003_7;
-            worst = worst
-                .max((det_sin(x) - x.sin()).abs())
-                .max((det_cos(x) - x.cos()).abs());
-        }
-        assert!(worst < 1e-9, "worst error {worst}");
-    }
-
-    #[test]
-    fn irwin_hall_noise_is_close_to_standard_normal() {
-        let n = 200_000u64;
-        let xs: Vec<f64> = (0..n).map(|i| normal(mix(i))).collect();
-        let mean = xs.iter().sum::<f64>() / n as f64;
-        let var = xs.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / n as f64;
-        assert!(mean.abs() < 0.01, "mean {mean}");
-        assert!((var - 1.0).abs() < 0.02, "variance {var}");
-        assert!(xs.iter().all(|x| x.abs() <= 2.0 * 3.0f64.sqrt()));
-    }
-
-    #[test]
-    fn ramp_is_a_one_voxel_linear_blend() {
-        assert_eq!(ramp(-0.5), 0.0);
-        assert_eq!(ramp(0.0), 0.5);
-        assert_eq!(ramp(0.25), 0.75);
-        assert_eq!(ramp(0.5), 1.0);
-        assert_eq!(ramp(f64::INFINITY), 1.0);
-        assert_eq!(ramp(f64::NEG_INFINITY), 0.0);
-    }
 
     #[test]
     fn bias_field_stays_within_its_amplitude() {

@@ -137,6 +137,7 @@ pub fn open_phantom(
         spacing_mm: [1.0; 3],
         seed: seed.unwrap_or(PhantomSpec::DEFAULT_SEED),
         noise,
+        ..PhantomSpec::cube(1)
     };
     open_source(py, VolumeSource::Phantom(spec), ReadOptions::default())
 }
