@@ -156,6 +156,7 @@ pub fn run(args: &DeriveArgs, global: &super::GlobalOptions) -> Result<(), Error
             samples: Samples::from_f32(values),
             to_physical: LinearMap::IDENTITY,
             warnings: vec![],
+            facts: Default::default(),
         };
         if args.force {
             crate::volume::nifti::write_nifti1(&map, path, true)?;
