@@ -381,7 +381,7 @@ mod tests {
 
     #[test]
     fn contrast_note_only_when_the_labels_are_t2_or_an_assumption() {
-        use ContrastBasis::{Assumed, Given as Forced, Histogram as Detected, Metadata};
+        use crate::analysis::Basis::{Assumed, Given as Forced, Histogram as Detected, Metadata};
         let note = |c, b, wm, w| contrast_note(&report(c, b, wm), w);
         let adaptive = WindowsArg::Adaptive;
         assert_eq!(note(Contrast::T1, Detected, true, adaptive), None);

@@ -115,6 +115,7 @@ mod tests {
             samples,
             to_physical: map,
             warnings: Vec::new(),
+            facts: Default::default(),
         }
     }
 
