@@ -96,10 +96,7 @@ fn bids_names_and_sidecars_decide_in_info() {
         text.contains("contrast      FLAIR (metadata): TR 9000 ms"),
         "{text}"
     );
-    assert!(
-        text.contains("BIDS sidecar scan.json"),
-        "{text}"
-    );
+    assert!(text.contains("BIDS sidecar scan.json"), "{text}");
     // Post-contrast from the ce- entity.
     let ce = phantom_file(&dir, "sub-01_ce-gadolinium_T1w.nii");
     let v = json_of(&["info", s(&ce), "--json"]);

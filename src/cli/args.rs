@@ -120,8 +120,10 @@ pub struct Cli {
     #[arg(long, global = true, help_heading = "Input", value_enum, default_value_t = NormalizeArg::Robust)]
     pub normalize: NormalizeArg,
 
-    /// Which MR contrast the tissues are labelled for: T1 = CSF < GM < WM, T2 and PD = WM < GM <
-    /// CSF (PD with less contrast), FLAIR = CSF (suppressed) < WM < GM.
+    /// Which MR contrast the tissues are labelled for.
+    ///
+    /// T1 = CSF < GM < WM, T2 and PD = WM < GM < CSF (PD with less contrast), FLAIR = CSF
+    /// (suppressed) < WM < GM.
     ///
     /// `auto` = from what the file says first: a BIDS suffix (`_T1w`, `_T2w`, `_PDw`, `_FLAIR`,
     /// `_angio`, ...) or its JSON sidecar, DICOM's SeriesDescription / ProtocolName words (T1,
@@ -134,13 +136,13 @@ pub struct Cli {
     #[arg(long, global = true, help_heading = "Input", value_enum, default_value_t = ContrastArg::Auto)]
     pub contrast: ContrastArg,
 
-    /// What the scan is: `mr`, `ct`, `pt` (PET) or `other`.
+    /// What the scan is (`pt` = PET).
     ///
     /// `auto` = from DICOM's Modality tag or the sidecar's, the BIDS suffix (`_ct`, `_pet`, MR
     /// suffixes), words of the description and the file name (CT, CTA, PET, MR sequence names),
     /// then the values (Hounsfield units: air at -1000 and soft tissue near 0); MR when nothing
     /// tells. A CT's tissues are labelled in density order (CSF < WM < GM).
-    #[arg(long, global = true, help_heading = "Input", value_enum, default_value_t = ModalityArg::Auto)]
+    #[arg(long, global = true, help_heading = "Input", value_enum, default_value_t = ModalityArg::Auto, hide_short_help = true)]
     pub modality: ModalityArg,
 
     /// Write a trace of the run (Chrome trace JSON; opens in ui.perfetto.dev and
