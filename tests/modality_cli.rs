@@ -4,7 +4,6 @@
 //! warning; the PNG provenance records both; a scan with one tissue mode is not blank.
 //! `peaks` and `render` need a Vulkan device (lavapipe here).
 
-#[allow(dead_code)]
 #[path = "common/volumes.rs"]
 mod volumes;
 #[path = "common/dicom.rs"]
