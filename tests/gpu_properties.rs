@@ -321,6 +321,7 @@ fn volume(case: &Case) -> Volume {
         samples: samples(case),
         to_physical: case.map,
         warnings: vec![],
+        facts: Default::default(),
     }
 }
 

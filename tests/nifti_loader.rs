@@ -1898,6 +1898,7 @@ fn oblique_volume(affine: [[f64; 4]; 4], spacing: [f64; 3]) -> morphray::volume:
             intercept: -5.0,
         },
         warnings: vec![],
+        facts: Default::default(),
     }
 }
 

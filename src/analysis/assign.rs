@@ -1,5 +1,8 @@
 //! Which tissue modes are CSF, GM and WM, for the contrast `contrast` decided: adult T1 (CSF <
-//! GM < WM, [`assign`]) or T2 (WM < GM < CSF, [`assign_t2`]).
+//! GM < WM, [`assign`]), T2 (WM < GM < CSF, [`assign_t2`]), PD (WM < GM < CSF with less
+//! contrast: [`assign_t2`]'s rule with CSF from [`PD_CSF_MIN_RATIO`] times WM), FLAIR and CT
+//! (CSF < WM < GM: [`assign`]'s rule with GM and WM swapped, since in both the brightest large
+//! class is GM, the next one WM at more than half its intensity, and CSF is dark).
 //!
 //! T1 rules, applied to the significant modes above the background (the candidates):
 //! 1. Fewer than two candidates: nothing is assigned. One mode alone has no intensity ratio to
@@ -37,8 +40,8 @@
 //!      upside down, in tests/contrast.rs) has GM at 2.4 times WM from the zero, because its
 //!      physical zero is at the wrong end.
 //!
-//! Limits (documented, not solved): FLAIR and neonatal T1 are read as adult T1 (see
-//! `contrast`); a bright tail larger than `major_fraction` of the tallest tissue mode would be
+//! Limits (documented, not solved): FLAIR without metadata and neonatal T1 are read as adult T1
+//! (see `contrast`); a bright tail larger than `major_fraction` of the tallest tissue mode would be
 //! called WM in T1; when GM and WM merge into one mode it is called WM.
 
 use super::contrast::{Contrast, TISSUE_MIN_RATIO};
@@ -48,6 +51,11 @@ use super::peaks::Mode;
 /// In T2, candidates at least this many times WM's intensity (from zero) are CSF, those between
 /// WM and this are GM (module doc).
 pub const T2_CSF_MIN_RATIO: f64 = 2.0;
+
+/// In PD, candidates at least this many times WM's intensity (from zero) are CSF. Proton
+/// densities WM 0.7, GM 0.8, CSF 1.0 (the `contrast` module's worked example) give GM 1.15 and
+/// CSF 1.4 times WM at long TR and short TE; 1.3 lies between, with room for T2 decay of WM.
+pub const PD_CSF_MIN_RATIO: f64 = 1.3;
 
 /// Indices (into the candidate slice) of the assigned tissues.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -70,6 +78,17 @@ pub fn assign_for(
     match contrast {
         Contrast::T1 => assign(candidates, zero, params),
         Contrast::T2 => assign_t2(candidates, zero, params),
+        Contrast::Pd => assign_dark_wm(candidates, zero, params, PD_CSF_MIN_RATIO),
+        Contrast::Flair | Contrast::Ct => {
+            // T1's rule finds the brightest large class and the one at more than half of it:
+            // here GM and WM.
+            let a = assign(candidates, zero, params);
+            Assignment {
+                gm: a.wm,
+                wm: a.gm,
+                csf: a.csf,
+            }
+        }
     }
 }
 
@@ -84,6 +103,16 @@ fn most_prominent(candidates: &[Mode], indices: impl Iterator<Item = usize>) -> 
 
 /// Assigns tissues among `candidates` (ascending) for T2 contrast (module doc).
 pub fn assign_t2(candidates: &[Mode], zero: f64, params: &AnalysisParams) -> Assignment {
+    assign_dark_wm(candidates, zero, params, T2_CSF_MIN_RATIO)
+}
+
+/// The T2 rule (module doc) with CSF from `csf_min_ratio` times WM (2 in T2, 1.3 in PD).
+fn assign_dark_wm(
+    candidates: &[Mode],
+    zero: f64,
+    params: &AnalysisParams,
+    csf_min_ratio: f64,
+) -> Assignment {
     if candidates.len() < 2 {
         return Assignment::default();
     }
@@ -110,11 +139,11 @@ pub fn assign_t2(candidates: &[Mode], zero: f64, params: &AnalysisParams) -> Ass
     let ratio = |i: usize| (candidates[i].position - zero) / span;
     let csf = (wm + 1..candidates.len())
         .rev()
-        .find(|&i| ratio(i) >= T2_CSF_MIN_RATIO);
+        .find(|&i| ratio(i) >= csf_min_ratio);
     let gm = most_prominent(
         candidates,
         (wm + 1..csf.unwrap_or(candidates.len()))
-            .filter(|&i| ratio(i) < T2_CSF_MIN_RATIO || major(&i)),
+            .filter(|&i| ratio(i) < csf_min_ratio || major(&i)),
     );
     Assignment {
         csf,

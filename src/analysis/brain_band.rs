@@ -115,14 +115,15 @@ pub fn otsu_bin(hist: &[u32; BINS]) -> Option<usize> {
 pub fn band_for(hist: &[u32; BINS], contrast: Contrast) -> Option<(f64, f64)> {
     let k = otsu_bin(hist)?;
     let t = (k + 1) as f64 / BINS as f64;
-    // A helper may add PD and FLAIR to `Contrast`: FLAIR (CSF dark) takes the T1 arm, PD the
-    // T2 arm (module doc).
+    // FLAIR (CSF dark) takes the T1 arm, PD (CSF bright) the T2 arm; a CT has no brain band
+    // (brain extraction is for MR heads).
     match contrast {
-        Contrast::T1 => {
+        Contrast::T1 | Contrast::Flair => {
             let wm = wm_peak(hist, k)?;
             Some((t, wm + T1_HI_FRACTION * (wm - t)))
         }
-        Contrast::T2 => Some((T2_LO_FRACTION * t, T2_HI)),
+        Contrast::T2 | Contrast::Pd => Some((T2_LO_FRACTION * t, T2_HI)),
+        Contrast::Ct => None,
     }
 }
 

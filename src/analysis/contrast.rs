@@ -1,6 +1,11 @@
 //! Which MR contrast the histogram shows (T1 or T2), so `assign` labels the modes as the right
 //! tissues, and a one-line reason for the report.
 //!
+//! This is the last resort: the metadata (`modality`: DICOM tags, BIDS names and sidecars, the
+//! NIfTI `descrip`) and `--contrast` decide first, and can also name PD, FLAIR and CT, which
+//! the histogram cannot tell from T2 and T1. The bases are *metadata*, *values* (Hounsfield
+//! units), *histogram* (this rule; "detected" below), *assumed* (nothing told: T1) and *given*.
+//!
 //! What tells the contrasts apart in the histogram of a head (only the significant modes above
 //! the background, `candidates`, are used; ratios are intensities measured from the background
 //! zero, as in `assign`):
@@ -13,8 +18,8 @@
 //!   0.7, GM 0.8, CSF 1.0): WM 0.17, GM 0.25, CSF 0.60, so WM/CSF = 0.28, GM/CSF = 0.42; at TE
 //!   80 ms GM/CSF = 0.51, at TE 120 ms 0.33.
 //! - FLAIR: CSF suppressed (dark, small), GM brighter than WM. In a histogram this is the T1
-//!   shape (small dark mode, two large bright ones), so FLAIR is read as T1 and its GM and WM are
-//!   swapped. This is a documented limit; `--contrast` cannot express FLAIR either.
+//!   shape (small dark mode, two large bright ones), so the histogram reads FLAIR as T1 (GM and
+//!   WM swapped). FLAIR is known from its metadata (name, TI) or `--contrast flair`.
 //!
 //! The rule (`B` = brightest major candidate, height at least `major_fraction` of the tallest
 //! candidate, the same "major" as in `assign`; tissue modes = candidates at least
@@ -45,7 +50,7 @@
 //!    names the mode. 1.8 lies below T2's CSF/GM (1.96 at TE 80 ms, more at longer TE) and above
 //!    the phantom's bright tail (lesion 1350 and vessels 1450 over WM 850: 1.6-1.7).
 //!
-//! `--contrast t1|t2` skips the rule (*forced*). Whatever the outcome, the reason is one line
+//! `--contrast t1|t2|pd|flair` skips the rule (*given*). Whatever the outcome, the reason is one line
 //! with the numbers it used, so a reader can check it.
 
 use super::params::AnalysisParams;
@@ -72,7 +77,7 @@ const UNRESOLVED_HALF_WIDTHS: f64 = 2.0;
 /// is at least 0.2 of WM, T2 WM at least 0.21 of CSF (TE 120 ms, module doc); 0.15 leaves room.
 pub const TISSUE_MIN_RATIO: f64 = 0.15;
 
-/// The contrast tissues are labelled for.
+/// The contrast tissues are labelled for: which tissue is brighter than which.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Contrast {
@@ -81,6 +86,13 @@ pub enum Contrast {
     T1,
     /// T2-weighted: WM < GM < CSF.
     T2,
+    /// Proton-density weighted: WM < GM < CSF, with much less contrast than T2 (CSF at 1.3-1.6
+    /// times WM, `assign::PD_CSF_MIN_RATIO`).
+    Pd,
+    /// Fluid-attenuated inversion recovery: CSF suppressed (darkest), WM < GM.
+    Flair,
+    /// X-ray CT (density): CSF < WM < GM, as in FLAIR; bone far above every tissue.
+    Ct,
 }
 
 impl Contrast {
@@ -89,7 +101,25 @@ impl Contrast {
         match self {
             Contrast::T1 => "T1",
             Contrast::T2 => "T2",
+            Contrast::Pd => "PD",
+            Contrast::Flair => "FLAIR",
+            Contrast::Ct => "CT",
         }
+    }
+
+    /// The order of the tissues, darkest first, for reasons and help texts.
+    pub fn order(self) -> &'static str {
+        match self {
+            Contrast::T1 => "CSF < GM < WM",
+            Contrast::T2 | Contrast::Pd => "WM < GM < CSF",
+            Contrast::Flair | Contrast::Ct => "CSF < WM < GM",
+        }
+    }
+
+    /// Whether WM and GM are brighter than CSF with WM the brightest (T1's order, the one the
+    /// faint-CSF search and the paper's windows assume).
+    pub fn is_t1_order(self) -> bool {
+        self == Contrast::T1
     }
 }
 
@@ -97,34 +127,89 @@ impl Contrast {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum ContrastChoice {
-    /// Detect from the histogram; T1 when the evidence is missing or conflicts.
+    /// From the metadata, then the histogram; T1 when neither can tell.
     #[default]
     Auto,
     /// Always T1.
     T1,
     /// Always T2.
     T2,
+    /// Always proton density.
+    Pd,
+    /// Always FLAIR.
+    Flair,
 }
 
-/// How the contrast was decided.
+impl ContrastChoice {
+    /// The contrast given, None for `Auto`.
+    pub fn given(self) -> Option<Contrast> {
+        match self {
+            ContrastChoice::Auto => None,
+            ContrastChoice::T1 => Some(Contrast::T1),
+            ContrastChoice::T2 => Some(Contrast::T2),
+            ContrastChoice::Pd => Some(Contrast::Pd),
+            ContrastChoice::Flair => Some(Contrast::Flair),
+        }
+    }
+}
+
+/// What a decision (the modality or the contrast) rests on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
-pub enum ContrastBasis {
-    /// The histogram showed it (module doc).
-    Detected,
-    /// The histogram did not show it (too few modes, or conflicting evidence): T1 by default.
+pub enum Basis {
+    /// What the file says: DICOM tags, a BIDS name or sidecar, the NIfTI `descrip`, the name.
+    Metadata,
+    /// The voxel values (Hounsfield units).
+    Values,
+    /// The shape of the histogram (module doc).
+    Histogram,
+    /// Nothing told: the default (MR, T1), said so.
     Assumed,
-    /// `--contrast t1|t2`.
-    Forced,
+    /// `--modality` / `--contrast`.
+    Given,
 }
 
-impl ContrastBasis {
+/// The basis of a contrast decision (the same scale as the modality's).
+pub type ContrastBasis = Basis;
+
+impl Basis {
     /// Lowercase name, as in the JSON.
     pub fn name(self) -> &'static str {
         match self {
-            ContrastBasis::Detected => "detected",
-            ContrastBasis::Assumed => "assumed",
-            ContrastBasis::Forced => "forced",
+            Basis::Metadata => "metadata",
+            Basis::Values => "values",
+            Basis::Histogram => "histogram",
+            Basis::Assumed => "assumed",
+            Basis::Given => "given",
+        }
+    }
+}
+
+/// A sequence family that says more than the contrast (the tissue order follows the contrast).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SequenceKind {
+    /// Angiography (TOF or phase-contrast MRA, CT angiography): vessels bright.
+    Angio,
+    /// BOLD fMRI (T2*-weighted EPI).
+    Bold,
+    /// Arterial spin labelling.
+    Asl,
+    /// Diffusion-weighted imaging.
+    Dwi,
+    /// Susceptibility-weighted imaging (T2*).
+    Swi,
+}
+
+impl SequenceKind {
+    /// Lowercase name, as in the JSON.
+    pub fn name(self) -> &'static str {
+        match self {
+            SequenceKind::Angio => "angio",
+            SequenceKind::Bold => "bold",
+            SequenceKind::Asl => "asl",
+            SequenceKind::Dwi => "dwi",
+            SequenceKind::Swi => "swi",
         }
     }
 }
@@ -134,29 +219,43 @@ impl ContrastBasis {
 pub struct ContrastReport {
     /// Contrast the tissues are labelled for.
     pub contrast: Contrast,
-    /// Detected, assumed or forced.
+    /// What the decision rests on.
     pub basis: ContrastBasis,
-    /// One line with the numbers behind the decision.
+    /// One line with the facts or numbers behind the decision.
     pub reason: String,
+    /// The sequence family, when the metadata names one (angio, bold, asl, dwi, swi).
+    pub kind: Option<SequenceKind>,
+    /// A contrast agent was given (DICOM ContrastBolusAgent, BIDS `ce-`, words such as Gd).
+    pub post_contrast: bool,
 }
 
 impl ContrastReport {
-    fn new(contrast: Contrast, basis: ContrastBasis, reason: String) -> Self {
+    /// A report without a sequence kind or contrast agent.
+    pub fn new(contrast: Contrast, basis: ContrastBasis, reason: String) -> Self {
         ContrastReport {
             contrast,
             basis,
             reason,
+            kind: None,
+            post_contrast: false,
         }
     }
 
-    /// One line for people: `T2 (detected): ...`.
+    /// The contrast's name with its kind and agent: `T1 angio`, `T1 post-contrast`.
+    pub fn label(&self) -> String {
+        let mut label = self.contrast.name().to_string();
+        if let Some(kind) = self.kind {
+            label = format!("{label} {}", kind.name());
+        }
+        if self.post_contrast {
+            label.push_str(" post-contrast");
+        }
+        label
+    }
+
+    /// One line for people: `T2 (histogram): ...`.
     pub fn summary(&self) -> String {
-        format!(
-            "{} ({}): {}",
-            self.contrast.name(),
-            self.basis.name(),
-            self.reason
-        )
+        format!("{} ({}): {}", self.label(), self.basis.name(), self.reason)
     }
 }
 
@@ -169,18 +268,21 @@ pub fn decide(
     params: &AnalysisParams,
 ) -> ContrastReport {
     match choice {
-        ContrastChoice::T1 => ContrastReport::new(
-            Contrast::T1,
-            ContrastBasis::Forced,
-            "--contrast t1 (tissues labelled CSF < GM < WM)".into(),
-        ),
-        ContrastChoice::T2 => ContrastReport::new(
-            Contrast::T2,
-            ContrastBasis::Forced,
-            "--contrast t2 (tissues labelled WM < GM < CSF)".into(),
-        ),
         ContrastChoice::Auto => detect(s, candidates, zero, params),
+        given => {
+            let contrast = given.given().unwrap_or_default();
+            ContrastReport::new(contrast, ContrastBasis::Given, given_reason(contrast))
+        }
     }
+}
+
+/// The reason of a contrast given with `--contrast`.
+pub fn given_reason(contrast: Contrast) -> String {
+    format!(
+        "--contrast {} (tissues labelled {})",
+        contrast.name().to_ascii_lowercase(),
+        contrast.order()
+    )
 }
 
 /// `I_norm` of a mode, for the reason line.
@@ -250,7 +352,7 @@ fn detect(
     }
     ContrastReport::new(
         Contrast::T1,
-        ContrastBasis::Detected,
+        ContrastBasis::Histogram,
         format!(
             "the largest mode (I_norm {}) is {r:.2} of the brightest large mode ({}): GM/WM at \
              the bright end, CSF darker (T1 shape; FLAIR looks the same)",
@@ -327,7 +429,7 @@ fn dark_bulk(
         let why = format!(
             "the dark mode is the broad one ({widths}): CSF dark, WM bright (T1 with much CSF)"
         );
-        return report(Contrast::T1, ContrastBasis::Detected, why);
+        return report(Contrast::T1, ContrastBasis::Histogram, why);
     }
     let far_middle = majors.iter().find(|m| {
         m.position > t.position
@@ -346,7 +448,7 @@ fn dark_bulk(
         "the dark mode is sharp, the bright one broad ({widths}): WM/GM dark, CSF brightest (T2 \
          shape)"
     );
-    report(Contrast::T2, ContrastBasis::Detected, why)
+    report(Contrast::T2, ContrastBasis::Histogram, why)
 }
 
 #[cfg(test)]
@@ -382,8 +484,8 @@ mod tests {
         (r.contrast, r.basis)
     }
 
-    const DETECTED_T1: (Contrast, ContrastBasis) = (Contrast::T1, ContrastBasis::Detected);
-    const DETECTED_T2: (Contrast, ContrastBasis) = (Contrast::T2, ContrastBasis::Detected);
+    const DETECTED_T1: (Contrast, ContrastBasis) = (Contrast::T1, ContrastBasis::Histogram);
+    const DETECTED_T2: (Contrast, ContrastBasis) = (Contrast::T2, ContrastBasis::Histogram);
     const ASSUMED_T1: (Contrast, ContrastBasis) = (Contrast::T1, ContrastBasis::Assumed);
 
     #[test]
@@ -501,10 +603,10 @@ mod tests {
             (154.0, 300.0, 12.0),
         ];
         let r = decide_on(ContrastChoice::T1, &t2);
-        assert_eq!(outcome(&r), (Contrast::T1, ContrastBasis::Forced));
+        assert_eq!(outcome(&r), (Contrast::T1, ContrastBasis::Given));
         let r = decide_on(ContrastChoice::T2, &[(100.0, 1000.0, 5.0)]);
-        assert_eq!(outcome(&r), (Contrast::T2, ContrastBasis::Forced));
-        assert!(r.summary().starts_with("T2 (forced): --contrast t2"));
+        assert_eq!(outcome(&r), (Contrast::T2, ContrastBasis::Given));
+        assert!(r.summary().starts_with("T2 (given): --contrast t2"));
     }
 
     #[test]

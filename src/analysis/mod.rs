@@ -35,6 +35,9 @@ pub mod assign;
 pub mod background;
 pub mod brain_band;
 pub mod contrast;
+pub mod fallback;
+pub mod modality;
+mod modality_rules;
 pub mod params;
 pub mod peaks;
 pub mod range;
@@ -44,7 +47,11 @@ pub mod table1;
 pub mod windows;
 
 pub use crate::reference::brain_params::{BrainParams, BrainParamsError};
-pub use contrast::{Contrast, ContrastBasis, ContrastChoice, ContrastReport};
+pub use contrast::{Basis, Contrast, ContrastBasis, ContrastChoice, ContrastReport, SequenceKind};
+pub use fallback::Fallback;
+pub use modality::{
+    Identity, Modality, ModalityChoice, ModalityReport, ScanFacts, ValueSummary, identify,
+};
 pub use params::AnalysisParams;
 pub use range::{NormalizeMode, RangeChoice, RobustRange};
 pub use table1::{
@@ -158,7 +165,9 @@ pub fn analyze(
 }
 
 /// Analyzes a 256-bin histogram of `I_norm` (finite voxels only) of a volume whose physical
-/// range is `[imin, imax]`. `total_voxels` and `nonfinite_voxels` are reported as given.
+/// range is `[imin, imax]`. `total_voxels` and `nonfinite_voxels` are reported as given. The
+/// modality and contrast come from `params`' choices only (no metadata): see
+/// [`analyze_identified`].
 pub fn analyze_with(
     hist: &[u32; BINS],
     imin: f64,
@@ -166,6 +175,30 @@ pub fn analyze_with(
     total_voxels: usize,
     nonfinite_voxels: usize,
     params: &AnalysisParams,
+) -> TissueReport {
+    let identity = Identity::from_choices(params.modality, params.contrast);
+    analyze_identified(
+        hist,
+        imin,
+        imax,
+        total_voxels,
+        nonfinite_voxels,
+        params,
+        &identity,
+    )
+}
+
+/// [`analyze_with`] for a volume whose modality and contrast were decided (or not) from its
+/// metadata and values ([`identify`]): the histogram decides the contrast only when `identity`
+/// did not.
+pub fn analyze_identified(
+    hist: &[u32; BINS],
+    imin: f64,
+    imax: f64,
+    total_voxels: usize,
+    nonfinite_voxels: usize,
+    params: &AnalysisParams,
+    identity: &Identity,
 ) -> TissueReport {
     let h: [f64; BINS] = hist.map(f64::from);
     let finite_voxels: u64 = hist.iter().map(|&c| u64::from(c)).sum();
@@ -196,10 +229,18 @@ pub fn analyze_with(
             bg = background::find_background(&s, &modes, &spike_bins, params);
         }
     }
-    let decided = contrast::decide(params.contrast, &s, &modes[bg.modes..], bg.zero, params);
+    let decided = identity.contrast_or_else(|| {
+        contrast::decide(
+            ContrastChoice::Auto,
+            &s,
+            &modes[bg.modes..],
+            bg.zero,
+            params,
+        )
+    });
     let mut assignment = assign::assign_for(decided.contrast, &modes[bg.modes..], bg.zero, params);
     // T1 and unmasked scans only (see the module doc, step 5).
-    let faint_csf_applies = decided.contrast == contrast::Contrast::T1 && bg.modes > 0;
+    let faint_csf_applies = decided.contrast.is_t1_order() && bg.modes > 0;
     if let (true, None, Some(gm), Some(wm)) = (
         faint_csf_applies,
         assignment.csf,
@@ -229,8 +270,14 @@ pub fn analyze_with(
         gm: inside(peaks.gm, paper_windows.gm),
         wm: inside(peaks.wm, paper_windows.wm),
     };
-    let adaptive_windows =
+    let mut adaptive_windows =
         windows::adaptive(&s, &modes, bg.modes, &assignment, bg.threshold_bin, params);
+    // Item 4 of issue 28: a scan with a background but no tissue class still shows its
+    // foreground (see `fallback`).
+    let fallback = fallback::foreground(hist, &adaptive_windows, &bg, bg.modes > 0, params);
+    if let Some(f) = &fallback {
+        adaptive_windows.wm = Some(f.window);
+    }
 
     let role = |i: usize| -> ModeRole {
         let Some(c) = i.checked_sub(bg.modes) else {
@@ -287,6 +334,8 @@ pub fn analyze_with(
         params: *params,
         range: RangeChoice::default(),
         contrast: decided,
+        modality: identity.modality.clone(),
+        fallback,
     }
 }
 

@@ -78,6 +78,9 @@ pub struct AnalysisParams {
     /// `contrast`), or forced to T1 or T2 (`--contrast`). Auto: T1 and T2 scans are both common,
     /// and a T2 read as T1 gets every tissue wrong.
     pub contrast: super::contrast::ContrastChoice,
+    /// Which modality the volume is: from its metadata and values (`Auto`, see `modality`) or
+    /// given (`--modality`).
+    pub modality: super::modality::ModalityChoice,
 }
 
 impl Default for AnalysisParams {
@@ -101,6 +104,7 @@ impl Default for AnalysisParams {
             faint_csf_noise_z: 2.0,
             faint_csf_min_height: 0.03,
             contrast: super::contrast::ContrastChoice::Auto,
+            modality: super::modality::ModalityChoice::Auto,
         }
     }
 }

@@ -138,8 +138,13 @@ pub struct TissueReport {
     /// How `imin..imax` was chosen: the mode, eq. 1's data min/max, the robust range (filled in
     /// by the engine, which knows the data; until then the default mode with no data).
     pub range: RangeChoice,
-    /// Contrast the tissues were labelled for, whether detected, assumed or forced, and why.
+    /// Contrast the tissues were labelled for, what the decision rests on, and why.
     pub contrast: ContrastReport,
+    /// What the volume is (MR, CT, ...), what the decision rests on, and why.
+    pub modality: super::ModalityReport,
+    /// The foreground window shown when no tissue class was found (in the WM slot of
+    /// `adaptive_windows`), and why; None when tissue classes were found.
+    pub fallback: Option<super::Fallback>,
 }
 
 /// One row of the paper's Table 1, flat (one column per field, for CSV or JSON lines).

@@ -19,7 +19,7 @@ use super::file_panel::FilePanel;
 use super::histogram;
 use super::script::Preset;
 use super::status::Status;
-use crate::analysis::{Contrast, TissueReport};
+use crate::analysis::TissueReport;
 use crate::scene::visibility::{EmptyScene, predict_empty};
 use crate::scene::{Classification, RenderMode, Scene, TissueClass};
 use crate::volume::source::VolumeSource;
@@ -360,14 +360,21 @@ fn contrast_label(ui: &mut Ui, controls: &Controls) {
         return;
     };
     let c = &report.contrast;
-    let text = format!("Contrast: {} ({})", c.contrast.name(), c.basis.name());
-    ui.label(RichText::new(text).small())
-        .on_hover_text(c.reason.as_str());
-    if c.contrast == Contrast::T2 && controls.windows == WindowSource::Paper {
+    let m = &report.modality;
+    let text = format!("{}: {} ({})", m.modality.name(), c.label(), c.basis.name());
+    ui.label(RichText::new(text).small()).on_hover_text(format!(
+        "{}\n{}",
+        m.summary(),
+        c.summary()
+    ));
+    if !c.contrast.is_t1_order() && controls.windows == WindowSource::Paper {
         ui.label(
-            RichText::new("Paper windows are T1 windows: wrong tissues on this T2 volume")
-                .small()
-                .color(Color32::YELLOW),
+            RichText::new(format!(
+                "Paper windows are T1 windows: wrong tissues on this {} volume",
+                c.contrast.name()
+            ))
+            .small()
+            .color(Color32::YELLOW),
         );
     }
 }

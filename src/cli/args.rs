@@ -120,18 +120,31 @@ pub struct Cli {
     #[arg(long, global = true, help_heading = "Input", value_enum, default_value_t = NormalizeArg::Robust)]
     pub normalize: NormalizeArg,
 
-    /// Which MR contrast the tissues are labelled for: T1 = CSF < GM < WM, T2 = WM < GM < CSF;
-    /// for `phantom`, the contrast to make (t1, t2, pd, flair or ct).
+    /// Which MR contrast the tissues are labelled for.
     ///
-    /// `auto` = read it from the histogram: T2 when the largest tissue mode is dark and sharp and a
-    /// large broad mode (CSF) is more than twice as bright, T1 when the tissue bulk is at the
-    /// bright end; when the histogram cannot tell (one mode, conflicting shapes, a bright mode that
-    /// may be CSF or fat), T1 is assumed and `peaks` and `render` say so with the reason. `t1` /
-    /// `t2` = take it as given. FLAIR looks like T1 in a histogram and is read as T1, GM and WM
-    /// swapped (no setting fixes that yet). `--windows paper` uses T1 windows. `morphray phantom`
-    /// makes t1 for auto; pd, flair and ct are for the phantom only.
+    /// T1 = CSF < GM < WM, T2 and PD = WM < GM < CSF (PD with less contrast), FLAIR = CSF
+    /// (suppressed) < WM < GM.
+    ///
+    /// `auto` = from what the file says first: a BIDS suffix (`_T1w`, `_T2w`, `_PDw`, `_FLAIR`,
+    /// `_angio`, ...) or its JSON sidecar, DICOM's SeriesDescription / ProtocolName words (T1,
+    /// MPRAGE, T2, TSE, FLAIR, PD, TOF, ...), the timing (TR, TE, TI), the NIfTI `descrip`, the
+    /// file name's words; only when all are silent from the histogram (T2 when the largest tissue
+    /// mode is dark and sharp and a broad mode is more than twice as bright; T1 when the tissue
+    /// bulk is at the bright end; T1 assumed when it cannot tell). `info` and `peaks` say what
+    /// was decided and from what. `t1` / `t2` / `pd` / `flair` = take it as given. A CT is
+    /// labelled in density order (see --modality). `--windows paper` uses T1 windows.
+    /// For `phantom`, the contrast to make (t1, t2, pd, flair or ct; auto makes t1).
     #[arg(long, global = true, help_heading = "Input", value_enum, default_value_t = ContrastArg::Auto)]
     pub contrast: ContrastArg,
+
+    /// What the scan is (`pt` = PET).
+    ///
+    /// `auto` = from DICOM's Modality tag or the sidecar's, the BIDS suffix (`_ct`, `_pet`, MR
+    /// suffixes), words of the description and the file name (CT, CTA, PET, MR sequence names),
+    /// then the values (Hounsfield units: air at -1000 and soft tissue near 0); MR when nothing
+    /// tells. A CT's tissues are labelled in density order (CSF < WM < GM).
+    #[arg(long, global = true, help_heading = "Input", value_enum, default_value_t = ModalityArg::Auto, hide_short_help = true)]
+    pub modality: ModalityArg,
 
     /// Write a trace of the run (Chrome trace JSON; opens in ui.perfetto.dev and
     /// chrome://tracing): host phases (read, inflate, instance, device, pipelines, prepare,
@@ -178,32 +191,35 @@ impl From<NormalizeArg> for crate::analysis::NormalizeMode {
 /// `--contrast`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum ContrastArg {
-    /// Detect from the histogram (T1 when it cannot tell); `phantom`: T1.
+    /// From the metadata, then the histogram (T1 when nothing tells); `phantom`: T1.
     Auto,
     /// T1-weighted: CSF < GM < WM.
     T1,
     /// T2-weighted: WM < GM < CSF.
     T2,
-    /// Proton-density-weighted: WM < GM < CSF with low contrast (`phantom` only).
+    /// Proton density: WM < GM < CSF, less contrast than T2.
     Pd,
-    /// T2-FLAIR: CSF dark, WM < GM, lesions bright (`phantom` only).
+    /// FLAIR: CSF suppressed, WM < GM.
     Flair,
-    /// CT in Hounsfield units: air -1000, fat -100, brain 30-40, bone 1200 (`phantom` only).
+    /// CT in Hounsfield units (`phantom` only; a CT file is read by `--modality`).
     Ct,
 }
 
 impl ContrastArg {
-    /// The analysis' choice; pd, flair and ct are refused (only `phantom` makes them).
+    /// The analysis' choice; ct is refused (only `phantom` makes it; a CT file's modality is
+    /// `--modality ct`).
     pub fn analysis(self) -> Result<crate::analysis::ContrastChoice, String> {
-        use crate::analysis::ContrastChoice;
+        use crate::analysis::ContrastChoice as C;
         match self {
-            ContrastArg::Auto => Ok(ContrastChoice::Auto),
-            ContrastArg::T1 => Ok(ContrastChoice::T1),
-            ContrastArg::T2 => Ok(ContrastChoice::T2),
-            other => Err(format!(
-                "--contrast {} is only for `morphray phantom`; tissue analysis takes auto, t1 or t2",
-                other.phantom().name()
-            )),
+            ContrastArg::Auto => Ok(C::Auto),
+            ContrastArg::T1 => Ok(C::T1),
+            ContrastArg::T2 => Ok(C::T2),
+            ContrastArg::Pd => Ok(C::Pd),
+            ContrastArg::Flair => Ok(C::Flair),
+            ContrastArg::Ct => Err(
+                "--contrast ct is only for `morphray phantom`; for a CT file use --modality ct"
+                    .to_string(),
+            ),
         }
     }
 
@@ -216,6 +232,34 @@ impl ContrastArg {
             ContrastArg::Pd => Contrast::Pd,
             ContrastArg::Flair => Contrast::Flair,
             ContrastArg::Ct => Contrast::Ct,
+        }
+    }
+}
+
+/// `--modality`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ModalityArg {
+    /// From the metadata, then the values (MR when nothing tells).
+    Auto,
+    /// Magnetic resonance.
+    Mr,
+    /// X-ray CT.
+    Ct,
+    /// PET.
+    Pt,
+    /// Anything else.
+    Other,
+}
+
+impl From<ModalityArg> for crate::analysis::ModalityChoice {
+    fn from(arg: ModalityArg) -> Self {
+        use crate::analysis::{Modality as M, ModalityChoice as C};
+        match arg {
+            ModalityArg::Auto => C::Auto,
+            ModalityArg::Mr => C::Given(M::Mr),
+            ModalityArg::Ct => C::Given(M::Ct),
+            ModalityArg::Pt => C::Given(M::Pt),
+            ModalityArg::Other => C::Given(M::Other),
         }
     }
 }

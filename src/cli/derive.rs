@@ -177,6 +177,7 @@ pub fn run(args: &DeriveArgs, global: &super::GlobalOptions) -> Result<(), Error
                 samples: Samples::from_u8(mask.clone()),
                 to_physical: LinearMap::IDENTITY,
                 warnings: vec![],
+                facts: Default::default(),
             };
             write_map(&map, path, args.force)?;
             print_line(&format!("wrote {}", path.display()));
@@ -198,6 +199,7 @@ pub fn run(args: &DeriveArgs, global: &super::GlobalOptions) -> Result<(), Error
             samples: Samples::from_f32(values),
             to_physical: LinearMap::IDENTITY,
             warnings: vec![],
+            facts: Default::default(),
         };
         write_map(&map, path, args.force)?;
         print_line(&format!("wrote {}", path.display()));

@@ -5,13 +5,109 @@
 //! chosen volume as it would be opened (decoded, so its intensity range is known). When no
 //! series qualifies as the default, the listing is still printed (it is what the user needs to
 //! choose one) and the command fails after it.
+//!
+//! What the scan is: the modality and the contrast with their basis and reason (`identity`),
+//! decided as the engine decides them (`analysis::modality`, with `--modality` and
+//! `--contrast`), and the facts they came from. When only the histogram can tell the contrast,
+//! `info` computes it on the CPU (the robust range, or eq. 1 with `--normalize minmax`, and the
+//! 256-bin histogram), up to [`HOST_HISTOGRAM_VOXELS`] voxels; above that it says that the
+//! histogram decides when the volume is opened (`morphray peaks` shows it).
 
 use super::args::InfoArgs;
 use super::output::{json, print_line};
 use super::source;
+use crate::analysis::{ContrastReport, ModalityReport, ScanFacts};
 use crate::error::Error;
+use crate::volume::Volume;
 use crate::volume::source::InputError;
 use crate::volume::stats::intensity_stats;
+
+/// Most voxels whose histogram `info` computes on the CPU (the exact robust range sorts them:
+/// 16 M values are 128 MB and about 2 s on this machine's class of CPU).
+pub const HOST_HISTOGRAM_VOXELS: usize = 16 << 20;
+
+/// What the scan is, and from what (`info`'s `identity`).
+#[derive(serde::Serialize)]
+struct Identity<'a> {
+    modality: ModalityReport,
+    /// None when only the histogram can tell and the volume is too large for the CPU here.
+    contrast: Option<ContrastReport>,
+    /// The foreground shown when no tissue class is found (`analysis::fallback`).
+    fallback: Option<crate::analysis::Fallback>,
+    facts: &'a ScanFacts,
+}
+
+/// The modality and contrast of `v` as the engine would decide them (module doc).
+fn identity<'a>(v: &'a Volume, global: &super::GlobalOptions) -> Identity<'a> {
+    let params = crate::analysis::AnalysisParams {
+        contrast: global.contrast,
+        modality: global.modality,
+        ..Default::default()
+    };
+    let values = crate::volume::stats::value_summary(v);
+    let id = crate::analysis::identify(&v.facts, Some(&values), params.modality, params.contrast);
+    let modality = id.modality.clone();
+    if v.samples.len() > HOST_HISTOGRAM_VOXELS {
+        let contrast = id.contrast.clone().map(|c| id.contrast_or_else(|| c));
+        return Identity {
+            modality,
+            contrast,
+            fallback: None,
+            facts: &v.facts,
+        };
+    }
+    let range = match global.normalize {
+        crate::analysis::NormalizeMode::Robust => {
+            crate::analysis::range::exact_robust_range(&v.samples, v.to_physical)
+                .map(|r| (r.lo, r.hi))
+        }
+        crate::analysis::NormalizeMode::MinMax => {
+            let s = intensity_stats(v);
+            s.imin.zip(s.imax)
+        }
+    };
+    let (lo, hi) = range.unwrap_or((0.0, 0.0));
+    let hist = crate::reference::histogram_of_samples(&v.samples, v.to_physical, lo, hi);
+    let report =
+        crate::analysis::analyze_identified(&hist, lo, hi, v.samples.len(), 0, &params, &id);
+    Identity {
+        modality,
+        contrast: Some(report.contrast),
+        fallback: report.fallback,
+        facts: &v.facts,
+    }
+}
+
+/// The text lines of [`Identity`].
+fn print_identity(id: &Identity) {
+    print_line(&format!("modality      {}", id.modality.summary()));
+    match &id.contrast {
+        Some(c) => print_line(&format!("contrast      {}", c.summary())),
+        None => print_line(
+            "contrast      decided by the histogram when the volume is opened (`morphray peaks` \
+             shows it)",
+        ),
+    }
+    if let Some(f) = &id.fallback {
+        print_line(&format!("fallback      {}", f.reason));
+    }
+    let f = id.facts;
+    let ms = |name: &str, v: Option<f64>| v.map(|v| format!("{name} {v} ms"));
+    let times: Vec<String> = [
+        ms("TR", f.repetition_time_ms),
+        ms("TE", f.echo_time_ms),
+        ms("TI", f.inversion_time_ms),
+    ]
+    .into_iter()
+    .flatten()
+    .collect();
+    if !times.is_empty() {
+        print_line(&format!("timing        {}", times.join(", ")));
+    }
+    if !f.sources.is_empty() {
+        print_line(&format!("metadata      {}", f.sources.join(", ")));
+    }
+}
 
 /// The JSON document of `info --json`.
 #[derive(serde::Serialize)]
@@ -39,6 +135,8 @@ struct InfoReport<'a> {
     #[serde(skip)]
     one_thread_inflate: bool,
     description: &'a str,
+    /// What the scan is (modality, contrast), and from what.
+    identity: Identity<'a>,
     warnings: &'a [String],
 }
 
@@ -48,13 +146,13 @@ struct InfoReport<'a> {
 const SLOW_SINGLE_MEMBER: usize = 64 << 20;
 
 /// Runs the command.
-pub fn run(args: &InfoArgs) -> Result<(), Error> {
+pub fn run(args: &InfoArgs, global: &super::GlobalOptions) -> Result<(), Error> {
     let first = args
         .file
         .first()
         .ok_or_else(|| Error::Usage("info needs a file".into()))?;
     if args.file.len() > 1 || crate::volume::source::reader_for(first).name() == "DICOM" {
-        return run_dicom(args);
+        return run_dicom(args, global);
     }
     let source = source::load(&args.file, args.frame, false)?;
     let Some(header) = &source.header else {
@@ -86,6 +184,7 @@ pub fn run(args: &InfoArgs) -> Result<(), Error> {
             && header.gzip_members == 1
             && v.samples.as_bytes().len() >= SLOW_SINGLE_MEMBER,
         description: &header.description,
+        identity: identity(v, global),
         warnings: &v.warnings,
     };
     if args.json {
@@ -149,6 +248,7 @@ pub fn run(args: &InfoArgs) -> Result<(), Error> {
     if !report.description.is_empty() {
         print_line(&format!("description   {}", report.description));
     }
+    print_identity(&report.identity);
     if report.warnings.is_empty() {
         print_line("warnings      none");
     } else {
@@ -171,6 +271,8 @@ struct DicomVolume<'a> {
     scl_inter: f64,
     imin: Option<f64>,
     imax: Option<f64>,
+    /// What the scan is (modality, contrast), and from what.
+    identity: Identity<'a>,
     warnings: &'a [String],
 }
 
@@ -195,7 +297,7 @@ struct DicomReport<'a> {
 use crate::volume::source::dicom;
 
 /// `info` on a DICOM folder, DICOMDIR or file.
-fn run_dicom(args: &InfoArgs) -> Result<(), Error> {
+fn run_dicom(args: &InfoArgs, global: &super::GlobalOptions) -> Result<(), Error> {
     let wrap = |e: dicom::DicomError| Error::from(InputError::Path(Box::new(e)));
     let choice = source::read_options(0, false).series;
     crate::volume::source::check_several(&args.file)?;
@@ -227,6 +329,7 @@ fn run_dicom(args: &InfoArgs) -> Result<(), Error> {
             scl_inter: v.to_physical.intercept,
             imin: stats.as_ref().and_then(|s| s.imin),
             imax: stats.as_ref().and_then(|s| s.imax),
+            identity: identity(v, global),
             warnings: &v.warnings,
         }),
         skipped: survey.skipped(),
@@ -296,6 +399,7 @@ fn print_dicom(r: &DicomReport) {
         if let (Some(lo), Some(hi)) = (v.imin, v.imax) {
             print_line(&format!("intensity     {lo} .. {hi} (physical)"));
         }
+        print_identity(&v.identity);
         for w in v.warnings {
             print_line(&format!("warning       {w}"));
         }

@@ -93,8 +93,10 @@ pub struct GlobalOptions {
     pub pipeline_cache: crate::gpu::PipelineCacheConfig,
     /// Which range maps to I_norm 0..1.
     pub normalize: crate::analysis::NormalizeMode,
-    /// Which contrast tissues are labelled for (auto-detected unless forced).
+    /// Which contrast tissues are labelled for (auto-detected unless given).
     pub contrast: crate::analysis::ContrastChoice,
+    /// Which modality the volume is (auto-detected unless given).
+    pub modality: crate::analysis::ModalityChoice,
 }
 
 impl GlobalOptions {
@@ -108,6 +110,7 @@ impl GlobalOptions {
         config.pipeline_cache = self.pipeline_cache.clone();
         config.normalize = self.normalize;
         config.analysis.contrast = self.contrast;
+        config.analysis.modality = self.modality;
         config
     }
 }
@@ -169,6 +172,7 @@ pub fn run(cli: &Cli) -> Result<(), CommandError> {
             (Command::Phantom(_), _) => crate::analysis::ContrastChoice::Auto,
             (_, choice) => choice.map_err(Error::Usage)?,
         },
+        modality: cli.modality.into(),
     };
     let global = &global;
     if let Some(path) = &cli.trace {
@@ -199,7 +203,7 @@ pub fn run(cli: &Cli) -> Result<(), CommandError> {
 /// Every command but `view`: they fail only with the library's errors.
 fn run_engine_command(command: &Command, global: &GlobalOptions) -> Result<(), Error> {
     match command {
-        Command::Info(args) => info::run(args),
+        Command::Info(args) => info::run(args, global),
         Command::Peaks(args) => peaks::run(args, global),
         Command::Render(args) => render::run(args, global),
         #[cfg(feature = "viewer")]

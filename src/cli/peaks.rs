@@ -1,9 +1,11 @@
 //! `morphray peaks`: the paper's Table-1 row from the GPU histogram.
 //!
-//! Decisions: the contrast the tissues were labelled for is printed with its basis (detected,
-//! assumed, forced) and reason, because every label depends on it; the paper's windows are
-//! marked as T1 windows, and on a volume labelled T2 the "inside?" column says it does not
-//! apply rather than reporting T2 peaks against T1 windows.
+//! Decisions: the modality and the contrast the tissues were labelled for are printed with
+//! their basis (metadata, values, histogram, assumed, given) and reason, because every label
+//! depends on them; the paper's windows are marked as T1 windows, and on a volume labelled for
+//! another order (T2, PD, FLAIR, CT) the "inside?" column says it does not apply rather than
+//! reporting its peaks against T1 windows. A foreground shown for want of tissue classes
+//! (`analysis::fallback`) is one more line (`fallback` in the JSON).
 
 use super::args::PeaksArgs;
 use super::output::{json, ms, print_line, print_warnings};
@@ -36,8 +38,12 @@ struct PeaksReport<'a> {
     paper_windows_contrast: Contrast,
     in_paper_window: BTreeMap<&'static str, Option<bool>>,
     windows: &'a TissueWindows,
-    /// Contrast the tissues were labelled for, how it was decided, and why.
+    /// What the volume is, what the decision rests on, and why.
+    modality: &'a crate::analysis::ModalityReport,
+    /// Contrast the tissues were labelled for, what the decision rests on, and why.
     contrast: &'a ContrastReport,
+    /// The foreground window shown when no tissue class was found (in `windows.wm`).
+    fallback: Option<&'a crate::analysis::Fallback>,
     device: String,
     timings_ms: BTreeMap<String, f64>,
     /// The loader's repairs and warnings about the input.
@@ -123,7 +129,9 @@ pub fn run(args: &PeaksArgs, global: &super::GlobalOptions) -> Result<(), Error>
             ("wm", r.in_paper_window.wm),
         ]),
         windows: &r.adaptive_windows,
+        modality: &r.modality,
         contrast: &r.contrast,
+        fallback: r.fallback.as_ref(),
         device: opened.engine.device().adapter().name.clone(),
         timings_ms: timings,
         warnings: &opened.source.volume.warnings,
@@ -153,8 +161,13 @@ pub fn run(args: &PeaksArgs, global: &super::GlobalOptions) -> Result<(), Error>
         _ => print_line("Imin -  Imax -  (no finite voxel)"),
     }
     print_line(&normalization_line(r));
+    print_line(&format!("modality {}", report.modality.summary()));
     print_line(&format!("contrast {}", report.contrast.summary()));
-    let t2 = report.contrast.contrast == Contrast::T2;
+    if let Some(fallback) = report.fallback {
+        print_line(&format!("fallback {}", fallback.reason));
+    }
+    let t2 = !report.contrast.contrast.is_t1_order();
+    let other = report.contrast.contrast.name();
     print_line("tissue  peak I_norm  peak raw      paper window (T1)  inside?");
     let paper = [("csf", "0.05-0.12"), ("gm", "0.12-0.18"), ("wm", "> 0.18")];
     for (name, window) in paper {
@@ -168,9 +181,9 @@ pub fn run(args: &PeaksArgs, global: &super::GlobalOptions) -> Result<(), Error>
                 p.raw,
                 window,
                 match inside {
-                    _ if t2 => "n/a: T1 window, T2 volume",
-                    Some(true) => "yes",
-                    _ => "NO: outside the paper's fixed window",
+                    _ if t2 => format!("n/a: T1 window, {other} volume"),
+                    Some(true) => "yes".to_string(),
+                    _ => "NO: outside the paper's fixed window".to_string(),
                 }
             )),
             None => print_line(&format!(
@@ -180,10 +193,10 @@ pub fn run(args: &PeaksArgs, global: &super::GlobalOptions) -> Result<(), Error>
         }
     }
     if t2 {
-        print_line(
-            "note: the paper's windows are T1 windows (CSF darkest, WM brightest); on this T2 \
-             volume they select the wrong tissues: render with the adaptive windows",
-        );
+        print_line(&format!(
+            "note: the paper's windows are T1 windows (CSF darkest, WM brightest); on this \
+             {other} volume they select the wrong tissues: render with the adaptive windows"
+        ));
     }
     let gpu: Vec<String> = opened
         .twin

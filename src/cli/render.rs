@@ -8,10 +8,15 @@
 //! - Notes about tissues without a peak are printed in DVR mode only: they are about the
 //!   classification, which MIP and MinIP do not use.
 //! - One note line about the contrast when it matters, in DVR only like the tissue notes:
-//!   tissues labelled T2 (detected or forced), or T1 only assumed although tissue peaks were
-//!   found (conflicting evidence). With `--windows paper` on a T2 volume the same line warns that
-//!   those are T1 windows. A T1 that was detected or forced, or a volume without tissue peaks,
-//!   gets no contrast note.
+//!   tissues labelled for another order than T1's (T2, PD, FLAIR, CT; from whatever basis), or
+//!   T1 only assumed although tissue peaks were found (conflicting evidence). With `--windows
+//!   paper` on such a volume the same line warns that those are T1 windows. A T1 from the
+//!   metadata, the histogram or `--contrast`, or a volume without tissue peaks, gets no
+//!   contrast note.
+//! - When no tissue class was found and the foreground is shown instead (`analysis::fallback`),
+//!   one note line says so (DVR only); the empty-image note stays for scenes that are empty.
+//! - The PNG's provenance records the modality and the contrast with their bases and reasons,
+//!   and the fallback when there was one.
 
 use super::args::{
     GradientArg, ModeArg, PrecisionArg, ProjectionArg, RenderArgs, SceneArgs, Switch, WindowsArg,
@@ -194,12 +199,15 @@ pub fn missing_tissues(scene: &Scene) -> Vec<&'static str> {
 pub fn contrast_note(report: &TissueReport, windows: WindowsArg) -> Option<String> {
     let c = &report.contrast;
     match (c.contrast, c.basis) {
-        (Contrast::T2, _) => {
+        (contrast, _) if !contrast.is_t1_order() => {
             let paper = if windows == WindowsArg::Paper {
-                "; --windows paper uses the paper's T1 windows, which select the wrong tissues \
-                 on a T2 volume: use --windows adaptive"
+                format!(
+                    "; --windows paper uses the paper's T1 windows, which select the wrong \
+                     tissues on a {} volume: use --windows adaptive",
+                    contrast.name()
+                )
             } else {
-                ""
+                String::new()
             };
             Some(format!("tissues labelled for {}{paper}", c.summary()))
         }
@@ -281,13 +289,21 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
     // The planned scene: the arguments' scene with any degradation the budget required.
     let base = opened.scene;
     let classified = base.effects.mode == RenderMode::Dvr;
-    for name in missing_tissues(&base).into_iter().filter(|_| classified) {
+    // With the foreground fallback, its one line says that no tissue class was found.
+    let fallback = opened.report.fallback.is_some();
+    for name in missing_tissues(&base)
+        .into_iter()
+        .filter(|_| classified && !fallback)
+    {
         eprintln!(
             "morphray: note: no {name} peak was found in this volume, so {name} cannot be shown"
         );
     }
     if let Some(note) = contrast_note(&opened.report, args.scene.windows).filter(|_| classified) {
         eprintln!("morphray: note: {note}");
+    }
+    if let Some(fallback) = opened.report.fallback.as_ref().filter(|_| classified) {
+        eprintln!("morphray: note: {}", fallback.reason);
     }
     let (width, height) = args.scene.size.unwrap_or((1024, 1024));
     let mut target = opened
@@ -341,7 +357,9 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
             "layout": opened.plan.layout,
             "normalized_format": format!("{:?}", opened.plan.normalized_format),
             "normalization": opened.report.table1(),
+            "modality": opened.report.modality,
             "contrast": opened.report.contrast,
+            "fallback": opened.report.fallback,
             "degradations": opened.plan.degradations,
             "overlay": args.overlay,
         });
@@ -391,18 +409,14 @@ mod tests {
 
     fn report(contrast: Contrast, basis: ContrastBasis, wm: bool) -> TissueReport {
         let mut r = analyze(&[0; crate::reference::BINS], 0.0, 1.0, 0, 0);
-        r.contrast = ContrastReport {
-            contrast,
-            basis,
-            reason: "because".into(),
-        };
+        r.contrast = ContrastReport::new(contrast, basis, "because".into());
         r.peaks.wm = wm.then(|| Peak::new(0.5, 0.0, 1.0));
         r
     }
 
     #[test]
     fn contrast_note_only_when_the_labels_are_t2_or_an_assumption() {
-        use ContrastBasis::{Assumed, Detected, Forced};
+        use crate::analysis::Basis::{Assumed, Given as Forced, Histogram as Detected, Metadata};
         let note = |c, b, wm, w| contrast_note(&report(c, b, wm), w);
         let adaptive = WindowsArg::Adaptive;
         assert_eq!(note(Contrast::T1, Detected, true, adaptive), None);
@@ -412,11 +426,17 @@ mod tests {
         let assumed = note(Contrast::T1, Assumed, true, adaptive).unwrap();
         assert_eq!(assumed, "tissues labelled for T1 (assumed): because");
         let t2 = note(Contrast::T2, Forced, true, adaptive).unwrap();
-        assert_eq!(t2, "tissues labelled for T2 (forced): because");
+        assert_eq!(t2, "tissues labelled for T2 (given): because");
         let paper = note(Contrast::T2, Detected, true, WindowsArg::Paper).unwrap();
         assert!(
-            paper.contains("T2 (detected)") && paper.contains("T1 windows"),
+            paper.contains("T2 (histogram)") && paper.contains("T1 windows"),
             "{paper}"
+        );
+        assert_eq!(note(Contrast::T1, Metadata, true, adaptive), None);
+        let flair = note(Contrast::Flair, Metadata, true, WindowsArg::Paper).unwrap();
+        assert!(
+            flair.contains("FLAIR (metadata)") && flair.contains("on a FLAIR volume"),
+            "{flair}"
         );
         assert_eq!(paper.lines().count(), 1);
     }

@@ -21,7 +21,7 @@ use super::bricked::HostPrepared;
 use super::denoise::check_denoise_whole;
 use super::prepare::{PrepareTimings, PreparedVolume};
 use super::twin::Twin;
-use crate::analysis::{TissueReport, analyze_with};
+use crate::analysis::{Identity, TissueReport, analyze_identified, identify};
 use crate::engine::plan::{DoesNotFit, Layout, Plan, STORAGE_BRICK, STORAGE_HALO};
 use crate::gpu::GpuError;
 use crate::scene::{Scene, SceneRecipe};
@@ -122,7 +122,7 @@ impl Engine {
                 let prepared = self.denoise_opened(prepared, recipe)?;
                 timings.denoise_ms = ms(before_denoise);
                 let before_peaks = Instant::now();
-                let report = self.analyze(&prepared);
+                let report = self.analyze_identified(&prepared, &self.identify(volume));
                 let scene = recipe.scene_for(&report);
                 timings.peaks_ms = ms(before_peaks);
                 (prepared, report, scene, plan)
@@ -139,7 +139,7 @@ impl Engine {
                 let before_host = Instant::now();
                 let host = self.prepare_on_host(volume, vk::Format::R16_UNORM)?;
                 let before_peaks = Instant::now();
-                let report = self.analyze_host(&host);
+                let report = self.analyze_host(&host, &self.identify(volume));
                 let scene = recipe.scene_for(&report);
                 timings.peaks_ms = ms(before_peaks);
                 let fraction = host
@@ -193,20 +193,44 @@ impl Engine {
     /// The histogram analysis of a prepared volume (peaks, Table-1 row, windows) with the
     /// engine's analysis parameters.
     pub fn analyze(&self, prepared: &PreparedVolume) -> TissueReport {
+        let params = &self.config.analysis;
+        let identity = Identity::from_choices(params.modality, params.contrast);
+        self.analyze_identified(prepared, &identity)
+    }
+
+    /// What `volume` is (modality, contrast) from its metadata and values, with the engine's
+    /// `--modality` / `--contrast` choices (`analysis::modality`).
+    pub fn identify(&self, volume: &Volume) -> Identity {
+        let params = &self.config.analysis;
+        let values = crate::volume::stats::value_summary(volume);
+        identify(
+            &volume.facts,
+            Some(&values),
+            params.modality,
+            params.contrast,
+        )
+    }
+
+    /// [`Engine::analyze`] for a volume whose modality and contrast `identity` holds.
+    pub fn analyze_identified(
+        &self,
+        prepared: &PreparedVolume,
+        identity: &Identity,
+    ) -> TissueReport {
         self.analyze_histogram(
             &prepared.histogram,
             &prepared.normalization,
-            prepared.range,
+            (prepared.range, identity),
             prepared.voxel_count,
             prepared.nonfinite_voxels(),
         )
     }
 
-    fn analyze_host(&self, host: &HostPrepared) -> TissueReport {
+    fn analyze_host(&self, host: &HostPrepared, identity: &Identity) -> TissueReport {
         self.analyze_histogram(
             &host.histogram,
             &host.normalization,
-            host.range,
+            (host.range, identity),
             host.voxel_count,
             host.voxel_count - host.finite_voxels,
         )
@@ -216,7 +240,7 @@ impl Engine {
         &self,
         histogram: &[u32; crate::passes::histogram::BINS],
         normalization: &crate::passes::normalize::Normalization,
-        range: crate::analysis::RangeChoice,
+        (range, identity): (crate::analysis::RangeChoice, &Identity),
         voxel_count: u64,
         nonfinite_voxels: u64,
     ) -> TissueReport {
@@ -224,13 +248,14 @@ impl Engine {
             (Some(lo), Some(hi)) => (lo, hi),
             _ => (0.0, 0.0),
         };
-        let mut report = analyze_with(
+        let mut report = analyze_identified(
             histogram,
             imin,
             imax,
             voxel_count as usize,
             nonfinite_voxels as usize,
             &self.config.analysis,
+            identity,
         );
         report.range = range;
         report

@@ -13,6 +13,7 @@
 //! - Non-finite voxels stay in the data (only f32 samples can hold them); every consumer counts and
 //!   excludes them.
 
+pub mod facts;
 pub mod host_memory;
 pub mod nifti;
 pub mod phantom;
@@ -116,6 +117,9 @@ pub struct Volume {
     pub to_physical: LinearMap,
     /// Repairs made and oddities found while loading, one readable sentence each.
     pub warnings: Vec<String>,
+    /// What the file says about the scan (modality, sequence, timing, names; `facts`), for
+    /// deciding its modality and contrast; empty for volumes without metadata.
+    pub facts: crate::analysis::ScanFacts,
 }
 
 /// Why raw voxels cannot form a volume.
@@ -214,6 +218,7 @@ impl Volume {
             samples,
             to_physical,
             warnings: Vec::new(),
+            facts: crate::analysis::ScanFacts::default(),
         })
     }
 

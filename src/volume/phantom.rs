@@ -548,6 +548,7 @@ pub fn generate_with_threads(spec: &PhantomSpec, threads: usize) -> Result<Phant
         samples,
         to_physical: LinearMap::IDENTITY,
         warnings: Vec::new(),
+        facts: Default::default(),
     };
     Ok(Phantom {
         volume,

@@ -104,6 +104,7 @@ fn build(name: &str, sdf: impl Fn(Point) -> f64, labelled: Vec<Labelled>) -> Sha
         samples: Samples::from_f32(&values),
         to_physical: LinearMap::IDENTITY,
         warnings: vec![],
+        facts: Default::default(),
     };
     ShapeVolume { volume, labelled }
 }

@@ -64,6 +64,10 @@ pub struct Spec {
     pub data: Option<std::sync::Arc<Vec<i32>>>,
     /// PhotometricInterpretation.
     pub photometric: &'static str,
+    /// Modality (MR, CT, ...).
+    pub modality: &'static str,
+    /// More text elements of every file (RepetitionTime, ProtocolName, ...).
+    pub extra: Vec<(dicom_core::Tag, VR, String)>,
 }
 
 fn no_rescale(_: usize) -> (f64, f64) {
@@ -96,6 +100,8 @@ impl Spec {
             offset: 0,
             data: None,
             photometric: "MONOCHROME2",
+            modality: "MR",
+            extra: Vec::new(),
         }
     }
 
@@ -250,7 +256,10 @@ fn common(spec: &Spec, obj: &mut InMemDicomObject, sop_instance: &str, class: &s
     text(obj, tags::PATIENT_NAME, VR::PN, "Test^Phantom");
     text(obj, tags::PATIENT_ID, VR::LO, "TEST");
     text(obj, tags::STUDY_DATE, VR::DA, "20260101");
-    text(obj, tags::MODALITY, VR::CS, "MR");
+    text(obj, tags::MODALITY, VR::CS, spec.modality);
+    for (tag, vr, value) in &spec.extra {
+        text(obj, *tag, *vr, value);
+    }
     text(obj, tags::SERIES_NUMBER, VR::IS, &spec.number.to_string());
     text(obj, tags::SERIES_DESCRIPTION, VR::LO, &spec.description);
     let types: Vec<&str> = spec.image_type.split('\\').collect();

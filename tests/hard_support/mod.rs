@@ -37,6 +37,7 @@ pub fn volume(dims: [usize; 3], spacing: [f64; 3], samples: Samples) -> Volume {
         samples,
         to_physical: LinearMap::IDENTITY,
         warnings: vec![],
+        facts: Default::default(),
     }
 }
 

@@ -341,6 +341,7 @@ fn build(
         samples: converted.samples,
         to_physical: converted.to_physical,
         warnings,
+        facts: crate::volume::facts::from_descrip(&summary.description),
     };
     Ok(LoadedNifti {
         volume,

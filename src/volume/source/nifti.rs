@@ -45,9 +45,11 @@ impl VolumeReader for NiftiReader {
             },
         })?;
         let gzip_members = loaded.header.gzip_members;
+        let mut volume = loaded.volume;
+        crate::volume::facts::add_path_facts(path, &mut volume.facts, &mut volume.warnings);
         Ok(SourceVolume {
             label,
-            volume: loaded.volume,
+            volume,
             header: Some(loaded.header),
             sha256,
             timings: LoadTimings {

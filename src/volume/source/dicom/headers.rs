@@ -89,6 +89,9 @@ pub struct FileHeader {
     pub slice_thickness: Option<f64>,
     /// One entry per frame.
     pub frames: Vec<FrameHeader>,
+    /// What the file says about the scan: Modality, sequence, TR/TE/TI, contrast agent,
+    /// SeriesDescription, ProtocolName (`analysis::modality` decides from them).
+    pub facts: crate::analysis::ScanFacts,
 }
 
 /// A file that looked like DICOM but could not be used, and why.
@@ -360,7 +363,47 @@ fn describe(
         transfer_syntax,
         slice_thickness,
         frames,
+        facts: scan_facts(obj),
     }))
+}
+
+/// The tags `analysis::modality` reads: top level first, then the shared functional groups of
+/// an enhanced MR object (its TR, effective TE and TI live there).
+fn scan_facts(obj: &InMemDicomObject) -> crate::analysis::ScanFacts {
+    let some = |s: String| Some(s).filter(|s| !s.is_empty());
+    let shared = obj
+        .get(tags::SHARED_FUNCTIONAL_GROUPS_SEQUENCE)
+        .and_then(|e| e.items())
+        .and_then(|items| items.first());
+    let grouped = |seq, tag| {
+        let item = shared?.get(seq)?.items()?.first()?;
+        floats(item, tag)?.first().copied()
+    };
+    let time = |v: Option<f64>| v.filter(|t| t.is_finite() && *t > 0.0);
+    crate::analysis::ScanFacts {
+        modality: some(text(obj, tags::MODALITY)),
+        scanning_sequence: some(strings(obj, tags::SCANNING_SEQUENCE).join("\\")),
+        sequence_variant: some(strings(obj, tags::SEQUENCE_VARIANT).join("\\")),
+        repetition_time_ms: time(float(obj, tags::REPETITION_TIME).or_else(|| {
+            grouped(
+                tags::MR_TIMING_AND_RELATED_PARAMETERS_SEQUENCE,
+                tags::REPETITION_TIME,
+            )
+        })),
+        echo_time_ms: time(
+            float(obj, tags::ECHO_TIME)
+                .or_else(|| grouped(tags::MR_ECHO_SEQUENCE, tags::EFFECTIVE_ECHO_TIME)),
+        ),
+        inversion_time_ms: time(
+            float(obj, tags::INVERSION_TIME)
+                .or_else(|| grouped(tags::MR_MODIFIER_SEQUENCE, tags::INVERSION_TIMES)),
+        ),
+        contrast_agent: some(text(obj, tags::CONTRAST_BOLUS_AGENT)),
+        series_description: some(text(obj, tags::SERIES_DESCRIPTION)),
+        protocol_name: some(text(obj, tags::PROTOCOL_NAME)),
+        sources: vec!["DICOM header".into()],
+        ..Default::default()
+    }
 }
 
 /// One [`FrameHeader`] per frame: functional groups (per-frame, then shared), then the top

@@ -509,6 +509,13 @@ pub fn load_survey(
     warnings.extend(dropped);
     warnings.extend(layout.warnings.iter().cloned());
     warnings.extend(decoded.warnings);
+    // The first slice's tags speak for the series (they are the same in every slice of it).
+    let facts = layout
+        .order
+        .first()
+        .and_then(|s| survey.scan.images.get(s.file))
+        .map(|h| h.facts.clone())
+        .unwrap_or_default();
     let volume = Volume {
         name: label,
         dims: layout.dims,
@@ -520,6 +527,7 @@ pub fn load_survey(
         samples: decoded.samples,
         to_physical: decoded.to_physical,
         warnings,
+        facts,
     };
     Ok((volume, survey))
 }
