@@ -140,8 +140,29 @@ fn wm_peak(hist: &[u32; BINS], k: usize) -> Option<f64> {
             best = Some(b);
         }
     }
-    best.map(|b| (b as f64 + 0.5) / BINS as f64)
+    let best = best?;
+    // The major modes above the split: local maxima of at least MAJOR_MODE_FRACTION of the
+    // highest. On a T1 head whose scalp fat forms its own major mode (brighter than WM), three
+    // stand above the split (GM with muscle, WM, fat): WM is the second brightest. Otherwise
+    // (a stripped brain, or a head whose fat is spread thin) WM is the brightest of them.
+    let major: Vec<usize> = (k + 1..BINS)
+        .filter(|&b| {
+            let left = if b > 0 { s[b - 1] } else { f64::MIN };
+            let right = if b + 1 < BINS { s[b + 1] } else { f64::MIN };
+            s[b] > left && s[b] >= right && s[b] >= MAJOR_MODE_FRACTION * s[best]
+        })
+        .collect();
+    let wm = match major.len() {
+        0 => best,
+        1 | 2 => major[major.len() - 1],
+        n => major[n - 2],
+    };
+    Some((wm as f64 + 0.5) / BINS as f64)
 }
+
+/// A local maximum of the smoothed histogram this fraction of the highest counts as a major
+/// mode for finding WM (`wm_peak`).
+pub const MAJOR_MODE_FRACTION: f64 = 0.2;
 
 /// The analysis's binning repairs (module doc): the top bin capped at its neighbour, and for a
 /// dense histogram the single-bin quantization outliers replaced by their neighbours' mean.

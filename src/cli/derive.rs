@@ -157,10 +157,12 @@ pub fn run(args: &DeriveArgs, global: &super::GlobalOptions) -> Result<(), Error
     let source = &opened.source.volume;
     if let Some(report) = &maps.brain_report {
         print_line(&format!(
-            "brain: {} ({:.0} cm^3, {:.0} % of the tissue band outside it)",
+            "brain: {} ({:.0} cm^3, {:.0} % of the tissue band I_norm {:.3}..{:.3} outside it)",
             report.decision.describe(),
             report.brain_cm3,
-            100.0 * report.outside_fraction
+            100.0 * report.outside_fraction,
+            report.params.lo,
+            report.params.hi.min(1.0),
         ));
     }
     for (name, path) in &paths {

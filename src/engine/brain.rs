@@ -96,9 +96,17 @@ impl Engine {
                 gpu_timings: Vec::new(),
             });
         }
-        let contrast = self.analyze(prepared).contrast.contrast;
-        let Some((lo, hi)) = crate::analysis::brain_band::band_for(&prepared.histogram, contrast)
-        else {
+        let identity = &prepared.identity;
+        // Brain extraction is for MR heads: not CT, PET, angiography or the EPI series.
+        let not_a_head_scan =
+            identity.modality.modality != crate::analysis::Modality::Mr || identity.kind.is_some();
+        let contrast = self
+            .analyze_identified(prepared, identity)
+            .contrast
+            .contrast;
+        let band = crate::analysis::brain_band::band_for(&prepared.histogram, contrast)
+            .filter(|_| !not_a_head_scan);
+        let Some((lo, hi)) = band else {
             let params = BrainParams::default();
             return Ok(BrainMask {
                 image: None,

@@ -413,6 +413,10 @@ impl Engine {
             finite_voxels: host.finite_voxels,
             linear_part: host.linear_part,
             affine: host.affine,
+            identity: crate::analysis::Identity::from_choices(
+                self.config.analysis.modality,
+                self.config.analysis.contrast,
+            ),
             gpu_timings,
             timings: PrepareTimings {
                 pipelines_ms: 0.0,

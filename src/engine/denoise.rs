@@ -92,6 +92,7 @@ impl Engine {
             finite_voxels: prepared.finite_voxels,
             linear_part: prepared.linear_part,
             affine: prepared.affine,
+            identity: prepared.identity.clone(),
             gpu_timings,
             timings: prepared.timings.clone(),
             brick_ranges: std::sync::OnceLock::new(),

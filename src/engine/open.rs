@@ -122,7 +122,10 @@ impl Engine {
                 let prepared = self.denoise_opened(prepared, recipe)?;
                 timings.denoise_ms = ms(before_denoise);
                 let before_peaks = Instant::now();
-                let report = self.analyze_identified(&prepared, &self.identify(volume));
+                let identity = self.identify(volume);
+                let report = self.analyze_identified(&prepared, &identity);
+                let mut prepared = prepared;
+                prepared.identity = identity;
                 let scene = recipe.scene_for(&report);
                 timings.peaks_ms = ms(before_peaks);
                 (prepared, report, scene, plan)

@@ -84,6 +84,9 @@ pub struct PreparedVolume {
     pub linear_part: [[f64; 3]; 3],
     /// Full index-to-world affine (row-major), for rendering.
     pub affine: [[f64; 4]; 4],
+    /// What the volume is (modality, contrast): the user's choices until the open path sets
+    /// what the metadata says (`Engine::identify`); brain extraction reads it.
+    pub identity: crate::analysis::Identity,
     /// GPU time per pass.
     pub gpu_timings: Vec<PassTiming>,
     /// Host-side times.
@@ -290,6 +293,10 @@ impl Engine {
             finite_voxels,
             linear_part: volume.orientation.linear_part(),
             affine: volume.orientation.affine,
+            identity: crate::analysis::Identity::from_choices(
+                self.config.analysis.modality,
+                self.config.analysis.contrast,
+            ),
             gpu_timings,
             brick_ranges: std::sync::OnceLock::new(),
             timings: PrepareTimings {

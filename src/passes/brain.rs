@@ -349,7 +349,7 @@ impl BrainPass {
     ) -> GpuResult<()> {
         let bounds = distance_bounds(grid.spacing, radius_mm);
         let groups = self.distance.workgroups_for(grid.extent);
-        for axis in 0..3 {
+        for (axis, &bound) in bounds.iter().enumerate() {
             let (src, dst) = if axis == 1 {
                 (&mut *b, &mut *a)
             } else {
@@ -371,7 +371,7 @@ impl BrainPass {
             let p = DistanceParams {
                 dims: grid.dims(),
                 axis: axis as i32,
-                bound: bounds[axis] as i32,
+                bound: bound as i32,
                 spacing: grid.spacing[axis] as f32,
                 unused: 0.0,
             };
@@ -451,6 +451,11 @@ impl BrainPass {
         )?;
         let p = grid.step_params(mode as i32, threshold_mm2);
         let groups = self.pool.workgroups_for(grid.coarse);
+        // Orders the earlier voxel steps' reads of the cells (their binding) before these writes.
+        rec.barriers(
+            &[(cells, Access::ComputeReadBuffer, Access::ComputeWriteBuffer)],
+            &[],
+        );
         rec.dispatch(&self.pool, &[set], bytemuck::bytes_of(&p), groups)?;
         // Orders the shader's writes before the host's reads after the fence.
         rec.barriers(
