@@ -139,7 +139,7 @@ impl Engine {
             .map_err(|e| GpuError::InvalidRequest(e.to_string()))?;
         let started = Instant::now();
         let device = self.device.clone();
-        let pass = BrainPass::new(&device, self.pipeline_cache.raw())?;
+        let pass = self.brain_pass()?;
         let mut work = self.brain_work(prepared, params)?;
         let mut timings = Vec::new();
         let mut host_ms = 0.0;

@@ -209,6 +209,14 @@ impl Engine {
                     "occupancy".into(),
                 )?]
             }
+            PipelineKey::Brain => {
+                let pass = self.brain_pass()?;
+                let mut reports = Vec::new();
+                for (name, pipeline) in pass.pipelines() {
+                    reports.push(report(pipeline, name.into())?);
+                }
+                reports
+            }
             PipelineKey::Raymarch(variant) => {
                 let pass = self.raymarch_pass(variant)?;
                 vec![report(pass.pipeline(), variant.describe())?]

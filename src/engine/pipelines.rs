@@ -26,6 +26,7 @@
 
 use super::{Engine, KindPasses};
 use crate::gpu::{Device, GpuError, GpuResult, PipelineCache};
+use crate::passes::brain::BrainPass;
 use crate::passes::derivatives::{DerivativeOutputs, DerivativePass};
 use crate::passes::fine_histogram::FineHistogramPass;
 use crate::passes::histogram::HistogramPass;
@@ -48,6 +49,8 @@ pub(crate) enum PipelineKey {
     Derivative(DerivativeOutputs),
     /// The brick-range (occupancy) pass.
     Occupancy,
+    /// Brain extraction's five pipelines.
+    Brain,
     /// One raymarch variant.
     Raymarch(RaymarchVariant),
 }
@@ -59,6 +62,7 @@ impl PipelineKey {
             PipelineKey::Kind(kind) => format!("analysis passes ({})", kind.name()),
             PipelineKey::Derivative(o) => super::kernels::derivative_variant_name(o),
             PipelineKey::Occupancy => "occupancy".into(),
+            PipelineKey::Brain => "brain extraction".into(),
             PipelineKey::Raymarch(v) => v.describe(),
         }
     }
@@ -69,6 +73,7 @@ enum Built {
     Kind(KindPasses),
     Derivative(DerivativePass),
     Occupancy(OccupancyPass),
+    Brain(BrainPass),
     Raymarch(RaymarchPass),
 }
 
@@ -144,6 +149,7 @@ fn build(
             Built::Derivative(DerivativePass::new(device, outputs, raw)?)
         }
         PipelineKey::Occupancy => Built::Occupancy(OccupancyPass::new(device, raw)?),
+        PipelineKey::Brain => Built::Brain(BrainPass::new(device, raw)?),
         PipelineKey::Raymarch(variant) => Built::Raymarch(RaymarchPass::new(device, variant, raw)?),
     })
 }
@@ -165,6 +171,11 @@ pub(super) fn first_frame_keys(
                 .into_iter()
                 .map(PipelineKey::Derivative),
         );
+        // Brain extraction runs with the derived volumes of a whole volume (on the H200 its
+        // five pipelines cost about 100 ms of a cold first pixel when created there).
+        if outputs.brain != crate::passes::brain::BrainSwitch::Off && !bricked {
+            keys.push(PipelineKey::Brain);
+        }
     }
     let raymarch = RaymarchVariant::of_layout(effects, false, bricked);
     if raymarch.skip_empty {
@@ -180,6 +191,7 @@ impl Engine {
             PipelineKey::Kind(kind) => self.kind_passes.contains_key(&kind),
             PipelineKey::Derivative(o) => self.derivative_passes.contains_key(&o),
             PipelineKey::Occupancy => self.occupancy_pass.is_some(),
+            PipelineKey::Brain => self.brain_pass.is_some(),
             PipelineKey::Raymarch(v) => self.raymarch_passes.contains_key(&v),
         }
     }
@@ -297,6 +309,7 @@ impl Engine {
                 }
             }
             Built::Occupancy(p) => self.occupancy_pass = Some(p),
+            Built::Brain(p) => self.brain_pass = Some(std::sync::Arc::new(p)),
             Built::Raymarch(p) => {
                 if let PipelineKey::Raymarch(v) = key {
                     self.raymarch_passes.insert(v, p);
@@ -328,6 +341,13 @@ impl Engine {
         self.occupancy_pass.as_ref().ok_or_else(lost)
     }
 
+    /// Brain extraction's pipelines (shared, so a recording can use them while the engine is
+    /// borrowed for its images).
+    pub(crate) fn brain_pass(&mut self) -> GpuResult<std::sync::Arc<BrainPass>> {
+        self.ensure_pipeline(PipelineKey::Brain)?;
+        self.brain_pass.clone().ok_or_else(lost)
+    }
+
     /// The raymarch pass of `variant`.
     pub(crate) fn raymarch_pass(&mut self, variant: RaymarchVariant) -> GpuResult<&RaymarchPass> {
         self.ensure_pipeline(PipelineKey::Raymarch(variant))?;
@@ -354,6 +374,7 @@ impl Engine {
 fn count(key: PipelineKey) -> u32 {
     match key {
         PipelineKey::Kind(_) => 3,
+        PipelineKey::Brain => 5,
         _ => 1,
     }
 }

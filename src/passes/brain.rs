@@ -270,6 +270,17 @@ impl BrainPass {
         })
     }
 
+    /// The pipelines with the names `morphray kernels` reports.
+    pub fn pipelines(&self) -> [(&'static str, &Arc<ComputePipeline>); 5] {
+        [
+            ("brain_downsample", &self.downsample),
+            ("brain gaussian_axis", &self.gaussian),
+            ("brain_distance_axis", &self.distance),
+            ("brain_step", &self.step),
+            ("brain_pool", &self.pool),
+        ]
+    }
+
     /// The working grid's block means of `normalized` (in `Access::ComputeSampled`) into `out`.
     pub fn record_downsample(
         &self,

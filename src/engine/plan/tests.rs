@@ -21,16 +21,24 @@ fn brain_extraction_is_planned_and_dropped_before_bricking() {
         brain: crate::passes::brain::BrainSwitch::Auto,
         ..f16_effects()
     };
+    // The mask is held (R8, a byte a working voxel); the scratch lives for the extraction
+    // only. 1 mm voxels: a working grid of 2x2x2 blocks.
     let p = plan(brain, &input(), &TexelSizes).unwrap();
     assert!(passes(&p).contains(&"brain extraction"), "{:?}", passes(&p));
-    // The mask is held (R8, a byte a voxel); the scratch lives for the extraction only.
-    // On the working grid of 2 mm blocks (1 mm voxels: 2x2x2).
     assert_eq!(held(&p, "brain mask"), ("R8_UNORM".into(), N / 8));
-    let without = plan(f16_effects(), &input(), &TexelSizes).unwrap();
+    // 1.75 mm voxels are the working grid itself: the extraction's 13 bytes a voxel outweigh
+    // what the 8-bit and R8 steps save (2 bytes), so the ladder reaches its own step.
+    let coarse = PlanInput {
+        spacing_mm: [1.75; 3],
+        ..input()
+    };
+    let p = plan(brain, &coarse, &TexelSizes).unwrap();
+    assert_eq!(held(&p, "brain mask"), ("R8_UNORM".into(), N));
+    let without = plan(f16_effects(), &coarse, &TexelSizes).unwrap();
     assert!(p.peak_bytes > without.peak_bytes);
     // A budget that holds everything but the extraction drops it (the 8-bit and R8 steps before
     // it save too little), with its degradation, and does not brick.
-    let mut tight = input();
+    let mut tight = coarse.clone();
     tight.budget = without.peak_bytes;
     let degraded = plan(brain, &tight, &TexelSizes).unwrap();
     let settings: Vec<_> = degraded
