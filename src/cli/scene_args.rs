@@ -107,7 +107,9 @@ pub struct SceneArgs {
     /// What each ray computes.
     #[arg(long, value_enum, default_value_t = ModeArg::Dvr)]
     pub mode: ModeArg,
-    /// Visible tissues, comma-separated: csf, gm, wm, pathology, vessels, head
+    /// Visible tissues: csf, gm, wm, pathology, vessels, head
+    ///
+    /// Comma-separated.
     ///
     /// `head` draws the skin, fat and muscle around an extracted brain (see --brain) as a
     /// translucent context layer (`--opacity head=0.4`, `--color head=#RRGGBB` style it).
@@ -124,7 +126,9 @@ pub struct SceneArgs {
     /// off classifies every voxel (the face of a head scan). `--tissues head,...` shows the head.
     #[arg(long, default_value = "auto", value_parser = parse_brain)]
     pub brain: crate::passes::brain::BrainSwitch,
-    /// Tissue windows: adaptive (from this volume's histogram peaks) or the paper's constants.
+    /// Tissue windows: adaptive or paper
+    ///
+    /// adaptive: around this volume's histogram peaks; paper: the paper's constants.
     #[arg(long, value_enum, default_value_t = WindowsArg::Adaptive)]
     pub windows: WindowsArg,
     /// Sampling distance along each ray, in voxels of the finest axis.
@@ -166,7 +170,9 @@ pub struct SceneArgs {
     /// `vessels=LO:HI` sets the vessel channel's window, on the vesselness (0..1).
     #[arg(long = "window", value_name = "TISSUE=LO:HI", value_parser = parse_window)]
     pub window: Vec<(Channel, f64, f64)>,
-    /// A tissue's opacity per mm of ray, 0..1: TISSUE=X, repeatable (`--opacity csf=0.1`).
+    /// A tissue's opacity per mm of ray, 0..1: TISSUE=X, repeatable.
+    ///
+    /// `--opacity csf=0.1`; `head` and `vessels` take one too.
     #[arg(long = "opacity", visible_alias = "tissue-opacity", value_name = "TISSUE=X", value_parser = parse_opacity)]
     pub opacity: Vec<(Channel, f32)>,
     /// A tissue's colour: TISSUE=#RRGGBB or TISSUE=R,G,B (0..255), repeatable
