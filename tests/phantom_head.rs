@@ -489,17 +489,17 @@ fn cli_writes_a_head_in_the_contrast_asked() {
 
 #[test]
 fn analysis_commands_refuse_the_phantom_only_contrasts() {
-    // pd, flair and ct name phantom contrasts; tissue analysis knows only auto, t1 and t2, so
-    // it says so in one line before any file or GPU work.
+    // ct names a phantom contrast; a CT file's is its modality (`--modality ct`), so tissue
+    // analysis says so in one line before any file or GPU work.
     let o = std::process::Command::new(env!("CARGO_BIN_EXE_morphray"))
-        .args(["peaks", "no-such-file.nii", "--contrast", "flair"])
+        .args(["peaks", "no-such-file.nii", "--contrast", "ct"])
         .output()
         .unwrap();
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{err}");
     assert_eq!(err.trim_end().lines().count(), 1, "{err}");
     assert!(
-        err.contains("--contrast flair is only for `morphray phantom`"),
+        err.contains("--contrast ct is only for `morphray phantom`"),
         "{err}"
     );
 }

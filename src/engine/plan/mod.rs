@@ -369,16 +369,6 @@ pub fn plan(
             accuracy_cost: measured_cost("vessels off"),
         });
     }
-    if choices.bricked && choices.effects.brain != crate::passes::brain::BrainSwitch::Off {
-        // Brain extraction needs the whole volume (`Engine::brain_mask`).
-        choices.effects.brain = crate::passes::brain::BrainSwitch::Off;
-        degradations.push(Degradation {
-            what: "brain extraction off: a bricked volume has no brain mask".to_string(),
-            saved_bytes: 0,
-            accuracy_setting: "brain off",
-            accuracy_cost: measured_cost("brain off"),
-        });
-    }
     if choices.bricked {
         degradations.push(Degradation {
             what: if !too_large && !samples_too_large {
@@ -391,6 +381,16 @@ pub fn plan(
             saved_bytes: 0,
             accuracy_setting: "default (bricking is lossless for the visible tissues)",
             accuracy_cost: measured_cost("bricked"),
+        });
+    }
+    if choices.bricked && choices.effects.brain != crate::passes::brain::BrainSwitch::Off {
+        // Brain extraction needs the whole volume (`Engine::brain_mask`).
+        choices.effects.brain = crate::passes::brain::BrainSwitch::Off;
+        degradations.push(Degradation {
+            what: "brain extraction off: a bricked volume has no brain mask".to_string(),
+            saved_bytes: 0,
+            accuracy_setting: "brain off",
+            accuracy_cost: measured_cost("brain off"),
         });
     }
     let fits = |p: &Plan| {
