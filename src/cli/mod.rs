@@ -64,7 +64,11 @@ pub fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("morphray: {}", one_line(&e.to_string()));
-            ExitCode::FAILURE
+            match &e {
+                CommandError::Library(e) => ExitCode::from(e.exit_code()),
+                #[cfg(feature = "viewer")]
+                CommandError::Viewer(_) => ExitCode::FAILURE,
+            }
         }
     }
 }

@@ -46,6 +46,8 @@ class Case:
     # repair, a frame choice, the real cause) and must not say (a wrong cause, usize::MAX).
     says: Optional[str] = None
     never_says: Optional[str] = None
+    # The exact exit status due (None: any that `expect` allows), e.g. batch's 3 for failed scans.
+    code: Optional[int] = None
 
 
 class Workspace:
