@@ -42,6 +42,8 @@ use std::process::ExitCode;
 pub fn main() -> ExitCode {
     // First: the time-to-first-pixel trials measure from here (and from before the exec).
     ttfp::mark_process_start();
+    // Before any thread starts, so every thread inherits the blocked signals (files::unfinished).
+    crate::files::unfinished::install_interrupt_cleanup();
     std::panic::set_hook(Box::new(|info| {
         // A DICOM file that makes the parser panic is reported as a skipped file.
         if crate::volume::source::dicom::panic_is_contained() {

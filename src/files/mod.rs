@@ -15,4 +15,5 @@ pub mod png;
 pub mod read;
 pub mod stdout;
 pub mod trace;
+pub mod unfinished;
 pub mod write;

@@ -48,6 +48,8 @@ class Case:
     never_says: Optional[str] = None
     # The exact exit status due (None: any that `expect` allows), e.g. batch's 3 for failed scans.
     code: Optional[int] = None
+    # Paths that must not exist after the run (stale temporary files the run must remove).
+    gone: list = field(default_factory=list)
 
 
 class Workspace:

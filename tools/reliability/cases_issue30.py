@@ -92,4 +92,28 @@ def batch(ws):
     ]
 
 
-BUILDERS = (batch,)
+# A PID above any kernel's pid_max (at most 2^22): never a running process.
+DEAD_PID = 4194400
+
+
+def interrupted_writes(ws):
+    cls = "interrupted writes"
+    folder = ws.path("stale")
+    stale = os.path.join(folder, f".old.nii.{DEAD_PID}.3.tmp")
+    kept = os.path.join(folder, ".notes.tmp")
+
+    def leave_stale():
+        os.makedirs(folder, exist_ok=True)
+        for path in (stale, kept):
+            with open(path, "wb") as f:
+                f.write(b"half of a volume" * 1000)
+
+    out = os.path.join(folder, "phantom.nii")
+    return [
+        Case(cls, "a killed writer's temporary file, next write", ["phantom", "--dims",
+             "16x16x12", "-o", out], expect="ok", setup=leave_stale, gone=[stale],
+             protect=[kept], quick=True),
+    ]
+
+
+BUILDERS = (batch, interrupted_writes)

@@ -247,6 +247,9 @@ def _unexpected(case, result):
         return "failed where success was due"
     if case.expect == "nonzero" and result["exit"] == 0:
         return "exit 0 where a non-zero exit was due"
+    left = [p for p in case.gone if os.path.lexists(p)]
+    if left:
+        return f"left {', '.join(os.path.basename(p) for p in left)} in place"
     if case.code is not None and result["exit"] != case.code:
         return f"exit {result['exit']} where {case.code} was due"
     if outcome == "ok-blank-noted" and case.lit:
