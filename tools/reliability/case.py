@@ -50,6 +50,8 @@ class Case:
     code: Optional[int] = None
     # Paths that must not exist after the run (stale temporary files the run must remove).
     gone: list = field(default_factory=list)
+    # Environment variables set for this run (after the probe's own XDG_CACHE_HOME and HOME).
+    env: dict = field(default_factory=dict)
 
 
 class Workspace:

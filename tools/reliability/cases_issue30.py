@@ -116,4 +116,23 @@ def interrupted_writes(ws):
     ]
 
 
-BUILDERS = (batch, interrupted_writes)
+def cache_folders(ws):
+    """XDG_CACHE_HOME that cannot take files: Mesa's shader cache and the pipeline cache must be
+    turned off with one line each (a full file system killed every GPU command with SIGBUS
+    through Mesa's cache; it needs a mount, so it is checked by hand: RELIABILITY.md)."""
+    cls = "cache folders"
+    file = ws.write("cache-home-file", b"not a folder")
+    out = []
+    for name, home, why in [("a file", file, "is a file, not a folder"),
+                            ("/proc/self/none", "/proc/self/none", "no file can be created")]:
+        argv, png = ws.render(None)
+        # Without the probe's --pipeline-cache: the default folder under XDG_CACHE_HOME.
+        argv = [a for a in argv if a not in ("--pipeline-cache", ws.cache)]
+        out.append(Case(cls, f"XDG_CACHE_HOME is {name}", argv, expect="ok", gpu=True, png=png,
+                        lit=True, env={"XDG_CACHE_HOME": home}, quick=name == "a file",
+                        says=f"shader cache is off.*{why}.*\\n.*pipeline cache is kept in memory",
+                        never_says=r"os error 17|cannot write the pipeline cache"))
+    return out
+
+
+BUILDERS = (batch, interrupted_writes, cache_folders)

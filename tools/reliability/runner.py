@@ -92,6 +92,7 @@ def execute(binary, case, work, timeout, address_space):
     env = dict(os.environ, XDG_CACHE_HOME=os.path.join(work, "xdg-cache"), HOME=work)
     env.pop("MORPHRAY_CACHE_DIR", None)
     env.pop("MORPHRAY_VALIDATION", None)
+    env.update(case.env)
     start = time.monotonic()
     with open(out_path, "wb") as out, open(err_path, "wb") as err:
         proc = subprocess.Popen(
