@@ -16,7 +16,7 @@ Python 3.11 standard library only.
 
 Decisions (the rest are in the module docs of runner.py, case.py and the two case files):
 - Cases run sequentially: the probe measures the program, and lavapipe already uses every core.
-- `--quick` keeps 38 cases, the ones that show a crash, hang, kill, memory blow-up or lost file,
+- `--quick` keeps 41 cases (38 before issue 30's batch, temporary-file and cache cases), the ones that show a crash, hang, kill, memory blow-up or lost file,
   so a cargo test can run it in under two minutes (79 s on main at 5573ea9, which hangs on three
   of them; 2-core Debian 12, lavapipe); the full run took 456 s there (RELIABILITY.md).
 - Paths in the report are written relative to the temporary directory (`$T`) so two runs of the
