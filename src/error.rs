@@ -46,6 +46,23 @@ pub enum Error {
     /// Arguments that parse but do not make sense together.
     #[error("{0}")]
     Usage(String),
+    /// A batch that ran but where some scans failed: the others are written, and the process
+    /// exits with [`Error::SCANS_FAILED_EXIT`] so a workflow notices.
+    #[error("{0}")]
+    ScansFailed(String),
+}
+
+impl Error {
+    /// The exit status of [`Error::ScansFailed`] (1 is "could not run", 2 a usage error).
+    pub const SCANS_FAILED_EXIT: u8 = 3;
+
+    /// The process exit status for this error.
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            Error::ScansFailed(_) => Error::SCANS_FAILED_EXIT,
+            _ => 1,
+        }
+    }
 }
 
 impl From<crate::engine::SessionError> for Error {

@@ -5,9 +5,11 @@
 //! Decisions:
 //! - Progress is an indicatif bar with the ETA when stderr is a terminal, and one plain line per
 //!   scan otherwise (cluster logs, CI), so a log file has no control characters.
-//! - A failed scan is a `morphray: warning:` line and a record in OUT_DIR; the command still
-//!   exits 0 (the other scans are done, and the group level reports the failure). It exits 1
-//!   only when it cannot run at all (no dataset, no device, an unwritable OUT_DIR).
+//! - A failed scan is a `morphray: warning:` line and a record in OUT_DIR; the other scans go
+//!   on. The command then exits 3 (a workflow must notice a hole in the cohort), or 0 with
+//!   `--allow-failures` for workflows that read the failure records themselves. It exits 1 when
+//!   it cannot run at all (no dataset, no device, an unwritable OUT_DIR, an OUT_DIR that is the
+//!   input or another dataset).
 //! - The shard comes from `--shard I/N`, else from a Slurm array job's variables, else all.
 
 use super::output::print_line;
@@ -30,6 +32,12 @@ pub enum Level {
 
 /// Options of `batch`.
 #[derive(Debug, Args)]
+#[command(
+    after_help = "Exit status: 0 when every scan was processed (or finished earlier); 1 when \
+the batch could not run (no dataset, no device, an OUT_DIR that cannot be written, is the input \
+or holds another dataset's dataset_description.json); 3 when it ran but some scans failed (their \
+desc-error records say why; --allow-failures makes this 0); 2 for a usage error."
+)]
 pub struct BatchArgs {
     /// The BIDS dataset (the folder with the sub-<label> folders).
     pub bids_dir: PathBuf,
@@ -51,6 +59,10 @@ pub struct BatchArgs {
     /// Peaks only: no thumbnails.
     #[arg(long)]
     pub no_thumbnails: bool,
+    /// Exit 0 even when some scans failed (default: exit 3; the failures are recorded in
+    /// OUT_DIR either way).
+    #[arg(long)]
+    pub allow_failures: bool,
 }
 
 fn batch_error(e: BatchError) -> Error {
@@ -58,6 +70,7 @@ fn batch_error(e: BatchError) -> Error {
         BatchError::Bids(e) => Error::Usage(e.to_string()),
         BatchError::Output(e) => Error::Output(e),
         BatchError::Gpu(e) => Error::Gpu(e),
+        BatchError::Refused(e) => Error::Usage(e),
     }
 }
 
@@ -168,5 +181,15 @@ pub fn run(args: &BatchArgs, global: &super::GlobalOptions) -> Result<(), Error>
         report.wall_s,
         report.log.display()
     ));
+    if report.failed > 0 && !args.allow_failures {
+        return Err(Error::ScansFailed(format!(
+            "{} of {} scans failed (their desc-error records in {} say why); exit status {} \
+             (--allow-failures makes it 0)",
+            report.failed,
+            report.scans,
+            args.output_dir.display(),
+            Error::SCANS_FAILED_EXIT
+        )));
+    }
     Ok(())
 }

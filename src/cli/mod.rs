@@ -43,6 +43,12 @@ use std::process::ExitCode;
 pub fn main() -> ExitCode {
     // First: the time-to-first-pixel trials measure from here (and from before the exec).
     ttfp::mark_process_start();
+    // Before any thread starts: the environment is changed only while nothing else can read it.
+    if let Some(note) = crate::files::cache_dir::guard_mesa_cache() {
+        eprintln!("morphray: note: {note}");
+    }
+    // Before any thread starts, so every thread inherits the blocked signals (files::unfinished).
+    crate::files::unfinished::install_interrupt_cleanup();
     std::panic::set_hook(Box::new(|info| {
         // A DICOM file that makes the parser panic is reported as a skipped file.
         if crate::volume::source::dicom::panic_is_contained() {
@@ -65,7 +71,11 @@ pub fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("morphray: {}", one_line(&e.to_string()));
-            ExitCode::FAILURE
+            match &e {
+                CommandError::Library(e) => ExitCode::from(e.exit_code()),
+                #[cfg(feature = "viewer")]
+                CommandError::Viewer(_) => ExitCode::FAILURE,
+            }
         }
     }
 }
@@ -119,14 +129,26 @@ impl GlobalOptions {
 /// (in memory when no home or cache directory is known).
 fn pipeline_cache_config(option: Option<&str>) -> crate::gpu::PipelineCacheConfig {
     use crate::gpu::PipelineCacheConfig as Config;
-    match option.map(str::trim) {
+    let config = match option.map(str::trim) {
         Some("off") => Config::Off,
         Some("memory") => Config::InMemory,
         Some(dir) => Config::Directory(dir.into()),
         None => crate::gpu::pipeline_cache::default_dir()
             .map(Config::Directory)
             .unwrap_or(Config::InMemory),
+    };
+    // A folder that cannot take the file (a file in its place, read-only, full): the cache is
+    // only a speed-up, so it is kept in memory with one line, not a load note and a save warning.
+    if let Config::Directory(dir) = &config
+        && let Some(why) = crate::files::cache_dir::unusable(dir)
+    {
+        eprintln!(
+            "morphray: note: the pipeline cache is kept in memory for this run: {why}; pass \
+             --pipeline-cache with a writable folder (or off) to choose another"
+        );
+        return Config::InMemory;
     }
+    config
 }
 
 /// What a command fails with: the library's errors, or (for `view`) the viewer's. The library's

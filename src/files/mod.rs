@@ -9,10 +9,12 @@
 //! over the target only when complete, and [`write::check_output`] checks an output path before
 //! any work is done.
 
+pub mod cache_dir;
 pub mod movie;
 pub mod parallel;
 pub mod png;
 pub mod read;
 pub mod stdout;
 pub mod trace;
+pub mod unfinished;
 pub mod write;

@@ -8,7 +8,9 @@
 //!   over the target, then the directory is `fsync`ed (best effort: some file systems refuse
 //!   it). A failure at any point (disk full, file-size limit, a producer that stops halfway)
 //!   removes the temporary file and leaves any previous target byte for byte as it was. An
-//!   [`AtomicFile`] dropped without [`AtomicFile::commit`] removes its temporary file too.
+//!   [`AtomicFile`] dropped without [`AtomicFile::commit`] removes its temporary file too; an
+//!   interrupt (SIGINT, SIGTERM, SIGHUP) removes it, and one left by a killed process is removed
+//!   by the next write to its folder ([`super::unfinished`]).
 //! - A target that exists but is not a regular file (a directory, `/dev/full`, a FIFO, a
 //!   device) is refused: renaming over it would replace the device node or the FIFO, and
 //!   writing into it "in place" is what this module exists to avoid. A symbolic link is
@@ -270,7 +272,9 @@ fn describe_short(e: &std::io::Error) -> String {
 fn probe_directory(dir: &Path) -> std::io::Result<()> {
     let (file, probe) = create_temp(dir, "morphray-probe")?;
     drop(file);
-    std::fs::remove_file(probe)
+    let removed = std::fs::remove_file(&probe);
+    super::unfinished::unregister(&probe);
+    removed
 }
 
 /// `path` with its format extension(s) replaced by `ext` (`scan.jpg` -> `scan.png`).
@@ -341,8 +345,10 @@ fn same_file(meta: &std::fs::Metadata, other: &Path) -> bool {
     }
 }
 
-/// Creates a new, uniquely named hidden file in `dir` (never an existing one).
+/// Creates a new, uniquely named hidden file in `dir` (never an existing one), listed for
+/// removal on an interrupt; first removes what dead writers left there (`super::unfinished`).
 fn create_temp(dir: &Path, name: &str) -> std::io::Result<(File, PathBuf)> {
+    super::unfinished::remove_stale(dir);
     // Unique per process and call, so concurrent writers never share a temporary file.
     static COUNTER: AtomicU32 = AtomicU32::new(0);
     let mut last = None;
@@ -350,7 +356,10 @@ fn create_temp(dir: &Path, name: &str) -> std::io::Result<(File, PathBuf)> {
         let n = COUNTER.fetch_add(1, Ordering::Relaxed);
         let temp = dir.join(format!(".{name}.{}.{n}.tmp", std::process::id()));
         match OpenOptions::new().write(true).create_new(true).open(&temp) {
-            Ok(file) => return Ok((file, temp)),
+            Ok(file) => {
+                super::unfinished::register(&temp, &file);
+                return Ok((file, temp));
+            }
             Err(e) if e.kind() == ErrorKind::AlreadyExists => last = Some(e),
             Err(e) => return Err(e),
         }
@@ -426,6 +435,7 @@ impl AtomicFile {
         self.finish()?;
         std::fs::rename(&self.temp, &self.target).map_err(|e| self.error(e))?;
         self.file = None;
+        super::unfinished::unregister(&self.temp);
         sync_dir(parent_dir(&self.target));
         Ok(())
     }
@@ -448,6 +458,7 @@ impl AtomicFile {
             Err(_) => std::fs::rename(&self.temp, &self.target).map_err(|e| self.error(e))?,
         }
         self.file = None;
+        super::unfinished::unregister(&self.temp);
         sync_dir(parent_dir(&self.target));
         Ok(())
     }
@@ -487,6 +498,7 @@ impl Drop for AtomicFile {
             // Not committed: the target is untouched; the partial data go.
             drop(file);
             let _ = std::fs::remove_file(&self.temp);
+            super::unfinished::unregister(&self.temp);
         }
     }
 }

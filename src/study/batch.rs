@@ -11,11 +11,16 @@
 //!   recorded in its `desc-error` file and skipped; the batch goes on. A panic inside the engine
 //!   is contained the same way, and the engine is then started afresh, since its state is
 //!   unknown. The run fails only when nothing can be written or no device can be started.
-//! - A scan whose summary exists is finished and skipped, so a rerun (after a crash, a timeout
-//!   or with more scans) does only what is left. The summary is written after the thumbnails.
+//! - A scan whose summary is whole and records its input as it is now (size and time), with
+//!   whole thumbnails, is finished and skipped, so a rerun (after a crash, a timeout or with
+//!   more scans) does only what is left ([`super::batch_guard`]). The summary is written after
+//!   the thumbnails.
+//! - OUT_DIR is checked before anything is written: the input itself or a folder holding
+//!   another dataset's `dataset_description.json` is refused ([`super::batch_guard`]).
 //! - The library prints nothing: progress is reported through a callback ([`Progress`]), which
 //!   the command turns into a progress bar on a terminal and plain lines otherwise.
 
+use super::batch_guard::{STAMP_KEY, SourceStamp, refuse_output_dir};
 use super::batch_outputs::{
     ScanOutputs, VIEWS, append_line, log_path, write_dataset_description, write_json,
 };
@@ -61,6 +66,9 @@ pub enum BatchError {
     /// No device could be started.
     #[error(transparent)]
     Gpu(#[from] GpuError),
+    /// The output folder is the input or another dataset (the message says which and the fix).
+    #[error("{0}")]
+    Refused(String),
 }
 
 /// Per-scan host times, milliseconds (the throughput breakdown).
@@ -161,6 +169,7 @@ fn process(
     read: Result<SourceVolume, String>,
     outputs: &ScanOutputs,
     options: &ParticipantOptions,
+    stamp: Option<SourceStamp>,
 ) -> Result<(serde_json::Value, ScanTimings), String> {
     let start = Instant::now();
     let read = read?;
@@ -241,6 +250,8 @@ fn process(
             worker.engine.device().adapter().name.clone().into(),
         );
         map.insert("timings_ms".into(), serde_json::json!(timings));
+        // Taken before the read: an input replaced while it was read is redone next time.
+        map.insert(STAMP_KEY.into(), serde_json::json!(stamp));
     }
     Ok((value, timings))
 }
@@ -252,9 +263,10 @@ fn process_contained(
     read: Result<SourceVolume, String>,
     outputs: &ScanOutputs,
     options: &ParticipantOptions,
+    stamp: Option<SourceStamp>,
 ) -> Option<Result<(serde_json::Value, ScanTimings), String>> {
     std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        process(worker, scan, read, outputs, options)
+        process(worker, scan, read, outputs, options, stamp)
     }))
     .ok()
 }
@@ -310,13 +322,15 @@ pub fn run_participant(
         .filter(|(i, _)| options.shard.takes(*i))
         .map(|(_, s)| s)
         .collect();
+    refuse_output_dir(&options.bids, &options.out).map_err(BatchError::Refused)?;
     std::fs::create_dir_all(&options.out).map_err(|e| OutputError::io(&options.out, e))?;
     write_dataset_description(&options.out, &options.bids)?;
     let log = log_path(&options.out, options.shard);
-    let todo: Vec<(&Scan, ScanOutputs)> = scans
+    let todo: Vec<(&Scan, ScanOutputs, Option<SourceStamp>)> = scans
         .iter()
         .map(|s| (s, ScanOutputs::of(&options.out, s)))
-        .filter(|(_, o)| !o.finished(options.thumbnails))
+        .filter(|(s, o)| !o.finished(&s.path, options.thumbnails))
+        .map(|(s, o)| (s, o, SourceStamp::of(&s.path)))
         .collect();
     let mut report = ParticipantReport {
         scans: scans.len(),
@@ -328,7 +342,7 @@ pub fn run_participant(
         todo: todo.len(),
         skipped: report.skipped,
     });
-    let paths = todo.iter().map(|(s, _)| s.path.clone()).collect();
+    let paths = todo.iter().map(|(s, _, _)| s.path.clone()).collect();
     std::thread::scope(|scope| {
         let reads = batch_prefetch::start(scope, paths, batch_prefetch::reader_count());
         process_all(&todo, &reads, options, config, &log, &mut report, progress)
@@ -339,7 +353,7 @@ pub fn run_participant(
 
 /// Processes the scans to do in order, each from its read-ahead.
 fn process_all(
-    todo: &[(&Scan, ScanOutputs)],
+    todo: &[(&Scan, ScanOutputs, Option<SourceStamp>)],
     reads: &[std::sync::mpsc::Receiver<batch_prefetch::Prefetched>],
     options: &ParticipantOptions,
     config: &EngineConfig,
@@ -348,7 +362,7 @@ fn process_all(
     progress: &mut dyn FnMut(Progress<'_>),
 ) -> Result<(), BatchError> {
     let mut worker = None;
-    for (index, (scan, outputs)) in todo.iter().enumerate() {
+    for (index, (scan, outputs, stamp)) in todo.iter().enumerate() {
         if worker.is_none() {
             worker = Some(Worker::new(config)?);
         }
@@ -360,7 +374,7 @@ fn process_all(
             .saturating_duration_since(before_wait)
             .as_secs_f64()
             * 1e3;
-        let result = process_contained(w, scan, prefetched.read, outputs, options);
+        let result = process_contained(w, scan, prefetched.read, outputs, options, *stamp);
         let result = result.map(|r| {
             r.map(|(mut summary, mut timings)| {
                 timings.wait_ms = wait_ms;

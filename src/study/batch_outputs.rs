@@ -3,8 +3,9 @@
 //! Layout under OUT_DIR, for a scan `sub-01_ses-a_T1w.nii.gz`:
 //! - `dataset_description.json` (`DatasetType: derivative`, `GeneratedBy: morphray`);
 //! - `sub-01/ses-a/anat/sub-01_ses-a_desc-peaks_T1w.json`: the scan's summary (Table-1 row,
-//!   peaks, windows, contrast, warnings) with its timings; written last, so its presence means
-//!   the scan is finished (a rerun skips it);
+//!   peaks, windows, contrast, warnings) with its timings and its input's size and time; written
+//!   last, so a whole summary whose input is unchanged means the scan is finished (a rerun skips
+//!   it; `batch_guard`);
 //! - `..._desc-{anterior,lateral,superior}_T1w.png`: the thumbnails;
 //! - `..._desc-error_T1w.json`: why the scan failed (removed when a rerun succeeds);
 //! - `logs/participant_shard-I-of-N.jsonl`: one JSON line per scan processed by that shard;
@@ -14,6 +15,7 @@
 //! names follow BIDS derivatives (`desc-<label>` before the source suffix), so BIDS tools index
 //! them with the source scans.
 
+use super::batch_guard::{png_whole, summary_current};
 use super::bids::{Scan, Shard};
 use crate::files::write::{OutputError, write_file};
 use std::path::{Path, PathBuf};
@@ -59,10 +61,12 @@ impl ScanOutputs {
         }
     }
 
-    /// Whether the scan was finished by an earlier run (with its thumbnails when `thumbnails`:
-    /// a peaks-only run does not stop a later run from adding them).
-    pub fn finished(&self, thumbnails: bool) -> bool {
-        self.summary.is_file() && (!thumbnails || self.thumbnails.iter().all(|t| t.is_file()))
+    /// Whether the scan was finished by an earlier run from `input` as it is now: a whole
+    /// summary whose stamp matches the input, and whole thumbnails when `thumbnails` (a
+    /// peaks-only run does not stop a later run from adding them). See [`super::batch_guard`].
+    pub fn finished(&self, input: &Path, thumbnails: bool) -> bool {
+        summary_current(&self.summary, input)
+            && (!thumbnails || self.thumbnails.iter().all(|t| png_whole(t)))
     }
 }
 

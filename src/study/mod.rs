@@ -6,6 +6,7 @@
 
 pub mod batch;
 pub mod batch_group;
+pub mod batch_guard;
 pub mod batch_outputs;
 pub mod batch_prefetch;
 pub mod batch_summary;

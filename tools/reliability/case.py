@@ -46,6 +46,12 @@ class Case:
     # repair, a frame choice, the real cause) and must not say (a wrong cause, usize::MAX).
     says: Optional[str] = None
     never_says: Optional[str] = None
+    # The exact exit status due (None: any that `expect` allows), e.g. batch's 3 for failed scans.
+    code: Optional[int] = None
+    # Paths that must not exist after the run (stale temporary files the run must remove).
+    gone: list = field(default_factory=list)
+    # Environment variables set for this run (after the probe's own XDG_CACHE_HOME and HOME).
+    env: dict = field(default_factory=dict)
 
 
 class Workspace:

@@ -11,7 +11,7 @@ Decisions:
   memory (peak RSS over 1 GiB, read with os.wait4) > validation > what the exit status says.
   The other findings are kept as flags (a run can panic and also have destroyed a file).
   `FATAL` are the outcomes the probe exits non-zero on.
-- A clean error is exit 1 with exactly one `morphray: ...` line that is not a warning or note,
+- A clean error is exit 1 (or 3, batch's failed scans) with exactly one `morphray: ...` line that is not a warning or note,
   and nothing else on stderr but warnings, notes and lavapipe's non-conformance banner.
 - A render that succeeds is decoded (PNG, RGBA8, stdlib zlib) and counted: pixels that differ
   from the background. A blank image is reported as blank-with-a-note when stderr carried a
@@ -92,6 +92,7 @@ def execute(binary, case, work, timeout, address_space):
     env = dict(os.environ, XDG_CACHE_HOME=os.path.join(work, "xdg-cache"), HOME=work)
     env.pop("MORPHRAY_CACHE_DIR", None)
     env.pop("MORPHRAY_VALIDATION", None)
+    env.update(case.env)
     start = time.monotonic()
     with open(out_path, "wb") as out, open(err_path, "wb") as err:
         proc = subprocess.Popen(
@@ -201,7 +202,8 @@ def _by_exit(code, stderr):
         return "ok"
     if code == 2:
         return "usage"
-    if code == 1 and _one_error_line(stderr):
+    # 3 is `batch`'s "ran, but some scans failed": an error with its one line like 1.
+    if code in (1, 3) and _one_error_line(stderr):
         return "clean-error"
     return "unclean-error"
 
@@ -211,7 +213,8 @@ def _one_error_line(stderr):
     for line in stderr.splitlines():
         if not line.strip() or line.startswith(IGNORED_STDERR):
             continue
-        if line.startswith(("morphray: warning:", "morphray: note:")):
+        # `morphray: batch:` lines are batch's progress (one per scan when stderr is no terminal).
+        if line.startswith(("morphray: warning:", "morphray: note:", "morphray: batch:")):
             continue
         if not line.startswith("morphray: "):
             return False
@@ -245,6 +248,11 @@ def _unexpected(case, result):
         return "failed where success was due"
     if case.expect == "nonzero" and result["exit"] == 0:
         return "exit 0 where a non-zero exit was due"
+    left = [p for p in case.gone if os.path.lexists(p)]
+    if left:
+        return f"left {', '.join(os.path.basename(p) for p in left)} in place"
+    if case.code is not None and result["exit"] != case.code:
+        return f"exit {result['exit']} where {case.code} was due"
     if outcome == "ok-blank-noted" and case.lit:
         return "blank image for a volume that has visible content"
     return None
