@@ -186,6 +186,8 @@ fn brain_and_head_switches_change_the_picture_the_outline_and_only_recompute_whe
         "extracted at the load and after Off -> Auto only:\n{log}"
     );
 
+    // The session log, for `-- --nocapture` (README's numbers).
+    println!("{log}");
     let view = rect(&log, "view");
     let [auto, head, on, off] = ["auto", "head", "on", "off"].map(|n| Png::read(&shot(n)));
     let (brain_px, head_px, off_px) = (lit(&auto, view), lit(&head, view), lit(&off, view));
