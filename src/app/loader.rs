@@ -17,7 +17,10 @@
 //!   worker at the next phase boundary (a phase is at most one inflate or one GPU submission).
 //! - Brick ranges for empty-space skipping are computed here right after preparing, so the
 //!   first frame already runs the raymarch alone.
+//! - A brain mask is read back here too (`app/brain_outline.rs`: the slices' outline), before
+//!   the mask reaches the interface thread, so no frame reads it during the readback.
 
+use super::brain_outline::BrainOutline;
 use crate::analysis::TissueReport;
 use crate::engine::plan::Plan;
 use crate::engine::{Derived, Engine, EngineConfig, OpenOptions, PreparedVolume, Twin};
@@ -64,6 +67,8 @@ pub struct LoadedVolume {
     /// The loader's repairs and warnings about the file (shown on stderr, kept in screenshots'
     /// provenance).
     pub warnings: Vec<String>,
+    /// A host copy of the twin's brain mask, for the slices' outline (None without a mask).
+    pub brain_outline: Option<Arc<BrainOutline>>,
 }
 
 /// Work for the thread.
@@ -107,6 +112,8 @@ pub enum Reply {
         outputs: DerivativeOutputs,
         /// The volumes (used with the volume they were derived from).
         derived: Box<Derived>,
+        /// A host copy of their brain mask, for the slices' outline (None without a mask).
+        brain_outline: Option<Arc<BrainOutline>>,
     },
     /// Derived volumes could not be computed.
     DeriveFailed {
@@ -356,6 +363,8 @@ impl Worker {
         if let Some(derived) = opened.twin.derived() {
             passes.extend(derived.gpu_timings.iter().cloned());
         }
+        let brain_outline =
+            outline_of(engine, opened.twin.derived()).map_err(|e| one_line(&e.to_string()))?;
         Ok(Some(LoadedVolume {
             id,
             warnings: read.volume.warnings.clone(),
@@ -374,6 +383,7 @@ impl Worker {
             plan: opened.plan,
             passes,
             requested_at,
+            brain_outline,
         }))
     }
 
@@ -392,11 +402,20 @@ impl Worker {
                 return;
             }
         };
+        let result = result.and_then(|derived| {
+            let engine = self.engine.as_ref();
+            let outline = match engine {
+                Some(engine) => outline_of(engine, Some(&derived))?,
+                None => None,
+            };
+            Ok((derived, outline))
+        });
         match result {
-            Ok(derived) => self.send(Reply::Derived {
+            Ok((derived, brain_outline)) => self.send(Reply::Derived {
                 id,
                 outputs,
                 derived: Box::new(derived),
+                brain_outline,
             }),
             Err(e) => self.send(Reply::DeriveFailed {
                 id,
@@ -405,6 +424,18 @@ impl Worker {
                 message: one_line(&e.to_string()),
             }),
         }
+    }
+}
+
+/// The host copy of `derived`'s brain mask, read before any frame uses the mask (the
+/// readback moves the image through TRANSFER_SRC and back).
+fn outline_of(
+    engine: &Engine,
+    derived: Option<&Derived>,
+) -> Result<Option<Arc<BrainOutline>>, GpuError> {
+    match derived.and_then(|d| d.brain.as_ref()) {
+        Some(mask) => Ok(BrainOutline::read(engine.device(), mask)?.map(Arc::new)),
+        None => Ok(None),
     }
 }
 

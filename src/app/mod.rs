@@ -33,6 +33,8 @@
 //!   is composed in the same image the window would show, so screenshots match.
 
 pub mod adaptive;
+pub mod brain_outline;
+pub mod brain_panel;
 pub mod camera_control;
 pub mod clip_panel;
 pub mod crosshair_3d;

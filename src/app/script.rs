@@ -1,9 +1,9 @@
 //! Scripted sessions: a small language of interface actions, replayed one per frame boundary.
 //!
 //! Decisions:
-//! - One action per line, `#` starts a comment; every action is something a person can do in
-//!   the window (plus `wait`, `screenshot`, `close` and a fault injection for tests), and it
-//!   goes through the same [`super::ui::Controls`] methods as the widgets, or, for `drag`, through
+//! - One action per line, `#` starts a comment (unless it starts a `#RRGGBB` colour); every
+//!   action is something a person can do in the window (plus `wait`, `screenshot`, `close` and
+//!   a fault injection for tests), and it goes through the same [`super::ui::Controls`] methods as the widgets, or, for `drag`, through
 //!   egui's pointer events and the same camera controller as a real mouse.
 //! - Errors name the file, line and what was expected, and are found before the window opens.
 //! - The runner never starts an action while a load or a derived-volume computation is pending,
@@ -11,6 +11,7 @@
 //!   "screenshot" shows the curvature.
 
 use super::camera_control::{Button, StandardView};
+use crate::passes::brain::BrainSwitch;
 use crate::scene::slice::Convention;
 use crate::scene::{RenderMode, TissueClass};
 use crate::volume::source::VolumeSource;
@@ -36,6 +37,14 @@ pub enum Action {
     Show(TissueClass, bool),
     /// Show or hide the vessel channel (`show vessels`, `hide vessels`).
     Vessels(bool),
+    /// Brain extraction's switch (`brain auto|on|off`): tissues inside the extracted brain only.
+    Brain(BrainSwitch),
+    /// Show or hide the head layer around an extracted brain (`show head`, `hide head`).
+    Head(bool),
+    /// The head layer's opacity per mm (`set opacity head 0.3`).
+    HeadOpacity(f32),
+    /// The head layer's colour (`set colour head #RRGGBB`).
+    HeadColour([f32; 3]),
     /// Set a tissue's window to `[lo, hi]` in I_norm (as dragging the band's edges does).
     SetWindow(TissueClass, f64, f64),
     /// Set a tissue's opacity.
@@ -163,7 +172,7 @@ pub fn load(path: &Path) -> Result<Vec<Step>, ScriptError> {
 pub fn parse(text: &str, file: &str) -> Result<Vec<Step>, ScriptError> {
     let mut steps = Vec::new();
     for (index, raw) in text.lines().enumerate() {
-        let line = raw.split('#').next().unwrap_or("").trim();
+        let line = strip_comment(raw).trim();
         if line.is_empty() {
             continue;
         }
@@ -179,6 +188,25 @@ pub fn parse(text: &str, file: &str) -> Result<Vec<Step>, ScriptError> {
         });
     }
     Ok(steps)
+}
+
+/// `raw` without its comment: from the first `#` that starts a word and is not a `#RRGGBB`
+/// colour (so `set colour wm #ff8000  # orange` keeps its colour).
+fn strip_comment(raw: &str) -> &str {
+    let mut at = 0;
+    while let Some(found) = raw[at..].find('#') {
+        let i = at + found;
+        let starts_word = raw[..i].chars().next_back().is_none_or(char::is_whitespace);
+        let word = raw[i + 1..].split_whitespace().next().unwrap_or("");
+        let colour = raw[i + 1..].starts_with(word)
+            && word.len() == 6
+            && word.chars().all(|c| c.is_ascii_hexdigit());
+        if starts_word && !colour {
+            return &raw[..i];
+        }
+        at = i + 1;
+    }
+    raw
 }
 
 fn tissue(word: Option<&str>) -> Result<TissueClass, String> {
@@ -237,6 +265,8 @@ fn parse_line(line: &str) -> Result<Action, String> {
             let on = verb == "show";
             if word.is_some_and(|w| w.eq_ignore_ascii_case("vessels")) {
                 Action::Vessels(on)
+            } else if word.is_some_and(|w| w.eq_ignore_ascii_case("head")) {
+                Action::Head(on)
             } else {
                 Action::Show(tissue(word)?, on)
             }
@@ -252,11 +282,20 @@ fn parse_line(line: &str) -> Result<Action, String> {
                 Action::SetWindow(t, lo, hi)
             }
             Some("opacity") => {
-                let t = tissue(next())?;
+                let word = next();
+                if word.is_some_and(|w| w.eq_ignore_ascii_case("head")) {
+                    let o = number(next(), "an opacity 0..1")?.clamp(0.0, 1.0);
+                    return finish(Action::HeadOpacity(o as f32), next());
+                }
+                let t = tissue(word)?;
                 Action::Opacity(t, number(next(), "an opacity 0..1")?.clamp(0.0, 1.0) as f32)
             }
             Some("colour") | Some("color") => {
-                let t = tissue(next())?;
+                let word = next();
+                if word.is_some_and(|w| w.eq_ignore_ascii_case("head")) {
+                    return finish(Action::HeadColour(colour(next())?), next());
+                }
+                let t = tissue(word)?;
                 Action::Colour(t, colour(next())?)
             }
             other => {
@@ -365,6 +404,12 @@ fn parse_line(line: &str) -> Result<Action, String> {
             w => Action::Curvature(switch(w)?),
         },
         "shading" => Action::Shading(switch(next())?),
+        "brain" => {
+            let word = next().unwrap_or("");
+            Action::Brain(BrainSwitch::parse(word).ok_or_else(|| {
+                format!("expected `brain auto`, `brain on` or `brain off`, got `{word}`")
+            })?)
+        }
         "background" => Action::Background(colour(next())?),
         "open" => {
             let paths: Vec<PathBuf> = std::iter::from_fn(&mut next)
@@ -470,10 +515,15 @@ fn parse_line(line: &str) -> Result<Action, String> {
         "simulate-device-lost" => Action::SimulateDeviceLost,
         other => return Err(format!("unknown action `{other}`")),
     };
-    if let Some(extra) = next() {
-        return Err(format!("unexpected `{extra}` after the action"));
+    finish(action, next())
+}
+
+/// `action`, unless a word follows it.
+fn finish(action: Action, extra: Option<&str>) -> Result<Action, String> {
+    match extra {
+        Some(extra) => Err(format!("unexpected `{extra}` after the action")),
+        None => Ok(action),
     }
-    Ok(action)
 }
 
 /// Replays steps: hands out the next one when the viewer is ready for it.
@@ -545,95 +595,4 @@ impl Runner {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_brief_s_examples_parse() {
-        let steps = parse(
-            "toggle gm\norbit 30 0\nset window wm 0.7 0.9  # drag the band\n\nview superior\nmode mip\ncurvature on\nwait 10\nidle 2\n",
-            "s.txt",
-        )
-        .unwrap();
-        let actions: Vec<_> = steps.iter().map(|s| s.action.clone()).collect();
-        assert_eq!(
-            actions,
-            vec![
-                Action::Toggle(TissueClass::Gm),
-                Action::Orbit(30.0, 0.0),
-                Action::SetWindow(TissueClass::Wm, 0.7, 0.9),
-                Action::View(StandardView::Superior),
-                Action::Mode(RenderMode::Mip),
-                Action::Curvature(true),
-                Action::Wait(10),
-                Action::Idle(2),
-            ]
-        );
-        assert_eq!(steps[2].line, 3);
-        assert_eq!(steps[2].text, "set window wm 0.7 0.9");
-    }
-
-    #[test]
-    fn errors_name_the_line_and_what_was_expected() {
-        let e = parse("toggle gm\ntoggle bone\n", "a.txt").unwrap_err();
-        assert_eq!(e.line, 2);
-        assert!(
-            e.to_string().starts_with("a.txt:2: unknown tissue `bone`"),
-            "{e}"
-        );
-        let e = parse("set window wm 0.9 0.7", "a.txt").unwrap_err();
-        assert!(e.message.contains("lo < hi"), "{e}");
-        let e = parse("orbit 30", "a.txt").unwrap_err();
-        assert!(e.message.contains("elevation"), "{e}");
-        let e = parse("wait 3 frames", "a.txt").unwrap_err();
-        assert!(e.message.contains("unexpected `frames`"), "{e}");
-        assert!(parse("drag left 0.5 0.5 1.5 0.5", "a").is_err());
-        assert!(parse("explode", "a").is_err());
-    }
-
-    #[test]
-    fn the_runner_waits_for_frames_and_for_a_busy_viewer() {
-        let steps = parse("toggle wm\nwait 2\ntoggle wm\n", "s").unwrap();
-        let mut runner = Runner::new(steps);
-        assert!(runner.next_step(true).is_none(), "busy: nothing starts");
-        assert_eq!(runner.next_step(false).unwrap().line, 1);
-        assert_eq!(runner.next_step(false).unwrap().line, 2);
-        assert!(runner.next_step(false).is_none());
-        assert!(runner.next_step(false).is_none());
-        assert!(!runner.finished());
-        assert_eq!(runner.next_step(false).unwrap().line, 3);
-        assert!(runner.finished());
-        let mut runner = Runner::new(parse("open phantom\nclose\n", "s").unwrap());
-        assert_eq!(
-            runner.next_step(false).unwrap().action,
-            Action::Open(VolumeSource::from_paths(&[]))
-        );
-        assert_eq!(
-            runner.next_step(true).unwrap().action,
-            Action::Close,
-            "close does not wait for the load"
-        );
-    }
-
-    #[test]
-    fn a_sleep_holds_the_next_step_for_wall_time_while_frames_go_on() {
-        assert!(parse("sleep -5", "a").is_err());
-        assert!(parse("sleep 0.5", "a").is_err());
-        let mut runner = Runner::new(
-            parse(
-                "sleep 40
-toggle wm
-",
-                "s",
-            )
-            .unwrap(),
-        );
-        assert_eq!(runner.next_step(false).unwrap().action, Action::Sleep(40));
-        assert!(runner.next_step(false).is_none(), "still sleeping");
-        assert!(runner.sleeping() && !runner.finished());
-        std::thread::sleep(std::time::Duration::from_millis(45));
-        assert!(!runner.sleeping());
-        assert_eq!(runner.next_step(false).unwrap().line, 2);
-        assert!(runner.finished());
-    }
-}
+mod tests;

@@ -119,6 +119,9 @@ pub struct SliceControls {
     /// Grows with every change of the labels' switches or opacity, so the 3D view renders
     /// again (its scene is unchanged).
     pub overlay_revision: u64,
+    /// The brain mask in use, outlined on the slices (`brain_outline.rs`); None when the
+    /// picture uses no mask. The viewer sets it and marks the slices dirty when it changes.
+    pub brain: Option<std::sync::Arc<super::brain_outline::BrainOutline>>,
 }
 
 /// A label overlay resampled onto the volume's grid, with its colours.

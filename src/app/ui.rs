@@ -76,6 +76,8 @@ pub struct Controls {
     pub dragging: bool,
     /// Slice layout, crosshair, window and convention (`slices_panel.rs`).
     pub slices: super::slices_panel::SliceControls,
+    /// What brain extraction decided for the volume on screen (`brain_panel.rs`).
+    pub brain: super::brain_panel::BrainShown,
 }
 
 impl Controls {
@@ -91,6 +93,7 @@ impl Controls {
             files: FilePanel::default(),
             dragging: false,
             slices: Default::default(),
+            brain: Default::default(),
         }
     }
 
@@ -156,8 +159,11 @@ impl Controls {
             Preset::Reset => {
                 self.windows = WindowSource::Adaptive;
                 if let Some(report) = &self.report {
+                    // The head layer's window is the volume's (above its background).
+                    let head = self.scene.classification.head.window;
                     self.scene.classification =
                         Classification::from_tissue_windows(&report.adaptive_windows);
+                    self.scene.classification.head.window = head;
                 }
             }
         }
@@ -321,6 +327,7 @@ fn tissue_panel(ui: &mut Ui, controls: &mut Controls) -> Option<Rect> {
         }
     });
     super::vessels_panel::vessel_row(ui, &mut controls.scene);
+    super::brain_panel::brain_rows(ui, &mut controls.scene, &controls.brain);
     ui.horizontal(|ui| {
         ui.label("Windows:");
         let source = controls.windows;

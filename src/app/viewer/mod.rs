@@ -37,8 +37,10 @@
 //!
 //! Files: this one (state, the frame loop), `steps.rs` (loader replies, script steps),
 //! `paint.rs` (the frame's GPU side, screenshots, device loss), `opening.rs` (opening files),
+//! `brain.rs` (brain extraction's panel state, log lines and slice outline),
 //! `quality.rs` (adaptive quality while interacting: `app/adaptive.rs`).
 
+mod brain;
 mod opening;
 mod paint;
 mod quality;
@@ -492,6 +494,7 @@ impl Viewer {
             input.time = Some(self.config.started.elapsed().as_secs_f64());
         }
 
+        self.sync_brain();
         self.update_slices();
         // The interface.
         let before_ui = self.rendered_scene();

@@ -28,9 +28,17 @@ impl Viewer {
             .then_some((self.controls.scene, self.controls.windows));
         self.controls
             .adopt_volume(loaded.report.clone(), prepared.histogram, extent_mm);
-        if let Some((scene, windows)) = keep {
-            self.controls.scene = scene;
-            self.controls.windows = windows;
+        match keep {
+            Some((scene, windows)) => {
+                self.controls.scene = scene;
+                self.controls.windows = windows;
+            }
+            // The head layer's window is this volume's (above its background, or the
+            // command line's by hand); its switch, colour and opacity stay the person's.
+            None => {
+                self.controls.scene.classification.head.window =
+                    loaded.scene.classification.head.window
+            }
         }
         self.render_blocked = None;
         self.status.file = loaded.label.clone();

@@ -6,7 +6,8 @@
 //! an unchanged crosshair costs nothing per frame. A failure is the status line's error, the
 //! session goes on. A label overlay (`view --overlay`) is resampled onto each volume's grid
 //! when it arrives and blended over the slices on the host, as `morphray slice` does; it is
-//! also uploaded for the 3D view (`engine::LabelVolume`), where the same switches apply.
+//! also uploaded for the 3D view (`engine::LabelVolume`), where the same switches apply. The
+//! brain mask in use is outlined over both (`app/brain_outline.rs`).
 
 use super::Viewer;
 use crate::app::slices_panel::SliceOverlay;
@@ -94,16 +95,22 @@ impl Viewer {
             for px in rgba.chunks_exact_mut(4) {
                 px[3] = 255;
             }
-            if let (Some(o), Some(geometry)) = (&slices.overlay, &slices.geometry) {
+            if let Some(geometry) = &slices.geometry {
                 let index = grid.in_index_space(geometry);
-                blend_slice(
-                    &mut rgba,
-                    &index,
-                    &o.labels,
-                    &o.table,
-                    o.opacity,
-                    &slices.hidden,
-                );
+                if let Some(o) = &slices.overlay {
+                    blend_slice(
+                        &mut rgba,
+                        &index,
+                        &o.labels,
+                        &o.table,
+                        o.opacity,
+                        &slices.hidden,
+                    );
+                }
+                // Over the labels: the mask's edge stays visible through them.
+                if let Some(brain) = &slices.brain {
+                    brain.draw(&mut rgba, &index, prepared.dims);
+                }
             }
             let size = [grid.width as usize, grid.height as usize];
             let texture = self.ctx.load_texture(

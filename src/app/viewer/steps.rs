@@ -48,6 +48,7 @@ impl Viewer {
                     id,
                     outputs,
                     derived,
+                    brain_outline,
                 } => {
                     let Some(current) = &mut self.current else {
                         continue;
@@ -74,6 +75,7 @@ impl Viewer {
                         derived.gpu_timings.clone(),
                     ));
                     current.loaded.twin.install(*derived);
+                    current.loaded.brain_outline = brain_outline;
                 }
                 Reply::DeriveFailed {
                     id,
@@ -111,6 +113,10 @@ impl Viewer {
             Action::Toggle(t) => c.toggle(*t),
             Action::Show(t, v) => c.set_visible(*t, *v),
             Action::Vessels(v) => c.scene.effects.vessels = *v,
+            Action::Brain(b) => c.scene.effects.brain = *b,
+            Action::Head(v) => c.scene.classification.head.visible = *v,
+            Action::HeadOpacity(o) => c.scene.classification.head.opacity = *o,
+            Action::HeadColour(rgb) => c.scene.classification.head.colour = *rgb,
             Action::SetWindow(t, lo, hi) => c.set_window(*t, *lo, *hi),
             Action::Opacity(t, o) => c.set_opacity(*t, *o),
             Action::Colour(t, rgb) => c.set_colour(*t, *rgb),

@@ -18,7 +18,14 @@ pub(super) fn describe(outputs: DerivativeOutputs) -> String {
     if parts.is_empty() {
         parts.push("gradient maximum");
     }
-    format!("{} volume", parts.join(" + "))
+    let mut text = format!("{} volume", parts.join(" + "));
+    if outputs.vesselness {
+        text += " + vesselness";
+    }
+    if outputs.brain != crate::passes::brain::BrainSwitch::Off {
+        text += " + brain mask";
+    }
+    text
 }
 
 pub(super) fn peak_text(peak: Option<crate::analysis::Peak>) -> String {
@@ -86,6 +93,11 @@ mod tests {
             describe(o(true, true, false)),
             "gradient magnitude + curvature volume"
         );
+        let brain = DerivativeOutputs {
+            brain: crate::passes::brain::BrainSwitch::Auto,
+            ..o(true, false, false)
+        };
+        assert_eq!(describe(brain), "gradient magnitude volume + brain mask");
     }
 
     #[test]

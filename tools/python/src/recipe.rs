@@ -1,8 +1,11 @@
 //! `render()`'s keyword arguments as the library's scene recipe. The names and defaults are
-//! the command line's (`morphray render --mode ... --tissues ...`), so a notebook and a shell
-//! script describe a frame the same way.
+//! the command line's (`morphray render --mode ... --tissues ... --brain ...`), so a notebook
+//! and a shell script describe a frame the same way: `brain="auto"` masks a head scan's brain,
+//! `"head"` among the tissues draws the head layer around it.
 
 use crate::errors;
+use morphray::passes::brain::BrainSwitch;
+use morphray::scene::classification::HeadRecipe;
 use morphray::scene::{
     Camera, Effects, Projection, RenderMode, SceneRecipe, TissueClass, WindowSet,
 };
@@ -23,6 +26,12 @@ pub struct SceneSettings {
     pub step: f64,
     pub jitter: bool,
     pub background: [f32; 3],
+    /// Brain extraction: "auto", "on" or "off" (`--brain`).
+    pub brain: String,
+    /// The head layer's opacity per mm and colour, by hand (`--opacity head=X`,
+    /// `--color head=#RRGGBB`).
+    pub head_opacity: Option<f32>,
+    pub head_colour: Option<[f32; 3]>,
 }
 
 impl Default for SceneSettings {
@@ -41,6 +50,9 @@ impl Default for SceneSettings {
             step: 0.5,
             jitter: true,
             background: [0.0; 3],
+            brain: "auto".into(),
+            head_opacity: None,
+            head_colour: None,
         }
     }
 }
@@ -56,25 +68,60 @@ fn mode(name: &str) -> PyResult<RenderMode> {
     }
 }
 
-fn tissues(names: &[String]) -> PyResult<Vec<TissueClass>> {
-    names
-        .iter()
-        .filter(|n| !n.trim().is_empty())
-        .map(|name| {
-            TissueClass::parse(name).ok_or_else(|| {
-                errors::usage(format!(
-                    "unknown tissue `{name}`; use \"csf\", \"gm\", \"wm\", \"pathology\""
-                ))
-            })
-        })
-        .collect()
+/// The tissue classes named, and whether the head layer (`"head"`) is among them.
+fn tissues(names: &[String]) -> PyResult<(Vec<TissueClass>, bool)> {
+    let mut head = false;
+    let mut classes = Vec::new();
+    for name in names.iter().filter(|n| !n.trim().is_empty()) {
+        if name.trim().eq_ignore_ascii_case("head") {
+            head = true;
+            continue;
+        }
+        classes.push(TissueClass::parse(name).ok_or_else(|| {
+            errors::usage(format!(
+                "unknown tissue `{name}`; use \"csf\", \"gm\", \"wm\", \"pathology\" or \"head\""
+            ))
+        })?);
+    }
+    Ok((classes, head))
+}
+
+/// The head layer `settings` ask for (`visible`: "head" among the tissues).
+fn head(settings: &SceneSettings, visible: bool) -> PyResult<HeadRecipe> {
+    if let Some(o) = settings.head_opacity
+        && !(0.0..=1.0).contains(&o)
+    {
+        return Err(errors::usage(format!(
+            "head_opacity {o} must lie in 0..1 (opacity per mm of ray)"
+        )));
+    }
+    if settings
+        .head_colour
+        .is_some_and(|c| c.iter().any(|v| !v.is_finite()))
+    {
+        return Err(errors::usage(
+            "head_color must be three finite numbers in 0..1",
+        ));
+    }
+    Ok(HeadRecipe {
+        visible,
+        window: None,
+        opacity: settings.head_opacity,
+        colour: settings.head_colour.map(|c| c.map(|v| v.clamp(0.0, 1.0))),
+    })
 }
 
 /// The recipe `settings` describe; fails (ValueError) on an unknown name or a setting the
 /// library's recipe check refuses.
 pub fn recipe(settings: &SceneSettings) -> PyResult<SceneRecipe> {
     let default_tissues = ["csf", "gm", "wm"].map(String::from).to_vec();
-    let visible = tissues(settings.tissues.as_ref().unwrap_or(&default_tissues))?;
+    let (visible, head_visible) = tissues(settings.tissues.as_ref().unwrap_or(&default_tissues))?;
+    let brain = BrainSwitch::parse(&settings.brain).ok_or_else(|| {
+        errors::usage(format!(
+            "unknown brain `{}`; use \"auto\", \"on\" or \"off\"",
+            settings.brain
+        ))
+    })?;
     let windows = match settings.windows.to_ascii_lowercase().as_str() {
         "adaptive" => WindowSet::Adaptive,
         "paper" => WindowSet::Paper,
@@ -112,6 +159,7 @@ pub fn recipe(settings: &SceneSettings) -> PyResult<SceneRecipe> {
         mode: mode(&settings.mode)?,
         curvature: settings.curvature,
         shading: settings.shading,
+        brain,
         ..Effects::default()
     };
     let recipe = SceneRecipe {
@@ -128,6 +176,7 @@ pub fn recipe(settings: &SceneSettings) -> PyResult<SceneRecipe> {
         step_voxels: settings.step,
         jitter: settings.jitter,
         background: settings.background.map(|c| c.clamp(0.0, 1.0)),
+        head: head(settings, head_visible)?,
         ..SceneRecipe::default()
     };
     recipe.check().map_err(|e| errors::usage(e.0))?;

@@ -17,10 +17,13 @@ use crate::state::{self, State};
 use morphray::analysis::TissueReport;
 use morphray::engine::plan::{Layout, Plan};
 use morphray::engine::{DerivedMaps, MapRequest, OpenOptions, Twin, VolumeLayout};
+use morphray::passes::brain::BrainSwitch;
 use morphray::passes::vesselness::VesselnessParams;
+use morphray::reference::brain_report::{BrainDecision, BrainReport};
 use morphray::scene::SceneRecipe;
 use morphray::study::batch_summary::ScanSummary;
 use morphray::volume::phantom::PhantomSpec;
+use morphray::volume::phantom_contrast::Contrast;
 use morphray::volume::source::dicom::SeriesChoice;
 use morphray::volume::source::{self, ReadOptions, VolumeSource};
 use morphray::volume::{LinearMap, Samples, Volume as HostVolume};
@@ -122,22 +125,35 @@ pub fn open_file(
     open_source(py, VolumeSource::File(path), read)
 }
 
-/// Opens the synthetic head phantom of `dims` 1 mm voxels (the paper's cohort-A size by
-/// default).
+/// Opens the synthetic phantom of `dims` voxels of `spacing` mm (the paper's cohort-A size at
+/// 1 mm by default): the brain in a dark shell, or with `head` a whole T1 head (scalp, skull,
+/// eyes, face, neck: `morphray phantom --head`) whose brain extraction can find.
 #[pyfunction]
-#[pyo3(signature = (dims=(256, 256, 192), seed=None, noise=true))]
+#[pyo3(signature = (dims=(256, 256, 192), seed=None, noise=true, head=false, spacing=1.0))]
 pub fn open_phantom(
     py: Python<'_>,
     dims: (usize, usize, usize),
     seed: Option<u64>,
     noise: bool,
+    head: bool,
+    spacing: f64,
 ) -> PyResult<Volume> {
+    if !(spacing.is_finite() && spacing > 0.0) {
+        return Err(errors::usage(format!(
+            "spacing {spacing} must be a positive number of mm"
+        )));
+    }
+    let base = if head {
+        PhantomSpec::head([dims.0, dims.1, dims.2], Contrast::T1, noise)
+    } else {
+        PhantomSpec::cube(1)
+    };
     let spec = PhantomSpec {
         dims: [dims.0, dims.1, dims.2],
-        spacing_mm: [1.0; 3],
+        spacing_mm: [spacing; 3],
         seed: seed.unwrap_or(PhantomSpec::DEFAULT_SEED),
         noise,
-        ..PhantomSpec::cube(1)
+        ..base
     };
     open_source(py, VolumeSource::Phantom(spec), ReadOptions::default())
 }
@@ -201,6 +217,23 @@ pub fn open_array(
 }
 
 impl Inner {
+    /// Refuses a bricked volume (`what` it cannot do) and one opened on a replaced engine.
+    fn check_whole(&self, state: &State, what: &str) -> PyResult<()> {
+        if matches!(self.twin.prepared.layout, VolumeLayout::Bricked(_)) {
+            return Err(errors::MemoryBudgetError::new_err(format!(
+                "this volume is bricked (over the memory budget): {what}; raise \
+                 morphray.configure(memory_budget=...)"
+            )));
+        }
+        if self.generation != state.generation {
+            return Err(errors::Error::new_err(
+                "this volume was opened before morphray.configure() changed the device; open it \
+                 again",
+            ));
+        }
+        Ok(())
+    }
+
     /// Opens the host copy again for `recipe` when the volume is bricked and the recipe's
     /// windows, tissues or mode differ from what the resident bricks were chosen for.
     fn reopen_if_needed(&mut self, state: &mut State, recipe: &SceneRecipe) -> PyResult<()> {
@@ -265,7 +298,8 @@ impl Volume {
     /// Renders one frame; returns an (H, W, 4) uint8 array (RGBA, rows top to bottom).
     #[pyo3(signature = (width, height, mode="dvr".to_string(), tissues=None, windows="adaptive".to_string(),
         azimuth=0.0, elevation=0.0, zoom=1.0, projection="perspective".to_string(),
-        curvature=false, shading=false, step=0.5, jitter=true, background=(0.0, 0.0, 0.0)))]
+        curvature=false, shading=false, step=0.5, jitter=true, background=(0.0, 0.0, 0.0),
+        brain="auto".to_string(), head_opacity=None, head_color=None))]
     #[allow(clippy::too_many_arguments)]
     fn render<'py>(
         &self,
@@ -284,6 +318,9 @@ impl Volume {
         step: f64,
         jitter: bool,
         background: (f32, f32, f32),
+        brain: String,
+        head_opacity: Option<f32>,
+        head_color: Option<(f32, f32, f32)>,
     ) -> PyResult<Bound<'py, PyArray3<u8>>> {
         if !(1..=16384).contains(&width) || !(1..=16384).contains(&height) {
             return Err(errors::usage(format!(
@@ -303,6 +340,9 @@ impl Volume {
             step,
             jitter,
             background: [background.0, background.1, background.2],
+            brain,
+            head_opacity,
+            head_colour: head_color.map(|c| [c.0, c.1, c.2]),
         };
         let recipe = recipe(&settings)?;
         let pixels = py.detach(|| -> PyResult<Vec<u8>> {
@@ -327,9 +367,11 @@ impl Volume {
 
     /// The derived maps as float32 (i, j, k) arrays: `"gradient"` (|grad I_norm| per mm),
     /// `"curvature"` (k = g^T H g per mm^2, I_norm units; the paper's eq. 3-4) and
-    /// `"vesselness"` (multi-scale Frangi, default scales 0.6-3 mm, in [0, 1]). The engine's one
-    /// export function computes them (`Engine::derived_maps`, as `morphray derive` does). Whole
-    /// volumes only (a bricked volume has no whole-volume map to export).
+    /// `"vesselness"` (multi-scale Frangi, default scales 0.6-3 mm, in [0, 1]); `"brain"` is a
+    /// uint8 mask (1 inside the extracted brain, all 0 when no brain-like region was found:
+    /// `brain_report_json` says which) on the input grid, as `--brain on` masks. The engine's
+    /// one export function computes them (`Engine::derived_maps`, as `morphray derive` does).
+    /// Whole volumes only (a bricked volume has no whole-volume map to export).
     #[pyo3(signature = (maps=vec!["gradient".to_string(), "curvature".to_string()]))]
     fn derive<'py>(&self, py: Python<'py>, maps: Vec<String>) -> PyResult<Bound<'py, PyDict>> {
         let mut request = MapRequest::default();
@@ -338,9 +380,11 @@ impl Volume {
                 "gradient" => request.gradient = true,
                 "curvature" => request.curvature = true,
                 "vesselness" => request.vesselness = Some(VesselnessParams::default()),
+                "brain" => request.brain = true,
                 other => {
                     return Err(errors::usage(format!(
-                        "unknown map `{other}`; use \"gradient\", \"curvature\" or \"vesselness\""
+                        "unknown map `{other}`; use \"gradient\", \"curvature\", \"vesselness\" \
+                         or \"brain\""
                     )));
                 }
             }
@@ -348,18 +392,7 @@ impl Volume {
         let computed = py.detach(|| -> PyResult<DerivedMaps> {
             let mut state = state::lock();
             let inner = self.inner.lock().unwrap_or_else(|p| p.into_inner());
-            if matches!(inner.twin.prepared.layout, VolumeLayout::Bricked(_)) {
-                return Err(errors::MemoryBudgetError::new_err(
-                    "this volume is bricked (over the memory budget): its maps cannot be \
-                     exported whole; raise morphray.configure(memory_budget=...)",
-                ));
-            }
-            if inner.generation != state.generation {
-                return Err(errors::Error::new_err(
-                    "this volume was opened before morphray.configure() changed the device; \
-                     open it again",
-                ));
-            }
+            inner.check_whole(&state, "its maps cannot be exported whole")?;
             let (engine, _) = state.engine()?;
             engine
                 .derived_maps(&inner.twin.prepared, &request)
@@ -377,7 +410,38 @@ impl Volume {
         export("gradient", computed.gradient)?;
         export("curvature", computed.curvature)?;
         export("vesselness", computed.vesselness)?;
+        if request.brain {
+            let mask = computed.brain.unwrap_or_else(|| vec![0; x * y * z]);
+            let array = Array3::from_shape_vec((x, y, z).f(), mask)
+                .map_err(|e| errors::Error::new_err(e.to_string()))?;
+            out.set_item("brain", array.into_pyarray(py))?;
+        }
         Ok(out)
+    }
+
+    /// What brain extraction decides for this volume, as JSON text (the Python
+    /// `brain_report()` parses it): the report of the mask the volume holds (extracted by the
+    /// last DVR render with brain "auto" or "on", or at opening), or of a new extraction when it
+    /// holds none. Whole volumes only.
+    fn brain_report_json(&self, py: Python<'_>) -> PyResult<String> {
+        let report = py.detach(|| -> PyResult<BrainReport> {
+            let mut state = state::lock();
+            let inner = self.inner.lock().unwrap_or_else(|p| p.into_inner());
+            inner.check_whole(&state, "brain extraction needs the whole volume")?;
+            if let Some(mask) = inner.twin.derived().and_then(|d| d.brain.as_ref()) {
+                return Ok(mask.report.clone());
+            }
+            let (engine, _) = state.engine()?;
+            let mask = engine
+                .extract_brain(&inner.twin.prepared, BrainSwitch::On)
+                .map_err(errors::gpu)?;
+            Ok(mask.report)
+        })?;
+        let mut value =
+            serde_json::to_value(&report).map_err(|e| errors::Error::new_err(e.to_string()))?;
+        value["describe"] = report.decision.describe().into();
+        value["masks_with_auto"] = (report.decision == BrainDecision::Head).into();
+        Ok(value.to_string())
     }
 
     fn __repr__(&self) -> String {
