@@ -38,7 +38,7 @@ fn brain_extraction_is_planned_and_dropped_before_bricking() {
     assert!(p.peak_bytes > without.peak_bytes);
     // A budget that holds everything but the extraction drops it (the 8-bit and R8 steps before
     // it save too little), with its degradation, and does not brick.
-    let mut tight = coarse.clone();
+    let mut tight = coarse;
     tight.budget = without.peak_bytes;
     let degraded = plan(brain, &tight, &TexelSizes).unwrap();
     let settings: Vec<_> = degraded
