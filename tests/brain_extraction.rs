@@ -297,3 +297,44 @@ fn a_head_renders_as_its_brain_alone_by_default() {
     assert!(off_vs_brain < default_vs_brain - 0.05, "{off_vs_brain}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn derive_writes_the_brain_mask_into_a_folder_it_creates() {
+    use morphray::volume::nifti::write_nifti1;
+    let p = head_phantom_2mm([97, 113, 99]);
+    let dir = std::env::temp_dir().join(format!("morphray-derive-brain-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let input = dir.join("sub-01_T1w.nii");
+    write_nifti1(&p.volume, &input, false).unwrap();
+    // A folder that does not exist yet, two levels deep.
+    let out = dir.join("derivatives").join("masks");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_morphray"))
+        .args([
+            "derive",
+            input.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+        ])
+        .args(["--maps", "brain"])
+        .env("MORPHRAY_VALIDATION", "required")
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(stdout.contains("brain: head"), "{stdout}");
+    let mask = morphray::volume::source::read(
+        &morphray::volume::source::VolumeSource::File(out.join("sub-01_T1w_brain.nii.gz")),
+        &Default::default(),
+    )
+    .unwrap()
+    .volume;
+    assert_eq!(mask.dims, p.volume.dims);
+    assert_eq!(mask.samples.kind(), morphray::volume::SampleKind::U8);
+    let values: Vec<u8> = (0..mask.dims.iter().product::<usize>())
+        .map(|i| mask.samples.get(i) as u8)
+        .collect();
+    assert!(values.iter().all(|&v| v <= 1));
+    let d = dice(&values, &p.brain_mask());
+    assert!(d >= 0.9, "Dice {d} of the written mask against the truth");
+    let _ = std::fs::remove_dir_all(&dir);
+}
