@@ -15,6 +15,7 @@ mod convert;
 mod derive;
 mod devices;
 mod glyphs;
+mod identity_args;
 mod info;
 mod kernels;
 mod movie;
