@@ -168,13 +168,8 @@ impl Engine {
         host_ms += host.elapsed().as_secs_f64() * 1e3;
 
         // 2. Core, re-growth, closing; the closed mask's coarse cells.
-        let mut rec = Recording::new(&device, "brain extraction: closing")?;
-        rec.begin_pass("brain extraction: closing");
-        // Orders the host's writes of the selection before the core step's reads.
-        rec.barriers(
-            &[(&work.cells, Access::HostWrite, Access::ComputeReadBuffer)],
-            &[],
-        );
+        // The selection written by the host is read by the core step.
+        let mut rec = after_host_cells(&device, "brain extraction: closing", &work.cells)?;
         self.record_closing(&pass, &mut rec, &mut work, params)?;
         rec.end_pass();
         timings.extend(rec.submit()?.wait()?);
@@ -196,13 +191,8 @@ impl Engine {
         host_ms += host.elapsed().as_secs_f64() * 1e3;
 
         // 3. The mask.
-        let mut rec = Recording::new(&device, "brain extraction: mask")?;
-        rec.begin_pass("brain extraction: mask");
-        // Orders the host's writes of the filled cells before the final step's reads.
-        rec.barriers(
-            &[(&work.cells, Access::HostWrite, Access::ComputeReadBuffer)],
-            &[],
-        );
+        // The filled cells written by the host are read by the final step.
+        let mut rec = after_host_cells(&device, "brain extraction: mask", &work.cells)?;
         pass.record_step(
             &mut rec,
             &work.grid,
@@ -368,6 +358,23 @@ impl Engine {
         let t = close_threshold(params);
         pass.record_pool(rec, grid, nearest, PoolMode::Any, t, [b, smoothed], cells)
     }
+}
+
+/// A recording (and its timed pass) named `name` whose first barrier orders the host's writes of
+/// `cells` before the shaders' reads.
+fn after_host_cells(
+    device: &crate::gpu::Device,
+    name: &str,
+    cells: &Arc<Buffer>,
+) -> GpuResult<Recording> {
+    let mut rec = Recording::new(device, name)?;
+    rec.begin_pass(name);
+    // Orders the host's writes of the cells before every later dispatch's reads.
+    rec.barriers(
+        &[(cells, Access::HostWrite, Access::ComputeReadBuffer)],
+        &[],
+    );
+    Ok(rec)
 }
 
 fn read_cells(buffer: &Arc<Buffer>) -> GpuResult<Vec<u8>> {
