@@ -5,6 +5,7 @@
 //   mode 0 ALL:  every voxel has D > t (the eroded band)
 //   mode 1 ANY:  some voxel has D > t  (the closed mask)
 //   mode 2 BAND: some voxel has lo < S < hi
+//   mode 3 FOREGROUND: some voxel has S > t (the head, reference/brain_depth.rs)
 
 layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
 
@@ -25,6 +26,9 @@ bool voxel_test(ivec3 p, int mode) {
     if (mode == 2) {
         float s = texelFetch(smoothed, p, 0).r;
         return params.lo < s && s < params.hi;
+    }
+    if (mode == 3) {
+        return texelFetch(smoothed, p, 0).r > params.threshold;
     }
     return texelFetch(distance_field, p, 0).r > params.threshold;
 }

@@ -7,8 +7,10 @@
 //   2 GROWN_SOURCES    out = D <= t && band(S) ? 0 : BIG (re-grown brain, sources of the closing)
 //   3 OUTSIDE_SOURCES  out = D <= t ? BIG : 0            (not the dilated brain)
 //   4 FINAL            out = D > t || cell ? 1 : 0       (the mask, R8_UNORM)
+//   5 HEAD_SOURCES     out = cell ? BIG : 0              (sources of the depth: not the head)
+//   6 DEPTH_CUT        out = D > t ? S : 0               (S without the head's outer shell)
 // D is a squared distance in mm^2 (brain_distance_axis.comp), S the smoothed I_norm, `cell` the
-// host's coarse-cell flag (component selection or hole filling) of the voxel's cell.
+// host's coarse-cell flag (component selection, hole filling or the head) of the voxel's cell.
 
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 4) in;
 
@@ -56,8 +58,12 @@ void main() {
         out_value = texelFetch(distance_field, p, 0).r <= t && band(p) ? 0.0 : BIG;
     } else if (mode == 3) {
         out_value = texelFetch(distance_field, p, 0).r <= t ? BIG : 0.0;
-    } else {
+    } else if (mode == 4) {
         out_value = texelFetch(distance_field, p, 0).r > t || cell_flag(p) ? 1.0 : 0.0;
+    } else if (mode == 5) {
+        out_value = cell_flag(p) ? BIG : 0.0;
+    } else {
+        out_value = texelFetch(distance_field, p, 0).r > t ? texelFetch(smoothed, p, 0).r : 0.0;
     }
     imageStore(result, p, vec4(out_value, 0.0, 0.0, 0.0));
 }

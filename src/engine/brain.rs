@@ -2,10 +2,14 @@
 //! of `reference::brain`), the algorithm whose text and f64 twin are `reference::brain`.
 //!
 //! Decisions:
-//! - Three submissions: the GPU work up to the eroded band's coarse cells; the host's largest
-//!   connected component (a few ms on the coarse grid: one cell is `coarse` voxels on an edge);
+//! - Three submissions: the GPU work up to the eroded band's coarse cells (and the band's and the
+//!   head's foreground's); the host's largest connected component (a few ms on the coarse grid:
+//!   one cell is `coarse` voxels on an edge);
 //!   the re-growth, closing and the closed mask's cells; the host's hole filling; the final mask.
 //!   The host steps read and write the cells in host-visible buffers, so nothing else is copied.
+//!   When the mask leaves the share of the band outside that a bridge into the scalp does, the
+//!   first two submissions run again from the deep component (`reference::brain_depth`): two
+//!   more submissions for such heads only, none for the others.
 //! - Whole volumes only: the distance transforms read up to `erode_mm` across brick faces, which
 //!   the atlas's 2-voxel halo does not hold, so a bricked volume is a typed refusal.
 //! - The decision (head, already stripped, nothing brain-like) comes from the coarse cells
@@ -19,8 +23,9 @@ use crate::passes::brain::{
     working_extent, working_factors,
 };
 use crate::reference::brain_components::{hole_fill_cells, largest_component_selection, slab_axis};
+use crate::reference::brain_depth::head_cells;
 use crate::reference::brain_params::{BrainParams, close_threshold, spacing_mm};
-use crate::reference::brain_report::{BrainDecision, BrainReport};
+use crate::reference::brain_report::{BrainDecision, BrainReport, DecisionCells};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -50,6 +55,24 @@ struct Work {
     b: Tracked,
     cells: Arc<Buffer>,
     band_cells: Arc<Buffer>,
+    head_cells: Arc<Buffer>,
+}
+
+/// The closed mask's and the filled cells of one closing round, and its host time.
+struct ClosingRound {
+    closed: Vec<u8>,
+    fill: Vec<u8>,
+    host_ms: f64,
+}
+
+impl ClosingRound {
+    fn cells<'a>(&'a self, band: &'a [u8]) -> DecisionCells<'a> {
+        DecisionCells {
+            band,
+            closed: &self.closed,
+            fill: &self.fill,
+        }
+    }
 }
 
 impl BrainMask {
@@ -144,18 +167,13 @@ impl Engine {
         let mut timings = Vec::new();
         let mut host_ms = 0.0;
 
-        // 1. Smooth, band, erode; the eroded band's and the band's coarse cells.
-        let mut rec = Recording::new(&device, "brain extraction: erosion")?;
-        rec.begin_pass("brain extraction: erosion");
-        self.record_erosion(&pass, &mut rec, &mut work, prepared, params)?;
-        rec.end_pass();
-        timings.extend(rec.submit()?.wait()?);
-
+        // 1. Smooth, band, erode; the eroded band's, the band's and the foreground's cells.
+        self.erosion_round(&pass, &mut work, prepared, params, &mut timings)?;
         let coarse = work.grid.coarse.map(|c| c as usize);
         let host = Instant::now();
         let eroded = read_cells(&work.cells)?;
         let band_cells = read_cells(&work.band_cells)?;
-        let Some(selected) = largest_component_selection(&eroded, coarse) else {
+        let Some(whole) = largest_component_selection(&eroded, coarse) else {
             return Ok(BrainMask {
                 image: None,
                 factors: [1, 1, 1],
@@ -164,31 +182,37 @@ impl Engine {
                 gpu_timings: timings,
             });
         };
-        write_cells(&work.cells, &selected)?;
         host_ms += host.elapsed().as_secs_f64() * 1e3;
 
-        // 2. Core, re-growth, closing; the closed mask's coarse cells.
-        // The selection written by the host is read by the core step.
-        let mut rec = after_host_cells(&device, "brain extraction: closing", &work.cells)?;
-        self.record_closing(&pass, &mut rec, &mut work, params)?;
-        rec.end_pass();
-        timings.extend(rec.submit()?.wait()?);
-
-        let host = Instant::now();
-        let closed = read_cells(&work.cells)?;
-        let fill = hole_fill_cells(&closed, coarse, slab_axis(work.grid.spacing));
-        write_cells(&work.cells, &fill)?;
+        // 2. Core, re-growth, closing, hole filling from the largest component.
+        let mut round = self.closing_round(&pass, &mut work, params, &whole, &mut timings)?;
+        host_ms += round.host_ms;
+        let mut bridge_cut = false;
+        if round.cells(&band_cells).bridge_suspected() && params.scalp_mm > 0.0 {
+            // 2b. The second try without the head's outer shell (reference::brain_depth).
+            let host = Instant::now();
+            let cell_mm = work.grid.spacing.map(|h| h * f64::from(work.grid.cell));
+            let head = head_cells(&read_cells(&work.head_cells)?, coarse, cell_mm);
+            host_ms += host.elapsed().as_secs_f64() * 1e3;
+            self.depth_cut_round(&pass, &mut work, params, &head, &mut timings)?;
+            let host = Instant::now();
+            let cut = largest_component_selection(&read_cells(&work.cells)?, coarse);
+            host_ms += host.elapsed().as_secs_f64() * 1e3;
+            if let Some(selected) = cut {
+                round = self.closing_round(&pass, &mut work, params, &selected, &mut timings)?;
+                host_ms += round.host_ms;
+                bridge_cut = true;
+            }
+        }
         let cell_mm3 =
             work.grid.spacing.iter().product::<f64>() * f64::from(work.grid.cell).powi(3);
         let report = BrainReport::decide(
             params,
             cell_mm3,
-            &band_cells,
-            &closed,
-            &fill,
+            round.cells(&band_cells),
+            bridge_cut,
             started.elapsed(),
         );
-        host_ms += host.elapsed().as_secs_f64() * 1e3;
 
         // 3. The mask.
         // The filled cells written by the host are read by the final step.
@@ -214,6 +238,91 @@ impl Engine {
             used: false,
             report,
             gpu_timings: timings,
+        })
+    }
+
+    /// Submission 1: smoothing, band, erosion and the coarse cells of each.
+    fn erosion_round(
+        &self,
+        pass: &BrainPass,
+        work: &mut Work,
+        prepared: &PreparedVolume,
+        params: &BrainParams,
+        timings: &mut Vec<PassTiming>,
+    ) -> GpuResult<()> {
+        let mut rec = Recording::new(&self.device, "brain extraction: erosion")?;
+        rec.begin_pass("brain extraction: erosion");
+        self.record_erosion(pass, &mut rec, work, prepared, params)?;
+        rec.end_pass();
+        timings.extend(rec.submit()?.wait()?);
+        Ok(())
+    }
+
+    /// The second try's submission: the head's cells (`head`, written by the host) give each
+    /// voxel's depth; the smoothed volume loses its outer `scalp_mm`; the band is eroded again
+    /// and pooled into the cells. A first try without a component leaves the erosion's
+    /// distances where they were.
+    fn depth_cut_round(
+        &self,
+        pass: &BrainPass,
+        work: &mut Work,
+        params: &BrainParams,
+        head: &[u8],
+        timings: &mut Vec<PassTiming>,
+    ) -> GpuResult<()> {
+        write_cells(&work.cells, head)?;
+        // The head's cells written by the host are read by the first step.
+        let mut rec = after_host_cells(&self.device, "brain extraction: depth cut", &work.cells)?;
+        {
+            let Work {
+                grid,
+                smoothed,
+                a,
+                b,
+                cells,
+                ..
+            } = &mut *work;
+            let nearest = &self.nearest;
+            let s2 = params.scalp_mm * params.scalp_mm;
+            let step = StepMode::HeadSources;
+            pass.record_step(&mut rec, grid, nearest, step, 0.0, [b, smoothed], cells, a)?;
+            pass.record_distance(&mut rec, grid, nearest, [a, b], params.scalp_mm)?;
+            let step = StepMode::DepthCut;
+            pass.record_step(&mut rec, grid, nearest, step, s2, [b, smoothed], cells, a)?;
+        }
+        // The cut volume is the smoothed one from here on; the old one is scratch.
+        std::mem::swap(&mut work.smoothed, &mut work.a);
+        self.record_eroding(pass, &mut rec, work, params)?;
+        rec.end_pass();
+        timings.extend(rec.submit()?.wait()?);
+        Ok(())
+    }
+
+    /// Submission 2 from the host's `selected` cells: core, re-growth, closing and the closed
+    /// mask's cells; then the host's hole filling, written back for the final step.
+    fn closing_round(
+        &self,
+        pass: &BrainPass,
+        work: &mut Work,
+        params: &BrainParams,
+        selected: &[u8],
+        timings: &mut Vec<PassTiming>,
+    ) -> GpuResult<ClosingRound> {
+        write_cells(&work.cells, selected)?;
+        // The selection written by the host is read by the core step.
+        let mut rec = after_host_cells(&self.device, "brain extraction: closing", &work.cells)?;
+        self.record_closing(pass, &mut rec, work, params)?;
+        rec.end_pass();
+        timings.extend(rec.submit()?.wait()?);
+        let host = Instant::now();
+        let coarse = work.grid.coarse.map(|c| c as usize);
+        let closed = read_cells(&work.cells)?;
+        let fill = hole_fill_cells(&closed, coarse, slab_axis(work.grid.spacing));
+        write_cells(&work.cells, &fill)?;
+        Ok(ClosingRound {
+            closed,
+            fill,
+            host_ms: host.elapsed().as_secs_f64() * 1e3,
         })
     }
 
@@ -243,6 +352,7 @@ impl Engine {
             b: Tracked::new(b?),
             cells: Buffer::new(&self.device, cells_desc("brain cells", cells))?,
             band_cells: Buffer::new(&self.device, cells_desc("brain band cells", cells))?,
+            head_cells: Buffer::new(&self.device, cells_desc("brain head cells", cells))?,
         })
     }
 
@@ -269,10 +379,10 @@ impl Engine {
             smoothed,
             a,
             b,
-            cells,
             band_cells,
+            head_cells,
             ..
-        } = work;
+        } = &mut *work;
         let nearest = &self.nearest;
         // Block means into `smoothed`, then the Gaussian from there back into it.
         pass.record_downsample(rec, grid, nearest, &prepared.normalized, smoothed)?;
@@ -287,6 +397,35 @@ impl Engine {
             [smoothed, smoothed],
             band_cells,
         )?;
+        pass.record_pool(
+            rec,
+            grid,
+            nearest,
+            PoolMode::Foreground,
+            params.head_lo,
+            [smoothed, smoothed],
+            head_cells,
+        )?;
+        self.record_eroding(pass, rec, work, params)
+    }
+
+    /// Band sources, the erosion's distances (left in `b`) and its ALL-pool into the cells.
+    fn record_eroding(
+        &self,
+        pass: &BrainPass,
+        rec: &mut Recording,
+        work: &mut Work,
+        params: &BrainParams,
+    ) -> GpuResult<()> {
+        let Work {
+            grid,
+            smoothed,
+            a,
+            b,
+            cells,
+            ..
+        } = work;
+        let nearest = &self.nearest;
         pass.record_step(
             rec,
             grid,

@@ -103,6 +103,10 @@ pub enum StepMode {
     OutsideSources = 3,
     /// The mask: closed voxels or filled cells.
     Final = 4,
+    /// Sources of the depth under the head's surface: voxels outside the head's cells.
+    HeadSources = 5,
+    /// The smoothed volume with the head's outer shell (depth at most `scalp_mm`) set to 0.
+    DepthCut = 6,
 }
 
 /// What `brain_pool.comp` tests per coarse cell.
@@ -114,6 +118,8 @@ pub enum PoolMode {
     Any = 1,
     /// Some voxel is in the band.
     Band = 2,
+    /// Some voxel has S > t (the head's foreground; t is an I_norm, not mm^2).
+    Foreground = 3,
 }
 
 /// Push constants of `brain_step.comp` and `brain_pool.comp` (one layout).
@@ -432,8 +438,9 @@ impl BrainPass {
         Ok(())
     }
 
-    /// The coarse flags (`mode`) of the distance `field` or the band into `cells`, left for
-    /// the host to read once the recording completes.
+    /// The coarse flags (`mode`) of the distance `field` (`threshold` in mm^2), the band or the
+    /// foreground (`threshold` in I_norm) into `cells`, left for the host to read once the
+    /// recording completes.
     #[allow(clippy::too_many_arguments)]
     pub fn record_pool(
         &self,
@@ -441,7 +448,7 @@ impl BrainPass {
         grid: &BrainGrid,
         nearest: &Arc<Sampler>,
         mode: PoolMode,
-        threshold_mm2: f64,
+        threshold: f64,
         [field, smoothed]: [&Tracked; 2],
         cells: &Arc<Buffer>,
     ) -> GpuResult<()> {
@@ -460,7 +467,7 @@ impl BrainPass {
                 ("cells", Resource::Buffer(cells.clone())),
             ],
         )?;
-        let p = grid.step_params(mode as i32, threshold_mm2);
+        let p = grid.step_params(mode as i32, threshold);
         let groups = self.pool.workgroups_for(grid.coarse);
         // Orders the earlier voxel steps' reads of the cells (their binding) before these writes.
         rec.barriers(

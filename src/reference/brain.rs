@@ -7,7 +7,9 @@
 //! component dilated by one cell (CPU, `reference::brain_components`), the fine core inside it,
 //! re-growth by the same ball kept inside the band, closing by `close_mm` with a net
 //! growth of `grow_mm`, the ANY-pool, hole filling on the coarse grid (CPU) and the final mask
-//! `M0 || fill(cell)`.
+//! `M0 || fill(cell)`. When the mask leaves the share of the band outside that a bridge into the
+//! scalp does, the chain runs again from the band without the head's outer shell
+//! (`reference::brain_depth`, which reads the ANY-pool of the foreground `S > head_lo`).
 //!
 //! Decisions:
 //! - Morphology by Euclidean balls in mm, as thresholds of a bounded squared distance transform
@@ -35,7 +37,9 @@
 
 use super::vesselness::{gaussian_axis, sigma_voxels};
 use crate::reference::brain_components::{hole_fill_cells, largest_component_selection, slab_axis};
+use crate::reference::brain_depth::{depth_cut, head_cells};
 use crate::reference::brain_params::{BrainParams, BrainParamsError};
+use crate::reference::brain_report::DecisionCells;
 
 /// Squared distance of voxels with no source within reach.
 pub const BIG: f64 = 1e30;
@@ -92,8 +96,15 @@ pub struct BrainOutcome {
     pub coarse_dims: [usize; 3],
     /// Step 5: ALL-pool of `E` (coarse).
     pub coarse_core: Vec<u8>,
+    /// Step 5b: ANY-pool of the head's foreground `S > head_lo` (coarse).
+    pub coarse_foreground: Vec<u8>,
+    /// ANY-pool of the first try's band (coarse), which the decision reads.
+    pub band_cells: Vec<u8>,
     /// Step 6: the selected cells (coarse).
     pub selected: Vec<u8>,
+    /// Whether the chain ran again without the head's outer shell (`reference::brain_depth`);
+    /// `band`, `eroded`, `coarse_core` and the later steps are then the second try's.
+    pub bridge_cut: bool,
     /// Step 7: the core `C`.
     pub core: Vec<u8>,
     /// Step 8: the re-growth `G`.
@@ -350,6 +361,12 @@ pub fn extract(
     let eroded = erode(&band, dims, spacing, params.erode_mm);
     let cdims = coarse_dims(dims, f);
     let coarse_core = pool_all(&eroded, dims, f);
+    let foreground: Vec<u8> = smoothed
+        .iter()
+        .map(|&v| u8::from(v > params.head_lo))
+        .collect();
+    let coarse_foreground = pool_any(&foreground, dims, f);
+    let band_cells = pool_any(&band, dims, f);
     let mut out = BrainOutcome {
         found: false,
         mask: vec![0; volume.len()],
@@ -358,25 +375,66 @@ pub fn extract(
         eroded,
         coarse_dims: cdims,
         coarse_core,
+        coarse_foreground,
+        band_cells,
         selected: Vec::new(),
+        bridge_cut: false,
         core: Vec::new(),
         grown: Vec::new(),
         closed: Vec::new(),
         coarse_closed: Vec::new(),
         fill: Vec::new(),
     };
-    let Some(selected) = largest_component_selection(&out.coarse_core, cdims) else {
+    let Some(whole) = largest_component_selection(&out.coarse_core, cdims) else {
         return Ok(out);
     };
     out.found = true;
+    close_from(&mut out, whole, dims, spacing, params);
+    // The second try with the scalp bridge cut (reference::brain_depth).
+    let cells = DecisionCells {
+        band: &out.band_cells,
+        closed: &out.coarse_closed,
+        fill: &out.fill,
+    };
+    if cells.bridge_suspected() && params.scalp_mm > 0.0 {
+        second_try(&mut out, dims, spacing, params);
+    }
+    Ok(out)
+}
+
+/// The chain again from the band, on the smoothed volume without the head's outer shell
+/// (`reference::brain_depth`); `out` keeps the first try when the cut leaves no component.
+fn second_try(out: &mut BrainOutcome, dims: [usize; 3], spacing: [f64; 3], params: &BrainParams) {
+    let f = params.coarse;
+    let cell_mm = spacing.map(|h| h * f as f64);
+    let head = head_cells(&out.coarse_foreground, out.coarse_dims, cell_mm);
+    let cut = depth_cut(&out.smoothed, &head, dims, spacing, f, params.scalp_mm);
+    let band = band(&cut, params.lo, params.hi);
+    let eroded = erode(&band, dims, spacing, params.erode_mm);
+    let coarse_core = pool_all(&eroded, dims, f);
+    if let Some(selected) = largest_component_selection(&coarse_core, out.coarse_dims) {
+        (out.band, out.eroded, out.coarse_core) = (band, eroded, coarse_core);
+        close_from(out, selected, dims, spacing, params);
+        out.bridge_cut = true;
+    }
+}
+
+/// Steps 7-12 from the selected cells `selected`, into `out`.
+fn close_from(
+    out: &mut BrainOutcome,
+    selected: Vec<u8>,
+    dims: [usize; 3],
+    spacing: [f64; 3],
+    params: &BrainParams,
+) {
+    let f = params.coarse;
     out.core = core(&out.eroded, &selected, dims, f);
     out.selected = selected;
     out.grown = regrow(&out.core, &out.band, dims, spacing, params.erode_mm);
     out.closed = close_and_grow(&out.grown, dims, spacing, params.close_mm, params.grow_mm);
     out.coarse_closed = pool_any(&out.closed, dims, f);
-    out.fill = hole_fill_cells(&out.coarse_closed, cdims, slab_axis(spacing));
+    out.fill = hole_fill_cells(&out.coarse_closed, out.coarse_dims, slab_axis(spacing));
     out.mask = final_mask(&out.closed, &out.fill, dims, f);
-    Ok(out)
 }
 
 /// The head test's measurements and verdict.

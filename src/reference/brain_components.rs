@@ -80,6 +80,12 @@ fn face_neighbours(c: usize, dims: [usize; 3]) -> impl Iterator<Item = usize> {
 /// (26-neighbours), as 0/1 cells. None when no cell is set (no brain found), and when `set` does
 /// not hold exactly `dims`' cells or the grid has more than `u32::MAX` cells.
 pub fn largest_component_selection(set: &[u8], dims: [usize; 3]) -> Option<Vec<u8>> {
+    largest_component(set, dims).map(|component| dilate_one_cell(&component, dims))
+}
+
+/// The largest 6-connected component of the set cells as 0/1 cells (the module doc's rule), not
+/// dilated. None as for [`largest_component_selection`].
+pub fn largest_component(set: &[u8], dims: [usize; 3]) -> Option<Vec<u8>> {
     let n = cell_count(dims).filter(|&n| n == set.len())?;
     let mut label = vec![0u32; n];
     let mut stack: Vec<u32> = Vec::new();
@@ -110,13 +116,19 @@ pub fn largest_component_selection(set: &[u8], dims: [usize; 3]) -> Option<Vec<u
     if best == 0 {
         return None;
     }
-    let mut selected = vec![0u8; n];
-    for (c, &l) in label.iter().enumerate() {
-        if l == best {
+    Some(label.iter().map(|&l| u8::from(l == best)).collect())
+}
+
+/// `component` dilated by one cell (26-neighbours), so the fine core taken inside it is not cut
+/// by the block grid.
+pub fn dilate_one_cell(component: &[u8], dims: [usize; 3]) -> Vec<u8> {
+    let mut selected = vec![0u8; component.len()];
+    for (c, &v) in component.iter().enumerate() {
+        if v != 0 {
             mark_block(&mut selected, coords(c, dims), dims);
         }
     }
-    Some(selected)
+    selected
 }
 
 /// Sets `p` and its 26 neighbours inside the grid.
@@ -207,6 +219,27 @@ fn touches_outside(outside: &[bool], p: [usize; 3], dims: [usize; 3]) -> bool {
     false
 }
 
+/// Cells outside `set` by the module doc's rule: unset and reachable from the border both in 3D
+/// and within their slice across `slab_axis`.
+fn outside(set: &[u8], dims: [usize; 3], slab_axis: usize) -> Vec<bool> {
+    let o3 = outside_3d(set, dims);
+    let o2 = outside_2d(set, dims, slab_axis.min(2));
+    o3.iter().zip(&o2).map(|(&a, &b)| a && b).collect()
+}
+
+/// The cells `set` encloses (0/1): every cell not outside it (the module doc's rule), so the set
+/// cells and the holes within them. All zeros when `set` does not hold exactly `dims`' cells or
+/// the grid has more than `u32::MAX` cells.
+pub fn enclosed_cells(set: &[u8], dims: [usize; 3], slab_axis: usize) -> Vec<u8> {
+    if cell_count(dims).filter(|&n| n == set.len()).is_none() {
+        return vec![0; set.len()];
+    }
+    outside(set, dims, slab_axis)
+        .iter()
+        .map(|&o| u8::from(!o))
+        .collect()
+}
+
 /// Step 11: the filled cells (0/1) of the coarse mask `set` (module doc), slices across
 /// `slab_axis` (0, 1 or 2; larger values mean 2). All zeros when `set` does not hold exactly
 /// `dims`' cells or the grid has more than `u32::MAX` cells.
@@ -214,9 +247,7 @@ pub fn hole_fill_cells(set: &[u8], dims: [usize; 3], slab_axis: usize) -> Vec<u8
     let Some(n) = cell_count(dims).filter(|&n| n == set.len()) else {
         return vec![0; set.len()];
     };
-    let o3 = outside_3d(set, dims);
-    let o2 = outside_2d(set, dims, slab_axis.min(2));
-    let outside: Vec<bool> = o3.iter().zip(&o2).map(|(&a, &b)| a && b).collect();
+    let outside = outside(set, dims, slab_axis);
     (0..n)
         .map(|c| {
             let fill =

@@ -42,6 +42,12 @@ pub struct BrainParams {
     pub grow_mm: f64,
     /// Coarse-grid cell edge in voxels, 1..=8 (2).
     pub coarse: usize,
+    /// Foreground threshold in I_norm whose enclosure is the head (half the band's `lo`:
+    /// [`BrainParams::for_band`]); `reference::brain_depth`.
+    pub head_lo: f64,
+    /// Depth under the head's surface in mm down to which a bridged head's second try drops
+    /// the tissue (8; 0 turns the second try off); `reference::brain_depth`.
+    pub scalp_mm: f64,
 }
 
 /// Voxel lengths in mm of each index axis: the column norms of the index-to-world linear part
@@ -69,6 +75,8 @@ impl Default for BrainParams {
             close_mm: 5.0,
             grow_mm: 2.5,
             coarse: 2,
+            head_lo: 0.0,
+            scalp_mm: 8.0,
         }
     }
 }
@@ -118,11 +126,14 @@ pub enum BrainParamsError {
 }
 
 impl BrainParams {
-    /// The defaults with the band `lo..hi` (from `band_for`).
+    /// The defaults with the band `lo..hi` (from `band_for`) and the head's foreground at half
+    /// of `lo` (below the band's darkest tissue, above air and noise: the prototype of
+    /// `reference::brain_depth` used 0.3 x Otsu, which is half of a T2 band's `lo`).
     pub fn for_band(lo: f64, hi: f64) -> Self {
         BrainParams {
             lo,
             hi,
+            head_lo: 0.5 * lo,
             ..BrainParams::default()
         }
     }
@@ -136,6 +147,8 @@ impl BrainParams {
             ("erode_mm", self.erode_mm),
             ("close_mm", self.close_mm),
             ("grow_mm", self.grow_mm),
+            ("head_lo", self.head_lo),
+            ("scalp_mm", self.scalp_mm),
         ];
         if let Some(&(name, value)) = fields.iter().find(|(_, v)| !v.is_finite()) {
             return Err(BrainParamsError::NotFinite { name, value });
@@ -150,6 +163,7 @@ impl BrainParams {
         range("sigma_mm", self.sigma_mm, self.sigma_mm >= 0.0, "0 or more")?;
         range("erode_mm", self.erode_mm, self.erode_mm > 0.0, "above 0")?;
         range("grow_mm", self.grow_mm, self.grow_mm >= 0.0, "0 or more")?;
+        range("scalp_mm", self.scalp_mm, self.scalp_mm >= 0.0, "0 or more")?;
         if self.lo >= self.hi {
             return Err(BrainParamsError::EmptyBand {
                 lo: self.lo,

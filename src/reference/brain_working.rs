@@ -6,9 +6,9 @@
 //! Decisions: the block mean is over the voxels inside the volume (a far block clipped by the
 //! faces averages fewer); the working spacing is the volume's times the block edges.
 
-use super::brain::{BrainError, BrainOutcome, extract, pool_any};
+use super::brain::{BrainError, BrainOutcome, extract};
 use super::brain_params::BrainParams;
-use super::brain_report::BrainReport;
+use super::brain_report::{BrainReport, DecisionCells};
 
 /// The twin's result on the working grid.
 #[derive(Clone, Debug)]
@@ -69,14 +69,16 @@ pub fn extract_working(
     let outcome = extract(&means, wdims, wspacing, params)?;
     let report = if outcome.found {
         let f = params.coarse;
-        let band_cells = pool_any(&outcome.band, wdims, f);
         let cell_mm3 = wspacing.iter().product::<f64>() * (f * f * f) as f64;
         BrainReport::decide(
             params,
             cell_mm3,
-            &band_cells,
-            &outcome.coarse_closed,
-            &outcome.fill,
+            DecisionCells {
+                band: &outcome.band_cells,
+                closed: &outcome.coarse_closed,
+                fill: &outcome.fill,
+            },
+            outcome.bridge_cut,
             std::time::Duration::ZERO,
         )
     } else {

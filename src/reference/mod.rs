@@ -37,6 +37,7 @@ pub use histogram::{BINS, bin_of, histogram, histogram_of_samples};
 pub use minmax::{finite_min_max, nonfinite_count};
 pub use normalize::{normalize, normalize_value, physical_range};
 pub mod brain_components;
+pub mod brain_depth;
 pub mod brain_mask;
 pub mod brain_params;
 pub mod brain_report;

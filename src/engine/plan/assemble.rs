@@ -352,6 +352,7 @@ fn brain(ctx: &PlanContext) -> PassDeclaration {
             transient(b),
             Declared::transient(cells_desc("brain cells", cells)),
             Declared::transient(cells_desc("brain band cells", cells)),
+            Declared::transient(cells_desc("brain head cells", cells)),
         ],
     }
 }
