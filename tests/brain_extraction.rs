@@ -431,3 +431,58 @@ fn derive_writes_the_brain_mask_into_a_folder_it_creates() {
     assert!(d >= 0.9, "Dice {d} of the written mask against the truth");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn skipping_leaves_out_the_head_around_the_brain_and_changes_no_pixel() {
+    use ash::vk;
+    use morphray::analysis::analyze;
+    use morphray::scene::{Classification, Scene};
+    let mut engine = common::engine();
+    let p = head_phantom_2mm([97, 113, 99]);
+    let prepared = engine.prepare(&p.volume).unwrap();
+    let norm = &prepared.normalization;
+    let report = analyze(
+        &prepared.histogram,
+        norm.imin.unwrap(),
+        norm.imax.unwrap(),
+        prepared.voxel_count as usize,
+        0,
+    );
+    let mut scene = Scene::new(Classification::from_tissue_windows(
+        &report.adaptive_windows,
+    ));
+    scene.camera.azimuth_deg = 35.0;
+    scene.camera.elevation_deg = 25.0;
+    let outputs = scene.effects.derivative_outputs().unwrap();
+    let derived = engine.derive(&prepared, outputs).unwrap();
+    let brain = derived
+        .brain
+        .as_ref()
+        .expect("the default scene extracts the brain");
+    assert!(brain.used, "{:?}", brain.report);
+    // The bricks the mask cannot reach are empty for the tissues: far fewer bricks to march.
+    let ranges = engine.brick_ranges(&prepared).unwrap();
+    let whole = ranges.occupied_fraction(&scene.classification);
+    let inside = brain
+        .ranges_inside(&ranges)
+        .occupied_fraction(&scene.classification);
+    println!("occupied bricks: {whole:.3} of the head, {inside:.3} with the brain mask");
+    assert!(inside < 0.8 * whole, "{inside} vs {whole}");
+    // Lossless: the same pixels with skipping off.
+    let mut render = |skip: bool| {
+        let mut s = scene;
+        s.effects.quality.empty_space_skipping = skip;
+        let mut target = engine
+            .render_target(48, 48, vk::Format::R32G32B32A32_SFLOAT)
+            .unwrap();
+        let frame = engine
+            .render(&mut target, &prepared, Some(&derived), &s)
+            .unwrap();
+        (frame.values, frame.skipped_empty_space)
+    };
+    let (off, _) = render(false);
+    let (on, skipped) = render(true);
+    assert!(skipped, "skipping ran");
+    assert_eq!(off, on);
+    common::assert_no_validation_errors(&engine);
+}

@@ -22,11 +22,14 @@ use crate::passes::brain::{
     BrainGrid, BrainPass, BrainSwitch, PoolMode, StepMode, Tracked, brain_descs, cells_desc,
     working_extent, working_factors,
 };
+use crate::passes::occupancy::OCCUPANCY_HALO;
 use crate::reference::brain_components::{hole_fill_cells, largest_component_selection, slab_axis};
 use crate::reference::brain_depth::head_cells;
+use crate::reference::brain_mask::BrainCells;
 use crate::reference::brain_params::{BrainParams, close_threshold, spacing_mm};
 use crate::reference::brain_report::{BrainDecision, BrainReport, DecisionCells};
-use std::sync::Arc;
+use crate::scene::occupancy::BrickRanges;
+use std::sync::{Arc, OnceLock};
 use std::time::Instant;
 
 /// The brain mask and how it was decided.
@@ -44,6 +47,12 @@ pub struct BrainMask {
     pub report: BrainReport,
     /// GPU time of the passes.
     pub gpu_timings: Vec<PassTiming>,
+    /// The brain's coarse cells (closed or filled), for empty-space skipping; None without a
+    /// mask.
+    pub cells: Option<BrainCells>,
+    /// The volume's brick ranges restricted to the bricks the mask reaches, made on first use
+    /// ([`BrainMask::ranges_inside`]).
+    skipping: OnceLock<Arc<BrickRanges>>,
 }
 
 /// The images and buffers of one extraction.
@@ -76,6 +85,35 @@ impl ClosingRound {
 }
 
 impl BrainMask {
+    /// No mask (nothing brain-like, or not a head scan), with the GPU time spent finding out.
+    fn none(params: &BrainParams, gpu_timings: Vec<PassTiming>) -> Self {
+        BrainMask {
+            image: None,
+            factors: [1, 1, 1],
+            used: false,
+            report: BrainReport::not_found(params, std::time::Duration::ZERO),
+            gpu_timings,
+            cells: None,
+            skipping: OnceLock::new(),
+        }
+    }
+
+    /// `ranges` (the volume's brick ranges) with the bricks the mask cannot reach made empty,
+    /// so empty-space skipping skips the head around the brain when the head layer is hidden
+    /// (`reference::brain_mask` says why that is exact). The same `Arc` every call, so the
+    /// brick-bounds pass reruns only when the classification changes.
+    pub fn ranges_inside(&self, ranges: &Arc<BrickRanges>) -> Arc<BrickRanges> {
+        let Some(cells) = &self.cells else {
+            return ranges.clone();
+        };
+        self.skipping
+            .get_or_init(|| {
+                let inside = cells.bricks_inside(ranges.grid, ranges.side, OCCUPANCY_HALO);
+                Arc::new(ranges.only_inside(&inside))
+            })
+            .clone()
+    }
+
     /// The extent in the volume's voxels the mask's texture spans (its dimensions times the
     /// block edges; at least the volume's), for the raymarch's texture coordinates.
     pub fn grid_extent(&self) -> [f32; 3] {
@@ -110,14 +148,7 @@ impl Engine {
         if matches!(prepared.layout, VolumeLayout::Bricked(_)) {
             // The plan turns extraction off for bricked volumes; a caller asking anyway gets
             // nothing masked rather than an error.
-            let params = BrainParams::default();
-            return Ok(BrainMask {
-                image: None,
-                factors: [1, 1, 1],
-                used: false,
-                report: BrainReport::not_found(&params, std::time::Duration::ZERO),
-                gpu_timings: Vec::new(),
-            });
+            return Ok(BrainMask::none(&BrainParams::default(), Vec::new()));
         }
         let identity = &prepared.identity;
         // Brain extraction is for MR heads: not CT, PET, angiography or the EPI series.
@@ -130,14 +161,7 @@ impl Engine {
         let band = crate::analysis::brain_band::band_for(&prepared.histogram, contrast)
             .filter(|_| !not_a_head_scan);
         let Some((lo, hi)) = band else {
-            let params = BrainParams::default();
-            return Ok(BrainMask {
-                image: None,
-                factors: [1, 1, 1],
-                used: false,
-                report: BrainReport::not_found(&params, std::time::Duration::ZERO),
-                gpu_timings: Vec::new(),
-            });
+            return Ok(BrainMask::none(&BrainParams::default(), Vec::new()));
         };
         let mut mask = self.brain_mask(prepared, &BrainParams::for_band(lo, hi))?;
         mask.used = mask.use_for(switch);
@@ -174,13 +198,9 @@ impl Engine {
         let eroded = read_cells(&work.cells)?;
         let band_cells = read_cells(&work.band_cells)?;
         let Some(whole) = largest_component_selection(&eroded, coarse) else {
-            return Ok(BrainMask {
-                image: None,
-                factors: [1, 1, 1],
-                used: false,
-                report: BrainReport::not_found(params, started.elapsed()),
-                gpu_timings: timings,
-            });
+            let mut none = BrainMask::none(params, timings);
+            none.report.total_ms = started.elapsed().as_secs_f64() * 1e3;
+            return Ok(none);
         };
         host_ms += host.elapsed().as_secs_f64() * 1e3;
 
@@ -232,12 +252,25 @@ impl Engine {
         let mut report = report;
         report.host_ms = host_ms;
         report.total_ms = started.elapsed().as_secs_f64() * 1e3;
+        let set = round
+            .closed
+            .iter()
+            .zip(&round.fill)
+            .map(|(&c, &f)| c | f)
+            .collect();
         Ok(BrainMask {
             image: Some(work.mask.image.clone()),
             factors: work.grid.factors,
             used: false,
             report,
             gpu_timings: timings,
+            cells: Some(BrainCells {
+                dims: coarse,
+                cell: work.grid.cell as usize,
+                factors: work.grid.factors,
+                set,
+            }),
+            skipping: OnceLock::new(),
         })
     }
 

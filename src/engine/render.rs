@@ -374,6 +374,12 @@ impl Engine {
         let mut bricks = [1, 1, 1, BRICK_SIDE];
         let occupancy = if variant.skip_empty {
             let ranges = self.brick_ranges(prepared)?;
+            // With the head layer hidden (else skipping is off), the tissues show only where
+            // the brain mask reaches: the rest of the head is empty space.
+            let ranges = match derived.and_then(|d| d.brain.as_ref()) {
+                Some(brain) if variant.brain => brain.ranges_inside(&ranges),
+                _ => ranges,
+            };
             let inputs = BoundsInputs {
                 ranges: ranges.clone(),
                 vessels: derived

@@ -12,6 +12,10 @@ use std::sync::Arc;
 /// occupancy bits for the 256x256x192 phantom) while skipping most of the air around a head.
 pub const BRICK_SIDE: u32 = 8;
 
+/// Voxels each side of a brick that its range covers (occupancy.comp's halo: the footprint of
+/// trilinear and cubic samples).
+pub const OCCUPANCY_HALO: u32 = 2;
+
 /// Push constants of `occupancy.comp`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]

@@ -166,6 +166,22 @@ pub struct BrickRanges {
 }
 
 impl BrickRanges {
+    /// These ranges with every brick not `inside` made empty (min above max): no tissue window
+    /// meets an empty range and its opacity bound is 0, so the brick-bounds pass skips it for
+    /// the tissues (the brain mask's bricks, `reference::brain_mask::BrainCells`). A length
+    /// other than the bricks' changes nothing.
+    pub fn only_inside(&self, inside: &[bool]) -> BrickRanges {
+        let mut out = self.clone();
+        if inside.len() == out.ranges.len() {
+            for (r, &keep) in out.ranges.iter_mut().zip(inside) {
+                if !keep {
+                    *r = (f32::MAX, f32::MIN);
+                }
+            }
+        }
+        out
+    }
+
     /// One bit per brick (u32 words, bit b of word b / 32): set where some visible tissue can
     /// have non-zero opacity.
     pub fn occupancy_bits(&self, classification: &Classification) -> Vec<u32> {
