@@ -156,14 +156,7 @@ pub fn run(args: &DeriveArgs, global: &super::GlobalOptions) -> Result<(), Error
     let maps = opened.engine.derived_maps(&prepared, &request)?;
     let source = &opened.source.volume;
     if let Some(report) = &maps.brain_report {
-        print_line(&format!(
-            "brain: {} ({:.0} cm^3, {:.0} % of the tissue band I_norm {:.3}..{:.3} outside it)",
-            report.decision.describe(),
-            report.brain_cm3,
-            100.0 * report.outside_fraction,
-            report.params.lo,
-            report.params.hi.min(1.0),
-        ));
+        print_line(&report.summary());
     }
     for (name, path) in &paths {
         if *name == "brain" {

@@ -342,9 +342,18 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
         let frame = opened
             .engine
             .render_twin(&mut target, &mut opened.twin, &scene)?;
+        let brain = opened
+            .twin
+            .derived()
+            .and_then(|d| d.brain.as_ref())
+            .filter(|_| classified)
+            .map(|b| b.report.clone());
         if index == 0 {
             // After the first frame: its pipelines are all compiled now.
             session::persist_pipeline_cache(&opened.engine);
+            if let Some(report) = &brain {
+                print_line(&report.summary());
+            }
         }
         let parameters = serde_json::json!({
             "engine": format!("morphray {}", env!("CARGO_PKG_VERSION")),
@@ -360,6 +369,7 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
             "modality": opened.report.modality,
             "contrast": opened.report.contrast,
             "fallback": opened.report.fallback,
+            "brain": brain,
             "degradations": opened.plan.degradations,
             "overlay": args.overlay,
         });

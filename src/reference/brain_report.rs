@@ -69,6 +69,24 @@ pub struct BrainReport {
 }
 
 impl BrainReport {
+    /// The one line the commands print: the decision, the brain's volume, the band's share
+    /// outside it, the band, and the second try when it ran.
+    pub fn summary(&self) -> String {
+        let cut = if self.bridge_cut {
+            "; a bridge into the scalp was cut"
+        } else {
+            ""
+        };
+        format!(
+            "brain: {} ({:.0} cm^3, {:.0} % of the tissue band I_norm {:.3}..{:.3} outside it{cut})",
+            self.decision.describe(),
+            self.brain_cm3,
+            100.0 * self.outside_fraction,
+            self.params.lo,
+            self.params.hi.min(1.0),
+        )
+    }
+
     /// No component at all.
     pub fn not_found(params: &BrainParams, elapsed: Duration) -> Self {
         BrainReport {
