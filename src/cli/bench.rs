@@ -427,6 +427,12 @@ pub fn run(args: &BenchArgs, global: &super::GlobalOptions) -> Result<(), Error>
     let skipping =
         if scene.effects.mode == RenderMode::Dvr && scene.effects.quality.empty_space_skipping {
             let ranges = opened.engine.brick_ranges(&opened.twin.prepared)?;
+            // With a brain mask in use the tissues show only where it reaches (render.rs).
+            let brain = opened.twin.derived().and_then(|d| d.brain.as_ref());
+            let ranges = match brain {
+                Some(b) if b.used && !scene.classification.head.visible => b.ranges_inside(&ranges),
+                _ => ranges,
+            };
             Some(SkippingReport {
                 used: skipped,
                 occupied_fraction: ranges.occupied_fraction(&scene.classification),
