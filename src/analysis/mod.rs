@@ -36,6 +36,7 @@ pub mod background;
 pub mod brain_band;
 pub mod contrast;
 pub mod fallback;
+pub mod fit_windows;
 pub mod modality;
 mod modality_rules;
 pub mod params;
@@ -44,6 +45,7 @@ pub mod range;
 pub mod smoothing;
 pub mod spikes;
 pub mod table1;
+pub mod tissue_fit;
 pub mod windows;
 
 pub use crate::reference::brain_params::{BrainParams, BrainParamsError};
@@ -57,7 +59,8 @@ pub use range::{NormalizeMode, RangeChoice, RobustRange};
 pub use table1::{
     InPaperWindow, ModeInfo, ModeRole, Peak, Peaks, SpikeInfo, Table1Row, TissueReport,
 };
-pub use windows::{PAPER_EDGE, TissueWindows, Window};
+pub use tissue_fit::{Fit, FitDomain, FittedClass};
+pub use windows::{PAPER_EDGE, TissueWindows, Window, WindowsFrom};
 
 use crate::reference::BINS;
 
@@ -272,11 +275,37 @@ pub fn analyze_identified(
     };
     let mut adaptive_windows =
         windows::adaptive(&s, &modes, bg.modes, &assignment, bg.threshold_bin, params);
+    let mut windows_from = if adaptive_windows == TissueWindows::none() {
+        WindowsFrom::None
+    } else {
+        WindowsFrom::Modes
+    };
+    // Item 2 of issue 28: the tissue windows of a structural MR scan come from the mixture
+    // fitted to the foreground (the engine refits inside the brain mask when it has one).
+    let fit = fits_tissues(identity).then(|| {
+        let (first, last) = tissue_fit::occupied_range(&cleaned, bg.threshold_bin.max(1));
+        tissue_fit::fit_tissues(
+            &cleaned,
+            (first, last),
+            decided.contrast,
+            FitDomain::Foreground,
+            (imin, imax),
+        )
+    });
+    let fit = fit.flatten().map(|(fit, mixture)| {
+        if fit.sound {
+            adaptive_windows =
+                windows_from_fit(&mixture, decided.contrast, bg.threshold_bin, params);
+            windows_from = WindowsFrom::Fit;
+        }
+        fit
+    });
     // Item 4 of issue 28: a scan with a background but no tissue class still shows its
     // foreground (see `fallback`).
     let fallback = fallback::foreground(hist, &adaptive_windows, &bg, bg.modes > 0, params);
     if let Some(f) = &fallback {
         adaptive_windows.wm = Some(f.window);
+        windows_from = WindowsFrom::Fallback;
     }
 
     let role = |i: usize| -> ModeRole {
@@ -336,7 +365,31 @@ pub fn analyze_identified(
         contrast: decided,
         modality: identity.modality.clone(),
         fallback,
+        fit,
+        windows_from,
     }
+}
+
+/// Whether the tissue fit decides the windows: structural MR (no angiography, EPI or
+/// diffusion series, whose histograms hold no three brain classes).
+fn fits_tissues(identity: &Identity) -> bool {
+    identity.modality.modality == Modality::Mr && identity.kind.is_none()
+}
+
+/// The windows of a sound fit (`fit_windows`), the background threshold at `threshold_bin`.
+pub fn windows_from_fit(
+    mixture: &crate::reference::tissue_fit::Mixture,
+    contrast: Contrast,
+    threshold_bin: usize,
+    params: &AnalysisParams,
+) -> TissueWindows {
+    fit_windows::from_fit(
+        mixture,
+        contrast,
+        threshold_bin as f64 / BINS as f64,
+        params.edge_bins,
+        params.wm_upper_sigmas,
+    )
 }
 
 #[cfg(test)]
