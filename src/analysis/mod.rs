@@ -366,6 +366,7 @@ pub fn analyze_identified(
         modality: identity.modality.clone(),
         fallback,
         fit,
+        rejected_fit: None,
         windows_from,
     }
 }
@@ -373,7 +374,12 @@ pub fn analyze_identified(
 /// Whether the tissue fit decides the windows: structural MR (no angiography, EPI or
 /// diffusion series, whose histograms hold no three brain classes).
 fn fits_tissues(identity: &Identity) -> bool {
-    identity.modality.modality == Modality::Mr && identity.kind.is_none()
+    fits_tissues_for(&identity.modality, identity.kind)
+}
+
+/// [`fits_tissues`] from a report's modality and sequence kind.
+pub fn fits_tissues_for(modality: &ModalityReport, kind: Option<SequenceKind>) -> bool {
+    modality.modality == Modality::Mr && kind.is_none()
 }
 
 /// The windows of a sound fit (`fit_windows`), the background threshold at `threshold_bin`.

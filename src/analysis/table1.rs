@@ -147,6 +147,9 @@ pub struct TissueReport {
     pub fallback: Option<super::Fallback>,
     /// The tissue mixture fitted to the histogram (`tissue_fit`), when one was fitted.
     pub fit: Option<super::Fit>,
+    /// A fit inside the brain mask that was not sound (the windows stayed with `fit` or the
+    /// modes).
+    pub rejected_fit: Option<super::Fit>,
     /// Which path placed `adaptive_windows`.
     pub windows_from: super::WindowsFrom,
 }

@@ -28,7 +28,7 @@ pub const MIN_SEPARATION_BINS: f64 = 3.0;
 /// Least weight of a pure class for a sound fit.
 pub const MIN_WEIGHT: f64 = 0.03;
 /// Least goodness of fit (`1 - TV`) for a sound fit.
-pub const MIN_GOODNESS: f64 = 0.75;
+pub const MIN_GOODNESS: f64 = 0.6;
 
 /// Which voxels the fitted histogram counted.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]

@@ -187,6 +187,35 @@ pub fn fit(hist: &[f64; BINS], start: &FitStart) -> Option<Mixture> {
     })
 }
 
+/// Histogram of `I_norm` (eq. 1 in f64 with `imin`/`imax`, rounded to f32, the kernel's
+/// binning) over the finite voxels of `volume`'s first frame where `inside` is nonzero: the
+/// fit's input inside a brain mask.
+pub fn histogram_inside(
+    volume: &crate::volume::Volume,
+    inside: &[u8],
+    imin: f64,
+    imax: f64,
+) -> [u32; BINS] {
+    let mut bins = [0u32; BINS];
+    let voxels = volume
+        .dims
+        .iter()
+        .product::<usize>()
+        .min(volume.samples.len());
+    for (i, &m) in inside.iter().enumerate().take(voxels) {
+        if m == 0 {
+            continue;
+        }
+        let stored = volume.samples.get(i);
+        if stored.is_finite() {
+            let v = super::normalize::normalize_value(volume.to_physical.apply(stored), imin, imax);
+            let b = super::histogram::bin_of(v as f32);
+            bins[b] = bins[b].saturating_add(1);
+        }
+    }
+    bins
+}
+
 /// Caps the tail class's weight at [`MAX_TAIL_WEIGHT`], the others scaled to keep the sum.
 pub fn cap_tail(weights: &mut [f64; CLASSES]) {
     let tail = weights[CLASSES - 1];
