@@ -26,6 +26,11 @@
 //!    flank; a masked histogram keeps the plain rule, so that a stricter `noise_z` or a wider
 //!    `sigma_bins` still drops a weak CSF mode there (tests/peaks.rs documents that).
 //! 6. `windows`: adaptive windows around the modes (boundaries at valleys) and the paper preset.
+//!    `tissue_fit` (issue 28, item 2): for structural MR a Gaussian mixture with
+//!    partial-volume classes is fitted by EM to the foreground; its windows (`fit_windows`)
+//!    replace the modes' when the modes miss a class and the fit is sound. With a brain mask
+//!    the engine refits inside it (`engine/brain_fit.rs`), and that fit decides.
+//!    `TissueReport::windows_from` says which path placed the windows.
 //! 7. `table1`: the report and its flat Table-1 row.
 //!
 //! Every step is a total function of the histogram: empty, constant, uniform and single-voxel
@@ -281,7 +286,8 @@ pub fn analyze_identified(
         WindowsFrom::Modes
     };
     // Item 2 of issue 28: the tissue windows of a structural MR scan come from the mixture
-    // fitted to the foreground (the engine refits inside the brain mask when it has one).
+    // fitted to the histogram; the engine refits inside the brain mask when it has one
+    // (engine/brain_fit.rs), and that fit decides.
     let fit = fits_tissues(identity).then(|| {
         let (first, last) = tissue_fit::occupied_range(&cleaned, bg.threshold_bin.max(1));
         tissue_fit::fit_tissues(
@@ -292,8 +298,13 @@ pub fn analyze_identified(
             (imin, imax),
         )
     });
+    // Without a brain mask the foreground of a whole head holds skin, fat, muscle and bone as
+    // well, which three tissue classes cannot model: there the modes keep the windows when they
+    // found all three classes, and the fit places them when they did not.
+    let modes_complete =
+        assignment.csf.is_some() && assignment.gm.is_some() && assignment.wm.is_some();
     let fit = fit.flatten().map(|(fit, mixture)| {
-        if fit.sound {
+        if fit.sound && !modes_complete {
             adaptive_windows =
                 windows_from_fit(&mixture, decided.contrast, bg.threshold_bin, params);
             windows_from = WindowsFrom::Fit;

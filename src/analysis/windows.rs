@@ -65,7 +65,9 @@ impl WindowsFrom {
     pub fn words(self) -> &'static str {
         match self {
             WindowsFrom::Fit => "the fitted tissue mixture",
-            WindowsFrom::Modes => "the histogram's modes (the fit was not sound or not run)",
+            WindowsFrom::Modes => {
+                "the histogram's modes (no brain mask to fit inside and all three classes found as modes, or the fit was not sound)"
+            }
             WindowsFrom::Fallback => "the foreground fallback (no tissue class)",
             WindowsFrom::None => "nothing (no tissue class, no foreground)",
         }
