@@ -10,8 +10,9 @@
 //!   WM < GM < CSF; FLAIR and CT CSF < WM < GM (CSF darkest, GM above WM).
 //! - EM starts from the histogram's quantiles at the middles of typical brain fractions
 //!   (CSF 15 %, GM 45 %, WM 40 %) taken in the contrast's intensity order, so the start already
-//!   knows which class is small; it does not depend on the mode hunter. A second start at the
-//!   quantiles 1/6, 1/2, 5/6 runs too, and the higher likelihood wins (EM finds local optima).
+//!   knows which class is small; it does not depend on the mode hunter. When that fit is not
+//!   sound, a second start at the quantiles 1/6, 1/2, 5/6 runs, and the higher likelihood wins
+//!   (EM finds local optima).
 //! - A fit is used for the windows only when it is sound ([`Fit::sound`]): finite, the pure
 //!   means ascending at least [`MIN_SEPARATION_BINS`] apart, each pure class holding at least
 //!   [`MIN_WEIGHT`], and goodness at least [`MIN_GOODNESS`]. Otherwise the mode hunter's
@@ -203,7 +204,9 @@ pub fn fit_f32(hist: &[f64; BINS], start: &FitStart) -> Option<Mixture> {
             let mut p = [0.0f32; CLASSES];
             for (c, &(m, k, a)) in coef.iter().enumerate() {
                 let d = x - m;
-                p[c] = a * (k * d * d).exp();
+                let e = k * d * d;
+                // e^-30 = 1e-13 of the class's peak (7.7 SDs away): nothing to add.
+                p[c] = if e > -30.0 { a * e.exp() } else { 0.0 };
             }
             p[CLASSES - 1] = tail;
             let total: f32 = p.iter().sum();
@@ -299,12 +302,14 @@ pub fn fit_tissues(
     // Two starts, the better likelihood wins: the contrast's typical shares, and equal thirds
     // (a brain whose shares are far from typical: atrophy, a partial field of view).
     let start = start_for(hist, first, last, contrast)?;
-    let thirds = start_at(hist, first, last, [1.0 / 6.0, 0.5, 5.0 / 6.0])?;
     let mut m = fit_f32(hist, &start)?;
-    if let Some(other) = fit_f32(hist, &thirds)
-        && other.log_likelihood > m.log_likelihood + 1e-6
-    {
-        m = other;
+    if !is_sound(&m) {
+        let thirds = start_at(hist, first, last, [1.0 / 6.0, 0.5, 5.0 / 6.0])?;
+        if let Some(other) = fit_f32(hist, &thirds)
+            && other.log_likelihood > m.log_likelihood + 1e-6
+        {
+            m = other;
+        }
     }
     // EM keeps the order of its start almost always; sort so labels follow intensity.
     let mut idx = [0usize, 1, 2];

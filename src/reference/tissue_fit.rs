@@ -39,9 +39,9 @@ pub const MIN_SD_BINS: f64 = 0.5;
 /// never a tissue's worth of voxels, so it cannot swallow a class at a poor start.
 pub const MAX_TAIL_WEIGHT: f64 = 0.1;
 /// Convergence: change of the log-likelihood per voxel.
-pub const TOLERANCE: f64 = 1e-7;
+pub const TOLERANCE: f64 = 1e-6;
 /// Most EM iterations.
-pub const MAX_ITERATIONS: usize = 300;
+pub const MAX_ITERATIONS: usize = 200;
 
 /// Where EM starts.
 #[derive(Clone, Copy, Debug, PartialEq)]
