@@ -27,9 +27,9 @@
 //!    `sigma_bins` still drops a weak CSF mode there (tests/peaks.rs documents that).
 //! 6. `windows`: adaptive windows around the modes (boundaries at valleys) and the paper preset.
 //!    `tissue_fit` (issue 28, item 2): for structural MR a Gaussian mixture with
-//!    partial-volume classes is fitted by EM to the foreground; its windows (`fit_windows`)
-//!    replace the modes' when the modes miss a class and the fit is sound. With a brain mask
-//!    the engine refits inside it (`engine/brain_fit.rs`), and that fit decides.
+//!    partial-volume classes is fitted by EM to the foreground and reported; with a brain mask
+//!    the engine refits inside it (`engine/brain_fit.rs`), and that fit's windows
+//!    (`fit_windows`) replace the modes' when it is sound.
 //!    `TissueReport::windows_from` says which path placed the windows.
 //! 7. `table1`: the report and its flat Table-1 row.
 //!
@@ -285,9 +285,7 @@ pub fn analyze_identified(
     } else {
         WindowsFrom::Modes
     };
-    // Item 2 of issue 28: the tissue windows of a structural MR scan come from the mixture
-    // fitted to the histogram; the engine refits inside the brain mask when it has one
-    // (engine/brain_fit.rs), and that fit decides.
+    // Item 2 of issue 28: a structural MR scan's mixture fitted to the foreground.
     let fit = fits_tissues(identity).then(|| {
         let (first, last) = tissue_fit::occupied_range(&cleaned, bg.threshold_bin.max(1));
         tissue_fit::fit_tissues(
@@ -298,19 +296,11 @@ pub fn analyze_identified(
             (imin, imax),
         )
     });
-    // Without a brain mask the foreground of a whole head holds skin, fat, muscle and bone as
-    // well, which three tissue classes cannot model: there the modes keep the windows when they
-    // found all three classes, and the fit places them when they did not.
-    let modes_complete =
-        assignment.csf.is_some() && assignment.gm.is_some() && assignment.wm.is_some();
-    let fit = fit.flatten().map(|(fit, mixture)| {
-        if fit.sound && !modes_complete {
-            adaptive_windows =
-                windows_from_fit(&mixture, decided.contrast, bg.threshold_bin, params);
-            windows_from = WindowsFrom::Fit;
-        }
-        fit
-    });
+    // Without a brain mask the foreground holds more than brain tissue (skin, fat, muscle and
+    // bone of a whole head; a phantom's shell), and three classes fitted to it would name one
+    // of those CSF or WM: the fit is reported, and the modes keep the windows (a tissue they
+    // did not find stays absent). Inside the brain mask the fit decides (engine/brain_fit.rs).
+    let fit = fit.flatten().map(|(fit, _)| fit);
     // Item 4 of issue 28: a scan with a background but no tissue class still shows its
     // foreground (see `fallback`).
     let fallback = fallback::foreground(hist, &adaptive_windows, &bg, bg.modes > 0, params);

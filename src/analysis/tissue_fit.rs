@@ -14,7 +14,7 @@
 //!   sound, a second start at the quantiles 1/6, 1/2, 5/6 runs, and the higher likelihood wins
 //!   (EM finds local optima).
 //! - A fit is used for the windows only when it is sound ([`Fit::sound`]): finite, the pure
-//!   means ascending at least [`MIN_SEPARATION_BINS`] apart, each pure class holding at least
+//!   means ascending at least [`MIN_SEPARATION_BINS`] and [`MIN_SEPARATION_SDS`] SDs apart, each pure class holding at least
 //!   [`MIN_WEIGHT`], and goodness at least [`MIN_GOODNESS`]. Otherwise the mode hunter's
 //!   windows stay, and the report says which path decided.
 
@@ -26,6 +26,10 @@ use crate::reference::tissue_fit::{
 
 /// Least distance between two fitted pure means for a sound fit, in bins.
 pub const MIN_SEPARATION_BINS: f64 = 3.0;
+/// Least distance between two neighbouring fitted means, in units of the larger of their SDs:
+/// two equal Gaussians closer than 2 SDs make one mode, so three classes fitted to one broad
+/// mode (a histogram with no tissue contrast) are no classes.
+pub const MIN_SEPARATION_SDS: f64 = 2.0;
 /// Least weight of a pure class for a sound fit.
 pub const MIN_WEIGHT: f64 = 0.03;
 /// Least goodness of fit (`1 - TV`) for a sound fit.
@@ -284,7 +288,10 @@ pub fn is_sound(m: &Mixture) -> bool {
     let sep = MIN_SEPARATION_BINS / BINS as f64;
     let finite = m.means.iter().chain(&m.sds).all(|v| v.is_finite());
     finite
-        && m.means.windows(2).all(|w| w[1] - w[0] >= sep)
+        && (1..PURE).all(|k| {
+            let gap = m.means[k] - m.means[k - 1];
+            gap >= sep && gap >= MIN_SEPARATION_SDS * m.sds[k].max(m.sds[k - 1])
+        })
         && m.weights[..PURE].iter().all(|&w| w >= MIN_WEIGHT)
         && m.goodness >= MIN_GOODNESS
 }

@@ -66,7 +66,7 @@ impl WindowsFrom {
         match self {
             WindowsFrom::Fit => "the fitted tissue mixture",
             WindowsFrom::Modes => {
-                "the histogram's modes (no brain mask to fit inside and all three classes found as modes, or the fit was not sound)"
+                "the histogram's modes (no brain mask to fit inside, or the fit inside it was not sound)"
             }
             WindowsFrom::Fallback => "the foreground fallback (no tissue class)",
             WindowsFrom::None => "nothing (no tissue class, no foreground)",
