@@ -1,7 +1,11 @@
 //! The tissue fit (issue 28, item 2) on the head phantom in every contrast, with its bias field
 //! and noise: inside the phantom's true brain mask the fitted CSF, GM and WM means land on the
 //! phantom's tissue values in the contrast's order; over the whole head (no mask) the scalp's
-//! fat does not become WM once the fit is inside the brain. CPU only (no device needed).
+//! fat does not become WM once the fit is inside the brain. The last test opens the head
+//! phantom through the engine (lavapipe or any device): brain extraction, then the refit inside
+//! its mask places the windows.
+
+mod common;
 
 use morphray::analysis::contrast::Contrast as Labels;
 use morphray::analysis::tissue_fit::{FitDomain, fit_tissues, occupied_range};
@@ -187,4 +191,37 @@ fn the_fit_of_256_bins_is_fast() {
     // The issue's target is 2 ms in a release build; a debug build is several times slower,
     // so this only guards against a regression by an order of magnitude.
     assert!(fit.fit_ms < 50.0, "{fit:?}");
+}
+
+#[test]
+fn the_engine_refits_inside_the_extracted_brain_and_its_windows_keep_fat_out_of_wm() {
+    use morphray::analysis::WindowsFrom;
+    // The head phantom on a 2 mm grid (as tests/brain_extraction.rs: a brain of adult size).
+    let mut p = morphray::volume::phantom_head::head_phantom([97, 113, 99], Contrast::T1, true)
+        .expect("the head phantom");
+    p.volume.spacing_mm = [2.0; 3];
+    p.volume.orientation = morphray::volume::Orientation::from_spacing(
+        [2.0; 3],
+        morphray::volume::AffineSource::Synthetic,
+    );
+    let mut engine = common::engine();
+    let opened = engine
+        .open_volume(
+            &p.volume,
+            [64, 64],
+            &morphray::scene::SceneRecipe::default(),
+        )
+        .expect("opened");
+    let r = &opened.report;
+    let fit = r.fit.as_ref().expect("a fit");
+    assert_eq!(fit.domain, FitDomain::BrainMask, "{fit:?}");
+    assert_eq!(r.windows_from, WindowsFrom::Fit, "{fit:?}");
+    let wm = p.intensity(Tissue::Wm);
+    assert!((fit.wm.mean_raw - wm).abs() < 0.08 * wm + 20.0, "{fit:?}");
+    let norm = |raw: f64| (raw - r.imin) / (r.imax - r.imin);
+    let window = r.adaptive_windows.wm.expect("a WM window");
+    assert_eq!(window.weight(norm(wm)), 1.0, "{window:?}");
+    // Scalp fat (1150) is no longer WM: it lies in the band above WM.
+    assert_eq!(window.weight(norm(p.intensity(Tissue::Fat))), 0.0, "{window:?}");
+    common::assert_no_validation_errors(&engine);
 }
