@@ -66,6 +66,24 @@ fn fitted_means_land_on_the_phantoms_tissues_in_every_contrast() {
     for contrast in Contrast::ALL {
         let p = phantom(contrast);
         let fit = fit_inside(&p, &brain(&p));
+        println!(
+            "{contrast:?}: CSF {:.1} / {}, GM {:.1} / {}, WM {:.1} / {} (fitted / phantom); \
+             SDs {:.1} {:.1} {:.1}; weights {:.3} {:.3} {:.3}; goodness {:.3}; sound {}",
+            fit.csf.mean_raw,
+            p.intensity(Tissue::Csf),
+            fit.gm.mean_raw,
+            p.intensity(Tissue::Gm),
+            fit.wm.mean_raw,
+            p.intensity(Tissue::Wm),
+            fit.csf.sd_raw,
+            fit.gm.sd_raw,
+            fit.wm.sd_raw,
+            fit.csf.weight,
+            fit.gm.weight,
+            fit.wm.weight,
+            fit.goodness,
+            fit.sound
+        );
         // Bias field +-7 % and Rician noise (sigma 20; CT: 4 HU additive).
         let tolerance = |t: Tissue| 0.08 * p.intensity(t).abs() + p.spec.contrast.noise_sigma();
         for (tissue, class) in [
@@ -222,6 +240,10 @@ fn the_engine_refits_inside_the_extracted_brain_and_its_windows_keep_fat_out_of_
     let window = r.adaptive_windows.wm.expect("a WM window");
     assert_eq!(window.weight(norm(wm)), 1.0, "{window:?}");
     // Scalp fat (1150) is no longer WM: it lies in the band above WM.
-    assert_eq!(window.weight(norm(p.intensity(Tissue::Fat))), 0.0, "{window:?}");
+    assert_eq!(
+        window.weight(norm(p.intensity(Tissue::Fat))),
+        0.0,
+        "{window:?}"
+    );
     common::assert_no_validation_errors(&engine);
 }
