@@ -19,7 +19,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .collect();
         let (lo, hi) = phys
             .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| (a.min(x), b.max(x)));
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
+                (a.min(x), b.max(x))
+            });
         let hist = morphray::reference::histogram_of_samples(&v.samples, v.to_physical, lo, hi)
             .map(f64::from);
         let range = occupied_range(&hist, 1);
