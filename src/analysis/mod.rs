@@ -26,6 +26,11 @@
 //!    flank; a masked histogram keeps the plain rule, so that a stricter `noise_z` or a wider
 //!    `sigma_bins` still drops a weak CSF mode there (tests/peaks.rs documents that).
 //! 6. `windows`: adaptive windows around the modes (boundaries at valleys) and the paper preset.
+//!    `tissue_fit` (issue 28, item 2): for structural MR a Gaussian mixture with
+//!    partial-volume classes is fitted by EM to the foreground and reported; with a brain mask
+//!    the engine refits inside it (`engine/brain_fit.rs`), and that fit's windows
+//!    (`fit_windows`) replace the modes' when it is sound.
+//!    `TissueReport::windows_from` says which path placed the windows.
 //! 7. `table1`: the report and its flat Table-1 row.
 //!
 //! Every step is a total function of the histogram: empty, constant, uniform and single-voxel
@@ -36,6 +41,7 @@ pub mod background;
 pub mod brain_band;
 pub mod contrast;
 pub mod fallback;
+pub mod fit_windows;
 pub mod modality;
 mod modality_rules;
 pub mod params;
@@ -44,6 +50,7 @@ pub mod range;
 pub mod smoothing;
 pub mod spikes;
 pub mod table1;
+pub mod tissue_fit;
 pub mod windows;
 
 pub use crate::reference::brain_params::{BrainParams, BrainParamsError};
@@ -57,7 +64,8 @@ pub use range::{NormalizeMode, RangeChoice, RobustRange};
 pub use table1::{
     InPaperWindow, ModeInfo, ModeRole, Peak, Peaks, SpikeInfo, Table1Row, TissueReport,
 };
-pub use windows::{PAPER_EDGE, TissueWindows, Window};
+pub use tissue_fit::{Fit, FitDomain, FittedClass};
+pub use windows::{PAPER_EDGE, TissueWindows, Window, WindowsFrom};
 
 use crate::reference::BINS;
 
@@ -272,11 +280,33 @@ pub fn analyze_identified(
     };
     let mut adaptive_windows =
         windows::adaptive(&s, &modes, bg.modes, &assignment, bg.threshold_bin, params);
+    let mut windows_from = if adaptive_windows == TissueWindows::none() {
+        WindowsFrom::None
+    } else {
+        WindowsFrom::Modes
+    };
+    // Item 2 of issue 28: a structural MR scan's mixture fitted to the foreground.
+    let fit = fits_tissues(identity).then(|| {
+        let (first, last) = tissue_fit::occupied_range(&cleaned, bg.threshold_bin.max(1));
+        tissue_fit::fit_tissues(
+            &cleaned,
+            (first, last),
+            decided.contrast,
+            FitDomain::Foreground,
+            (imin, imax),
+        )
+    });
+    // Without a brain mask the foreground holds more than brain tissue (skin, fat, muscle and
+    // bone of a whole head; a phantom's shell), and three classes fitted to it would name one
+    // of those CSF or WM: the fit is reported, and the modes keep the windows (a tissue they
+    // did not find stays absent). Inside the brain mask the fit decides (engine/brain_fit.rs).
+    let fit = fit.flatten().map(|(fit, _)| fit);
     // Item 4 of issue 28: a scan with a background but no tissue class still shows its
     // foreground (see `fallback`).
     let fallback = fallback::foreground(hist, &adaptive_windows, &bg, bg.modes > 0, params);
     if let Some(f) = &fallback {
         adaptive_windows.wm = Some(f.window);
+        windows_from = WindowsFrom::Fallback;
     }
 
     let role = |i: usize| -> ModeRole {
@@ -336,7 +366,37 @@ pub fn analyze_identified(
         contrast: decided,
         modality: identity.modality.clone(),
         fallback,
+        fit,
+        rejected_fit: None,
+        windows_from,
     }
+}
+
+/// Whether the tissue fit decides the windows: structural MR (no angiography, EPI or
+/// diffusion series, whose histograms hold no three brain classes).
+fn fits_tissues(identity: &Identity) -> bool {
+    fits_tissues_for(&identity.modality, identity.kind)
+}
+
+/// [`fits_tissues`] from a report's modality and sequence kind.
+pub fn fits_tissues_for(modality: &ModalityReport, kind: Option<SequenceKind>) -> bool {
+    modality.modality == Modality::Mr && kind.is_none()
+}
+
+/// The windows of a sound fit (`fit_windows`), the background threshold at `threshold_bin`.
+pub fn windows_from_fit(
+    mixture: &crate::reference::tissue_fit::Mixture,
+    contrast: Contrast,
+    threshold_bin: usize,
+    params: &AnalysisParams,
+) -> TissueWindows {
+    fit_windows::from_fit(
+        mixture,
+        contrast,
+        threshold_bin as f64 / BINS as f64,
+        params.edge_bins,
+        params.wm_upper_sigmas,
+    )
 }
 
 #[cfg(test)]

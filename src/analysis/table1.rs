@@ -145,6 +145,13 @@ pub struct TissueReport {
     /// The foreground window shown when no tissue class was found (in the WM slot of
     /// `adaptive_windows`), and why; None when tissue classes were found.
     pub fallback: Option<super::Fallback>,
+    /// The tissue mixture fitted to the histogram (`tissue_fit`), when one was fitted.
+    pub fit: Option<super::Fit>,
+    /// A fit inside the brain mask that was not sound (the windows stayed with `fit` or the
+    /// modes).
+    pub rejected_fit: Option<super::Fit>,
+    /// Which path placed `adaptive_windows`.
+    pub windows_from: super::WindowsFrom,
 }
 
 /// One row of the paper's Table 1, flat (one column per field, for CSV or JSON lines).

@@ -45,6 +45,35 @@ use crate::reference::BINS;
 /// thresholds while keeping `smoothstep` well defined (`edge0 < edge1`).
 pub const PAPER_EDGE: f64 = 0.5 / BINS as f64;
 
+/// Which path placed the adaptive windows (reported by `peaks` and `render`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum WindowsFrom {
+    /// The mixture fitted to the histogram (`tissue_fit`).
+    Fit,
+    /// The histogram's modes and valleys ([`adaptive`]).
+    #[default]
+    Modes,
+    /// No tissue class: the foreground as one window (`fallback`).
+    Fallback,
+    /// No window at all.
+    None,
+}
+
+impl WindowsFrom {
+    /// Words for reports.
+    pub fn words(self) -> &'static str {
+        match self {
+            WindowsFrom::Fit => "the fitted tissue mixture",
+            WindowsFrom::Modes => {
+                "the histogram's modes (no brain mask to fit inside, or the fit inside it was not sound)"
+            }
+            WindowsFrom::Fallback => "the foreground fallback (no tissue class)",
+            WindowsFrom::None => "nothing (no tissue class, no foreground)",
+        }
+    }
+}
+
 /// One classification window in `I_norm`.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct Window {

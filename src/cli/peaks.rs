@@ -44,6 +44,12 @@ struct PeaksReport<'a> {
     contrast: &'a ContrastReport,
     /// The foreground window shown when no tissue class was found (in `windows.wm`).
     fallback: Option<&'a crate::analysis::Fallback>,
+    /// The tissue mixture fitted by EM (means, SDs, weights, goodness), beside the Table-1 row.
+    fit: Option<&'a crate::analysis::Fit>,
+    /// Which path placed `windows`: the fit, the modes or the fallback.
+    windows_from: crate::analysis::WindowsFrom,
+    /// A fit inside the brain mask that was not sound, shown but not used.
+    rejected_fit: Option<&'a crate::analysis::Fit>,
     device: String,
     timings_ms: BTreeMap<String, f64>,
     /// The loader's repairs and warnings about the input.
@@ -73,6 +79,36 @@ fn normalization_line(r: &crate::analysis::TissueReport) -> String {
         ),
         (_, None) => "I_norm: eq. 1 (min/max)".into(),
     }
+}
+
+/// The fit's lines: one per tissue class, then the goodness.
+fn fit_lines(fit: Option<&crate::analysis::Fit>) -> Vec<String> {
+    let mut out = Vec::new();
+    if let Some(f) = fit {
+        out.push(format!(
+            "fit     mean I_norm  mean raw      sd I_norm  sd raw     weight  (EM, {}, {} order)",
+            f.domain.words(),
+            f.contrast.name()
+        ));
+        for (name, c) in [("CSF", f.csf), ("GM", f.gm), ("WM", f.wm)] {
+            out.push(format!(
+                "{name:<7} {:<12.4} {:<13.2} {:<10.4} {:<10.2} {:.3}",
+                c.mean, c.mean_raw, c.sd, c.sd_raw, c.weight
+            ));
+        }
+        out.push(format!(
+            "fit quality: goodness {:.4} (1 - total variation), partial volume {:.3} + {:.3}, \
+             tail {:.3}, {} EM iterations, {:.3} ms{}",
+            f.goodness,
+            f.partial_volume_weights[0],
+            f.partial_volume_weights[1],
+            f.tail_weight,
+            f.iterations,
+            f.fit_ms,
+            if f.sound { "" } else { "; not sound, not used" }
+        ));
+    }
+    out
 }
 
 /// Runs the command.
@@ -132,6 +168,9 @@ pub fn run(args: &PeaksArgs, global: &super::GlobalOptions) -> Result<(), Error>
         modality: &r.modality,
         contrast: &r.contrast,
         fallback: r.fallback.as_ref(),
+        fit: r.fit.as_ref(),
+        windows_from: r.windows_from,
+        rejected_fit: r.rejected_fit.as_ref(),
         device: opened.engine.device().adapter().name.clone(),
         timings_ms: timings,
         warnings: &opened.source.volume.warnings,
@@ -191,6 +230,21 @@ pub fn run(args: &PeaksArgs, global: &super::GlobalOptions) -> Result<(), Error>
                 name.to_uppercase()
             )),
         }
+    }
+    if let Some(f) = report.rejected_fit {
+        for line in fit_lines(Some(f)) {
+            print_line(&line);
+        }
+    }
+    for line in fit_lines(report.fit) {
+        print_line(&line);
+    }
+    match (report.windows_from, report.fit) {
+        (crate::analysis::WindowsFrom::Fit, Some(f)) => print_line(&format!(
+            "windows from the fitted tissue mixture ({})",
+            f.domain.words()
+        )),
+        (from, _) => print_line(&format!("windows from {}", from.words())),
     }
     if t2 {
         print_line(&format!(

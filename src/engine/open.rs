@@ -173,6 +173,15 @@ impl Engine {
         let derivative_pipelines_before = self.pipeline_times.caller_ms;
         self.update_twin(&mut twin, &scene.effects)?;
         timings.derivatives_ms = ms(before_derivatives);
+        let mut report = report;
+        let before_fit = Instant::now();
+        if self.refit_in_brain(volume, &twin, &mut report)? {
+            // The windows now come from the fit inside the brain mask (engine/brain_fit.rs).
+            let effects = scene.effects;
+            scene = recipe.scene_for(&report);
+            scene.effects = effects;
+        }
+        timings.peaks_ms += ms(before_fit);
         timings.derivatives_pipelines_ms =
             self.pipeline_times.caller_ms - derivative_pipelines_before;
         timings.pipelines_ms = self.pipeline_times.caller_ms - pipelines_before;

@@ -27,6 +27,7 @@ pub mod minmax;
 pub mod normalize;
 pub mod raymarch;
 pub mod slice;
+pub mod tissue_fit;
 pub mod vesselness;
 
 pub use derivatives::{
