@@ -14,7 +14,8 @@
 //!   sound, a second start at the quantiles 1/6, 1/2, 5/6 runs, and the higher likelihood wins
 //!   (EM finds local optima).
 //! - A fit is used for the windows only when it is sound ([`Fit::sound`]): finite, the pure
-//!   means ascending at least [`MIN_SEPARATION_BINS`] and [`MIN_SEPARATION_SDS`] SDs apart, each pure class holding at least
+//!   means ascending at least [`MIN_SEPARATION_BINS`] and [`MIN_SEPARATION_SDS`] SDs apart
+//!   ([`BRAIN_MIN_SEPARATION_SDS`] inside a brain mask when the fit is close), each pure class holding at least
 //!   [`MIN_WEIGHT`], and goodness at least [`MIN_GOODNESS`]. Otherwise the mode hunter's
 //!   windows stay, and the report says which path decided.
 
@@ -30,6 +31,12 @@ pub const MIN_SEPARATION_BINS: f64 = 3.0;
 /// two equal Gaussians closer than 2 SDs make one mode, so three classes fitted to one broad
 /// mode (a histogram with no tissue contrast) are no classes.
 pub const MIN_SEPARATION_SDS: f64 = 2.0;
+/// The same inside a brain mask with a close fit ([`BRAIN_MIN_GOODNESS`]): there the histogram
+/// holds only brain, so classes that overlap (T2's GM and WM: T2w's fit inside its mask had GM
+/// and WM 1.2 SDs apart, goodness 0.952, weights 0.30 / 0.44) are tissues, not one mode split.
+pub const BRAIN_MIN_SEPARATION_SDS: f64 = 1.0;
+/// Least goodness for [`BRAIN_MIN_SEPARATION_SDS`] to apply.
+pub const BRAIN_MIN_GOODNESS: f64 = 0.9;
 /// Least weight of a pure class for a sound fit.
 pub const MIN_WEIGHT: f64 = 0.03;
 /// Least goodness of fit (`1 - TV`) for a sound fit.
@@ -283,14 +290,19 @@ fn moments32(means: &[f32; PURE], sds: &[f32; PURE], c: usize) -> (f32, f32) {
     (0.5 * (means[a] + means[b]), var.sqrt())
 }
 
-/// Whether a mixture is sound enough for windows (module doc).
-pub fn is_sound(m: &Mixture) -> bool {
+/// Whether a mixture fitted over `domain` is sound enough for windows (module doc).
+pub fn is_sound(m: &Mixture, domain: FitDomain) -> bool {
     let sep = MIN_SEPARATION_BINS / BINS as f64;
+    let sds = if domain == FitDomain::BrainMask && m.goodness >= BRAIN_MIN_GOODNESS {
+        BRAIN_MIN_SEPARATION_SDS
+    } else {
+        MIN_SEPARATION_SDS
+    };
     let finite = m.means.iter().chain(&m.sds).all(|v| v.is_finite());
     finite
         && (1..PURE).all(|k| {
             let gap = m.means[k] - m.means[k - 1];
-            gap >= sep && gap >= MIN_SEPARATION_SDS * m.sds[k].max(m.sds[k - 1])
+            gap >= sep && gap >= sds * m.sds[k].max(m.sds[k - 1])
         })
         && m.weights[..PURE].iter().all(|&w| w >= MIN_WEIGHT)
         && m.goodness >= MIN_GOODNESS
@@ -310,7 +322,7 @@ pub fn fit_tissues(
     // (a brain whose shares are far from typical: atrophy, a partial field of view).
     let start = start_for(hist, first, last, contrast)?;
     let mut m = fit_f32(hist, &start)?;
-    if !is_sound(&m) {
+    if !is_sound(&m, domain) {
         let thirds = start_at(hist, first, last, [1.0 / 6.0, 0.5, 5.0 / 6.0])?;
         if let Some(other) = fit_f32(hist, &thirds)
             && other.log_likelihood > m.log_likelihood + 1e-6
@@ -350,7 +362,7 @@ pub fn fit_tissues(
         iterations: m.iterations,
         voxels: m.voxels,
         bins: [start.first, start.last],
-        sound: is_sound(&m),
+        sound: is_sound(&m, domain),
         fit_ms: started.elapsed().as_secs_f64() * 1e3,
     };
     Some((fit, m))
