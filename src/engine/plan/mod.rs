@@ -210,11 +210,7 @@ pub struct Plan {
 }
 
 /// No plan fits.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-#[error(
-    "the volume ({dims:?} voxels, {volume_bytes} bytes as R16) {limit}: the smallest plan tried \
-     ({smallest_plan}) needs {smallest_bytes} bytes"
-)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct DoesNotFit {
     /// Volume dimensions.
     pub dims: [u32; 3],
@@ -229,7 +225,36 @@ pub struct DoesNotFit {
     pub smallest_plan: String,
     /// Its peak bytes.
     pub smallest_bytes: u64,
+    /// When the output image is what does not fit (the volume would with a small image): its
+    /// size and the largest of its shape that fits, `([w, h], [w, h])`.
+    pub image: Option<([u32; 2], [u32; 2])>,
 }
+
+impl std::fmt::Display for DoesNotFit {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let mib = |b: u64| b as f64 / f64::from(1 << 20);
+        // One decimal: a plan a few hundred kB over the budget must not read as equal to it.
+        match self.image {
+            Some(([w, h], [fw, fh])) => write!(
+                f,
+                "the {w}x{h} image is too large, not the volume: with it the plan needs {:.1} MiB \
+                 of GPU memory (memory budget {:.1} MiB); the largest image of that shape that \
+                 fits is {fw}x{fh}: use a smaller --size (or a larger --memory-budget, when the \
+                 device has more)",
+                mib(self.smallest_bytes),
+                mib(self.budget)
+            ),
+            None => write!(
+                f,
+                "the volume ({:?} voxels, {} bytes as R16) {}: the smallest plan tried ({}) needs \
+                 {} bytes",
+                self.dims, self.volume_bytes, self.limit, self.smallest_plan, self.smallest_bytes
+            ),
+        }
+    }
+}
+
+impl std::error::Error for DoesNotFit {}
 
 /// The choices that set the plan's size.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -349,6 +374,16 @@ pub fn plan(
     effects: Effects,
     input: &PlanInput,
     sizes: &dyn ImageSizes,
+) -> Result<Plan, DoesNotFit> {
+    plan_with(effects, input, sizes, true)
+}
+
+/// [`plan`]; `explain`: when nothing fits, also find whether a smaller image would.
+fn plan_with(
+    effects: Effects,
+    input: &PlanInput,
+    sizes: &dyn ImageSizes,
+    explain: bool,
 ) -> Result<Plan, DoesNotFit> {
     let too_large = input.dims.iter().any(|&d| d > input.max_image_dimension_3d);
     let sample_bytes = voxels(input.dims) * input.sample_kind.size_bytes() as u64;
@@ -491,7 +526,11 @@ pub fn plan(
         .find(|&m| fits(&build(input, sizes, apply(m).0, Vec::new())))
     else {
         let smallest = build(input, sizes, apply((1 << ladder.len()) - 1).0, Vec::new());
-        return Err(does_not_fit(input, &smallest));
+        let mut error = does_not_fit(input, &smallest);
+        if explain {
+            error.image = image_that_fits(effects, input, sizes);
+        }
+        return Err(error);
     };
     for i in 0..ladder.len() {
         let without = mask & !(1 << i);
@@ -511,6 +550,43 @@ pub fn plan(
         });
     }
     Ok(build(input, sizes, final_choices, degradations))
+}
+
+/// When a plan would fit with a small image but not with `input.image`: the largest image of
+/// the same shape that fits (the image, not the volume, is the cause).
+fn image_that_fits(
+    effects: Effects,
+    input: &PlanInput,
+    sizes: &dyn ImageSizes,
+) -> Option<([u32; 2], [u32; 2])> {
+    let [w, h] = input.image;
+    let long = w.max(h).max(1);
+    let shaped = |side: u32| -> [u32; 2] {
+        let scale = f64::from(side) / f64::from(long);
+        [w, h].map(|s| ((f64::from(s) * scale).floor() as u32).max(1))
+    };
+    let fits_at = |side: u32| {
+        let at = PlanInput {
+            image: shaped(side),
+            ..*input
+        };
+        plan_with(effects, &at, sizes, false).is_ok()
+    };
+    // The smallest picture anyone renders; not even that fits: the volume is the cause.
+    let small = 64.min(long);
+    if small == long || !fits_at(small) {
+        return None;
+    }
+    let (mut good, mut bad) = (small, long);
+    while bad - good > 1 {
+        let mid = good + (bad - good) / 2;
+        if fits_at(mid) {
+            good = mid;
+        } else {
+            bad = mid;
+        }
+    }
+    Some((input.image, shaped(good)))
 }
 
 /// The error for a plan whose smallest form, `smallest`, still exceeds the budget.
@@ -558,5 +634,6 @@ fn does_not_fit(input: &PlanInput, smallest: &Plan) -> DoesNotFit {
             current.effects.gradient_source
         ),
         smallest_bytes: current.peak_bytes,
+        image: None,
     }
 }
