@@ -498,7 +498,10 @@ fn an_image_too_large_for_the_budget_is_named_as_the_cause_with_the_size_that_fi
     i.budget = 2 << 30;
     let err = plan(f16_effects(), &i, &TexelSizes).unwrap_err();
     let text = err.to_string();
-    assert!(text.contains("the 16384x16384 image is too large, not the volume"), "{text}");
+    assert!(
+        text.contains("the 16384x16384 image is too large, not the volume"),
+        "{text}"
+    );
     assert!(text.contains("use a smaller --size"), "{text}");
     let (_, [w, h]) = err.image.unwrap();
     assert_eq!(w, h);
