@@ -6,8 +6,8 @@
 //!   (no offset). A wider range (an int32 volume with one voxel at -2^31, data at 1e9) gets the
 //!   offset that keeps the most voxels exact, judged on a sample of [`OFFSET_SAMPLE`] voxels:
 //!   candidates around zero, the median and the midpoint, each also nudged (by less than an
-//!   f32 ulp) so that the minimum or the maximum is exact; ties go to the one that keeps both
-//!   extremes exact, so `info`'s minimum and maximum are values of the data whenever f32 can
+//!   f32 ulp) so that the minimum or the maximum is exact; an inexact extreme weighs as 10 % of
+//!   the sample, so the extremes stay exact unless that would round many more voxels, so `info`'s minimum and maximum are values of the data whenever f32 can
 //!   hold them with the bulk. Values a span wider than 2^24 still rounds are counted, and a
 //!   warning gives the largest rounding error.
 //! - float64: a handful of voxels beyond +-[`F32_REACH`] (the 1e300 voxel) would force a scale
@@ -66,8 +66,8 @@ fn exact(x: i128, offset: i128) -> bool {
 /// The offset for integers spanning `lo..=hi` (`lo <= hi`), given `sample`, voxels spread over
 /// the frame (module doc): no offset within +-2^24; else, of candidates around zero, the
 /// sample's median and the range's midpoint (each also nudged so that the minimum or the
-/// maximum is exact), the one that rounds the fewest sampled voxels, then the one that keeps
-/// both extremes exact.
+/// maximum is exact), the one that rounds the fewest sampled voxels, an inexact extreme
+/// counting as 10 % of them.
 pub fn integer_offset(lo: i128, hi: i128, sample: &mut [i128]) -> i128 {
     const EXACT: i128 = 1 << 24;
     if lo >= -EXACT && hi <= EXACT {
@@ -89,10 +89,12 @@ pub fn integer_offset(lo: i128, hi: i128, sample: &mut [i128]) -> i128 {
         let low = bits.saturating_sub(24);
         candidates.push(lo + ((hi - lo) & ((1i128 << low) - 1)));
     }
+    // An inexact extreme counts as 10 % of the sample: where nearly every voxel is rounded
+    // whatever the offset, a few more or fewer must not cost `info` its true minimum.
     let score = |o: i128| {
         let rounded = sample.iter().filter(|&&x| !exact(x, o)).count();
         let extremes = usize::from(!exact(lo, o)) + usize::from(!exact(hi, o));
-        (rounded, extremes)
+        rounded + extremes * (sample.len() / 10).max(1)
     };
     candidates
         .into_iter()
@@ -392,7 +394,19 @@ mod tests {
             let phi = physical.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
             assert_eq!((plo, phi), (lo, hi), "{values:?}");
         }
-        let (_, warnings) = integers_of(&[-2147483647, 0, 1539, 1542]);
+        // One outlier leaves the bulk exact (before: 0..1542 was rounded to steps of 128).
+        let mut values: Vec<i64> = (0..1543).collect();
+        values.push(-2147483647);
+        let (physical, warnings) = integers_of(&values);
+        let bulk: Vec<f64> = (0..1543).map(|v| v as f64).collect();
+        assert_eq!(physical[..1543], bulk[..]);
+        assert_eq!(physical[1543], -2147483647.0);
+        assert!(warnings.is_empty(), "{warnings:?}");
+        // A spread that f32 cannot hold whole: rounded, and said.
+        let values: Vec<i64> = (0..2000).map(|i| i * 1_000_003 + (i % 7)).collect();
+        let (physical, warnings) = integers_of(&values);
+        assert_eq!(physical[0], 0.0);
+        assert_eq!(physical[1999], values[1999] as f64);
         assert!(warnings[0].contains("rounded by up to"), "{warnings:?}");
         assert!(
             warnings[0].contains("minimum and maximum are exact"),
