@@ -168,6 +168,10 @@ pub fn load(path: &Path) -> Result<Vec<Step>, ScriptError> {
     parse(&text, &path.display().to_string())
 }
 
+/// Most frames one `wait` or `idle` step, or `view --frames`, may ask for: 10000 frames are
+/// almost 3 minutes at 60 Hz (a number past it is a typo, and a scripted run must end).
+pub const MAX_FRAMES: u32 = 10_000;
+
 /// Parses script text; `file` names it in errors.
 pub fn parse(text: &str, file: &str) -> Result<Vec<Step>, ScriptError> {
     let mut steps = Vec::new();
@@ -392,9 +396,7 @@ fn parse_line(line: &str) -> Result<Action, String> {
         },
         "step" => {
             let s = number(next(), "a step in voxels")?;
-            if !(s > 0.0 && s <= 16.0) {
-                return Err(format!("step {s} must be in (0, 16] voxels"));
-            }
+            crate::scene::recipe::check_step(s).map_err(|e| e.replacen("--step", "step", 1))?;
             Action::Step(s)
         }
         "curvature" => match next() {
@@ -484,15 +486,19 @@ fn parse_line(line: &str) -> Result<Action, String> {
         }
         "wait" => {
             let n = number(next(), "a number of frames")?;
-            if n < 0.0 || n.fract() != 0.0 {
-                return Err(format!("wait {n}: expected a whole number of frames"));
+            if !(0.0..=MAX_FRAMES as f64).contains(&n) || n.fract() != 0.0 {
+                return Err(format!(
+                    "wait {n}: expected a whole number of frames, 0..{MAX_FRAMES}"
+                ));
             }
             Action::Wait(n as u32)
         }
         "idle" => {
             let n = number(next(), "a number of frames")?;
-            if n < 0.0 || n.fract() != 0.0 {
-                return Err(format!("idle {n}: expected a whole number of frames"));
+            if !(0.0..=MAX_FRAMES as f64).contains(&n) || n.fract() != 0.0 {
+                return Err(format!(
+                    "idle {n}: expected a whole number of frames, 0..{MAX_FRAMES}"
+                ));
             }
             Action::Idle(n as u32)
         }

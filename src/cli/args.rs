@@ -36,7 +36,8 @@ pub struct Cli {
     )]
     pub validation: bool,
 
-    /// Most GPU memory morphray may hold, in bytes (suffixes K, M, G allowed: 512M).
+    /// Most GPU memory morphray may hold, in bytes (suffixes K, M, G and decimals allowed: 512M,
+    /// 1.5G).
     ///
     /// Over it, the plan degrades, cheapest accuracy first (8-bit derived volumes, R8 intensities,
     /// bricking, then gradients on the fly; `morphray plan` shows which and what each costs) or the

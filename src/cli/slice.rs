@@ -26,6 +26,7 @@ use crate::files::write::{OutputKind, check_output};
 use crate::scene::overlay::{blend_slice, resample};
 use crate::scene::slice::{
     Convention, Plane, SliceGrid, centre_position, edge_letters, index_axis, position_of_index,
+    position_of_mm,
 };
 use crate::scene::{Effects, RenderMode, SceneRecipe};
 use crate::volume::source::VolumeSource;
@@ -175,7 +176,9 @@ pub fn run(args: &SliceArgs, global: &super::GlobalOptions) -> Result<(), Error>
         (Some(index), _) => {
             position_of_index(&geometry, plane, index).map_err(|e| Error::Usage(e.to_string()))?
         }
-        (None, Some(mm)) => mm,
+        (None, Some(mm)) => {
+            position_of_mm(&geometry, plane, mm).map_err(|e| Error::Usage(e.to_string()))?
+        }
         (None, None) => centre_position(&geometry, plane),
     };
     let pixel_mm = args.pixel_mm.unwrap_or(geometry.voxel_mm);

@@ -19,8 +19,41 @@ pub fn run(args: &ViewArgs, global: &super::GlobalOptions) -> Result<(), super::
         )
         .into());
     }
-    if args.frames == Some(0) {
-        return Err(Error::Usage("--frames needs at least 1 frame".into()).into());
+    if let Some(n) = args
+        .frames
+        .filter(|n| !(1..=script::MAX_FRAMES).contains(n))
+    {
+        return Err(Error::Usage(format!(
+            "--frames {n}: give 1 to {} frames (a scripted run must end)",
+            script::MAX_FRAMES
+        ))
+        .into());
+    }
+    // Before the window and the GPU: a script's screenshot that cannot be written fails now,
+    // not silently in the status bar after the run.
+    let mut inputs: Vec<&std::path::Path> = args.file.iter().map(|p| p.as_path()).collect();
+    inputs.extend(args.overlay.inputs());
+    for step in &steps {
+        if let script::Action::Screenshot(path) | script::Action::SaveView(path, _) = &step.action {
+            crate::files::write::check_output(
+                path,
+                crate::files::write::OutputKind::Png,
+                &inputs,
+                false,
+            )
+            .map_err(|e| {
+                let script = args
+                    .script
+                    .as_deref()
+                    .unwrap_or(std::path::Path::new("script"));
+                Error::Usage(format!(
+                    "{}:{}: `{}`: {e}",
+                    script.display(),
+                    step.line,
+                    step.text
+                ))
+            })?;
+        }
     }
     if let Some(path) = &args.screenshot {
         // Before the window and the GPU: a screenshot that cannot be written fails now.

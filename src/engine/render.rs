@@ -330,7 +330,7 @@ impl Engine {
             }
         };
         let geometry = VolumeGeometry::new(prepared.dims, prepared.affine)
-            .map_err(|e| GpuError::InvalidRequest(e.to_string()))?;
+            .map_err(|e| GpuError::UnusableInput(e.to_string()))?;
         let count = target.count_samples;
         let (atlas, brick_table) = match &prepared.layout {
             VolumeLayout::Whole => (AtlasInfo::default(), self.placeholders.occupancy.clone()),

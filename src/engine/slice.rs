@@ -37,7 +37,7 @@ pub struct Slicer {
 /// The geometry of a prepared volume, or an error for an affine the slicer cannot invert.
 pub fn geometry_of(prepared: &PreparedVolume) -> GpuResult<VolumeGeometry> {
     VolumeGeometry::new(prepared.dims, prepared.affine)
-        .map_err(|e| GpuError::InvalidRequest(e.to_string()))
+        .map_err(|e| GpuError::UnusableInput(e.to_string()))
 }
 
 impl Slicer {

@@ -89,6 +89,10 @@ pub enum GpuError {
     /// caller's misuse, which the caller can correct.
     #[error("invalid GPU request: {0}")]
     InvalidRequest(String),
+    /// Input data the GPU work cannot use (a voxel spacing f32 cannot differentiate): the
+    /// message says what is wrong with the data and how to fix it.
+    #[error("{0}")]
+    UnusableInput(String),
     /// A fault that is not the caller's: a lock poisoned by a panic on another thread, a failed
     /// free, an impossible state. Nothing the caller changes avoids it; it is a bug to report.
     #[error("internal fault in morphray's GPU layer (please report it): {0}")]

@@ -318,31 +318,45 @@ mod bytes_option {
     }
 }
 
-/// Parses a byte count with an optional K, M or G suffix (binary units).
+/// Parses a byte count with an optional K, M or G suffix (binary units); the number may have a
+/// decimal fraction (`1.5G`, `0.5M`), rounded down to whole bytes.
 pub fn parse_bytes(text: &str) -> Result<u64, String> {
     let t = text.trim();
     let (number, unit) = match t.char_indices().find(|(_, c)| c.is_ascii_alphabetic()) {
         Some((i, _)) => (&t[..i], t[i..].to_ascii_uppercase()),
         None => (t, String::new()),
     };
+    let form = "use a positive number of bytes, optionally with a decimal fraction and K, M or G \
+                (binary: 512M, 1.5G, 2000000)";
     let scale: u64 = match unit.trim_end_matches('B').trim_end_matches('I') {
         "" => 1,
         "K" => 1 << 10,
         "M" => 1 << 20,
         "G" => 1 << 30,
-        _ => {
-            return Err(format!(
-                "`{text}`: use a number of bytes, optionally with K, M or G"
-            ));
-        }
+        _ => return Err(format!("`{text}` is not a size: {form}")),
     };
-    number
-        .trim()
-        .parse::<u64>()
-        .ok()
-        .and_then(|n| n.checked_mul(scale))
+    let number = number.trim();
+    // Digits with at most one point: no signs, exponents, `inf` or `nan`.
+    let digits = !number.is_empty()
+        && number.chars().all(|c| c.is_ascii_digit() || c == '.')
+        && number.matches('.').count() <= 1
+        && number != ".";
+    let bytes = if !digits {
+        None
+    } else if let Ok(n) = number.parse::<u64>() {
+        n.checked_mul(scale)
+    } else {
+        // Exact for every size below 2^53 bytes (8 PiB); larger decimal sizes round down.
+        number
+            .parse::<f64>()
+            .ok()
+            .map(|n| (n * scale as f64).floor())
+            .filter(|n| *n < u64::MAX as f64)
+            .map(|n| n as u64)
+    };
+    bytes
         .filter(|&n| n > 0)
-        .ok_or_else(|| format!("`{text}` is not a positive number of bytes"))
+        .ok_or_else(|| format!("`{text}` is not a size: {form}"))
 }
 
 #[cfg(test)]
@@ -365,6 +379,25 @@ mod tests {
         assert!(start.elapsed() < std::time::Duration::from_secs(1));
         assert!(e.to_string().contains("FIFO"), "{e}");
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn sizes_take_decimal_fractions_and_say_the_accepted_form() {
+        assert_eq!(parse_bytes("1.5G"), Ok(3 << 29));
+        assert_eq!(parse_bytes("512M"), Ok(512 << 20));
+        assert_eq!(parse_bytes("0.5k"), Ok(512));
+        assert_eq!(parse_bytes("2000000"), Ok(2_000_000));
+        assert_eq!(parse_bytes("1.5 GiB"), Ok(3 << 29));
+        for bad in [
+            "0", "0.0001", "-1G", "1e9", "inf", "nan", "1.2.3G", "G", "1.5T", ".",
+        ] {
+            let e = parse_bytes(bad).unwrap_err();
+            assert!(
+                e.contains("is not a size") && e.contains("1.5G"),
+                "{bad}: {e}"
+            );
+        }
+        assert!(parse_bytes("99999999999999999999999").is_err());
     }
 
     #[test]

@@ -143,8 +143,11 @@ pub fn world_transform(linear: [[f64; 3]; 3]) -> GpuResult<DMat3> {
         .iter()
         .fold(0.0f64, |acc, v| acc.max(v.abs()));
     if !largest.is_finite() || largest > 1e15 {
-        return Err(GpuError::InvalidRequest(format!(
-            "the volume's voxels are too small to differentiate in f32 (index-to-world inverse entries up to {largest:e} per mm)"
+        let [x, y, z] = [a.x_axis, a.y_axis, a.z_axis].map(|c| c.length());
+        return Err(GpuError::UnusableInput(format!(
+            "the voxel spacing ({x:e} x {y:e} x {z:e} mm) is unusable: voxels under 1e-15 mm \
+             are too small to differentiate in f32; set the header's pixdim and sform/qform to \
+             the real voxel size in mm (nibabel, fslchpixdim)"
         )));
     }
     Ok(m)
@@ -311,6 +314,8 @@ mod tests {
         assert!((m.x_axis.x - 1e5).abs() < 1e-6);
         let err = world_transform(diag(1e-20)).unwrap_err().to_string();
         assert!(err.contains("too small to differentiate"), "{err}");
+        assert!(err.contains("spacing") && err.contains("unusable"), "{err}");
+        assert!(!err.contains("invalid GPU request"), "{err}");
         // Nearly parallel axes stay singular whatever their length.
         let flat = [[1e-5, 1e-5, 0.0], [0.0, 1e-18, 0.0], [0.0, 0.0, 1e-5]];
         assert!(world_transform(flat).is_err());

@@ -23,12 +23,20 @@ pub struct VolumeGeometry {
     pub voxel_mm: f64,
 }
 
-/// The affine cannot be inverted (singular or non-finite).
+/// The affine cannot be inverted (singular or non-finite): the header's voxel sizes or axes
+/// are unusable, which only the header's owner can fix.
 #[derive(Debug, thiserror::Error)]
-#[error("the volume's index-to-world affine is not invertible (determinant {determinant:e})")]
+#[error(
+    "the voxel spacing ({:e} x {:e} x {:e} mm) is unusable: the index-to-world affine cannot be \
+     inverted (determinant {determinant:e}); set the header's pixdim and sform/qform to the real \
+     voxel size in mm (nibabel, fslchpixdim)",
+    .spacing_mm[0], .spacing_mm[1], .spacing_mm[2]
+)]
 pub struct SingularAffine {
     /// Determinant of the linear part.
     pub determinant: f64,
+    /// Lengths of the affine's three columns (mm per index step).
+    pub spacing_mm: [f64; 3],
 }
 
 impl VolumeGeometry {
@@ -38,7 +46,10 @@ impl VolumeGeometry {
         let linear = DMat3::from_mat4(index_to_world);
         let determinant = linear.determinant();
         if !determinant.is_finite() || determinant.abs() < 1e-12 || !index_to_world.is_finite() {
-            return Err(SingularAffine { determinant });
+            return Err(SingularAffine {
+                determinant,
+                spacing_mm: [0, 1, 2].map(|c| linear.col(c).length()),
+            });
         }
         let voxel_mm = (0..3)
             .map(|c| linear.col(c).length())

@@ -52,7 +52,7 @@ pub struct SceneRecipe {
     pub camera: Camera,
     /// Mode and effects (what the engine plans for).
     pub effects: Effects,
-    /// Sampling distance in voxels of the finest axis, in (0, 16].
+    /// Sampling distance in voxels of the finest axis, in [`STEP_RANGE`].
     pub step_voxels: f64,
     /// Jittered ray starts.
     pub jitter: bool,
@@ -85,21 +85,41 @@ impl Default for SceneRecipe {
     }
 }
 
+/// The sampling steps a scene may have, in voxels of the finest axis. Below 1/64 voxel a ray
+/// takes over 64 samples per voxel (`--step 1e-9` ran a minute and then failed with an
+/// unrelated message, issue 30), and the accuracy study sees no change below 1/8 (ACCURACY.md).
+pub const STEP_RANGE: (f64, f64) = (1.0 / 64.0, 16.0);
+
+/// Why `step` (voxels) cannot be a scene's step, in the command line's words.
+pub fn check_step(step: f64) -> Result<(), String> {
+    let (lo, hi) = STEP_RANGE;
+    if !step.is_finite() || step <= 0.0 || step > hi {
+        return Err(format!(
+            "--step {step} must be a number of voxels in [{lo}, {hi}] (0.5 is the default, \
+             0.125 diagnosis quality)"
+        ));
+    }
+    if step < lo {
+        return Err(format!(
+            "--step {step} is finer than {lo} voxel: each ray would take over {} samples per \
+             voxel and the image would not change; use a step in [{lo}, {hi}] (0.125 is \
+             diagnosis quality)",
+            (1.0 / lo) as u32
+        ));
+    }
+    Ok(())
+}
+
 /// A recipe that cannot make a scene (the message names the setting and its valid range).
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 #[error("{0}")]
 pub struct RecipeError(pub String);
 
 impl SceneRecipe {
-    /// Fails on settings no scene can have (a step outside (0, 16] voxels, a zoom that is not
-    /// positive); the message uses the command line's names, which are the viewer's too.
+    /// Fails on settings no scene can have (a step outside [`STEP_RANGE`] voxels, a zoom that
+    /// is not positive); the message uses the command line's names, which are the viewer's too.
     pub fn check(&self) -> Result<(), RecipeError> {
-        let step = self.step_voxels;
-        if !(step.is_finite() && step > 0.0 && step <= 16.0) {
-            return Err(RecipeError(format!(
-                "--step {step} must be a number of voxels in (0, 16]"
-            )));
-        }
+        check_step(self.step_voxels).map_err(RecipeError)?;
         let zoom = self.camera.zoom;
         if !(zoom.is_finite() && zoom > 0.0) {
             return Err(RecipeError(format!(
@@ -253,12 +273,21 @@ mod tests {
     #[test]
     fn check_refuses_steps_and_zooms_no_scene_can_have() {
         assert!(SceneRecipe::default().check().is_ok());
-        for step in [0.0, -1.0, 16.5, f64::NAN] {
+        for step in [0.0, -1.0, 16.5, f64::NAN, 1e-9, 0.015] {
             let recipe = SceneRecipe {
                 step_voxels: step,
                 ..SceneRecipe::default()
             };
             assert!(recipe.check().unwrap_err().0.starts_with("--step"));
+        }
+        let fine = SceneRecipe {
+            step_voxels: 1e-9,
+            ..SceneRecipe::default()
+        };
+        let e = fine.check().unwrap_err().0;
+        assert!(e.contains("finer than 0.015625 voxel"), "{e}");
+        for step in [STEP_RANGE.0, 0.125, 16.0] {
+            check_step(step).unwrap();
         }
         let mut recipe = SceneRecipe::default();
         recipe.camera.zoom = 0.0;

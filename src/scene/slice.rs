@@ -197,6 +197,22 @@ pub enum SliceError {
         /// The last valid index.
         last: u32,
     },
+    /// `--mm` past the volume's extent along the plane's normal.
+    #[error(
+        "--mm {mm} is outside the volume: along the {plane} normal ({axis}) it spans {lo:.3} to {hi:.3} mm; choose a coordinate in that range (or --index)"
+    )]
+    MmOutside {
+        /// The plane.
+        plane: &'static str,
+        /// The world axis of its normal (x, y or z).
+        axis: char,
+        /// Coordinate asked for.
+        mm: f64,
+        /// The volume's extent along it, voxel edges included.
+        lo: f64,
+        /// Upper end.
+        hi: f64,
+    },
 }
 
 /// Largest slice side in pixels (16384 is the Vulkan minimum of maxImageDimension2D... and far
@@ -318,6 +334,25 @@ pub fn position_of_index(
     Ok(world[plane.normal_axis()])
 }
 
+/// `mm` as the position of a `plane` slice, when it cuts the volume's world bounding box (voxel
+/// edges included, a thousandth of a millimetre of rounding allowed): a plane past it would
+/// be an all-black picture.
+pub fn position_of_mm(geometry: &VolumeGeometry, plane: Plane, mm: f64) -> Result<f64, SliceError> {
+    let (lo, hi) = geometry.world_bounds();
+    let axis = plane.normal_axis();
+    let (lo, hi) = (lo[axis], hi[axis]);
+    if mm.is_finite() && mm >= lo - 1e-3 && mm <= hi + 1e-3 {
+        return Ok(mm);
+    }
+    Err(SliceError::MmOutside {
+        plane: plane.name(),
+        axis: ['x', 'y', 'z'][axis],
+        mm,
+        lo,
+        hi,
+    })
+}
+
 /// World coordinate of the volume's centre along `plane`'s normal (the default slice).
 pub fn centre_position(geometry: &VolumeGeometry, plane: Plane) -> f64 {
     let (lo, hi) = geometry.world_bounds();
@@ -335,6 +370,20 @@ mod tests {
         }
         a[3][3] = 1.0;
         VolumeGeometry::new(dims, a).unwrap()
+    }
+
+    #[test]
+    fn a_plane_outside_the_volume_is_refused_with_its_extent() {
+        // 10 voxels of 2 mm from the origin: voxel edges at -1 and 19 mm.
+        let g = diagonal([4, 4, 10], [1.0, 1.0, 2.0]);
+        assert_eq!(position_of_mm(&g, Plane::Axial, 19.0), Ok(19.0));
+        assert_eq!(position_of_mm(&g, Plane::Axial, -1.0), Ok(-1.0));
+        let e = position_of_mm(&g, Plane::Axial, 500.0)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("--mm 500 is outside the volume"), "{e}");
+        assert!(e.contains("(z) it spans -1.000 to 19.000 mm"), "{e}");
+        assert!(position_of_mm(&g, Plane::Sagittal, 3.6).is_err());
     }
 
     #[test]

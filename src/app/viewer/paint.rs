@@ -281,7 +281,14 @@ impl Viewer {
                     self.log.say(&format!("wrote {} ({w}x{h})", path.display()));
                     self.status.note = Some(format!("Saved {}", path.display()));
                 }
-                Err(e) => self.status.error = Some(one_line(&e.to_string())),
+                Err(e) => {
+                    // Also on stderr: a scripted run has no one reading the status bar.
+                    let text = one_line(&e.to_string());
+                    if self.config.log {
+                        eprintln!("morphray: screenshot failed: {text}");
+                    }
+                    self.status.error = Some(text);
+                }
             }
         }
         Ok(())

@@ -32,6 +32,7 @@
 
 mod assemble;
 pub mod declare;
+mod refusal;
 #[cfg(test)]
 mod tests;
 
@@ -41,6 +42,7 @@ use crate::scene::{DerivedPrecision, Effects, GradientSource};
 use crate::volume::SampleKind;
 use ash::vk;
 use assemble::build;
+use refusal::{does_not_fit, image_that_fits};
 
 /// Side of a storage brick of the bricked layout, in voxels (without halo).
 pub const STORAGE_BRICK: u32 = 32;
@@ -210,11 +212,7 @@ pub struct Plan {
 }
 
 /// No plan fits.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-#[error(
-    "the volume ({dims:?} voxels, {volume_bytes} bytes as R16) {limit}: the smallest plan tried \
-     ({smallest_plan}) needs {smallest_bytes} bytes"
-)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct DoesNotFit {
     /// Volume dimensions.
     pub dims: [u32; 3],
@@ -229,6 +227,9 @@ pub struct DoesNotFit {
     pub smallest_plan: String,
     /// Its peak bytes.
     pub smallest_bytes: u64,
+    /// When the output image is what does not fit (the volume would with a small image): its
+    /// size and the largest of its shape that fits, `([w, h], [w, h])`.
+    pub image: Option<([u32; 2], [u32; 2])>,
 }
 
 /// The choices that set the plan's size.
@@ -349,6 +350,16 @@ pub fn plan(
     effects: Effects,
     input: &PlanInput,
     sizes: &dyn ImageSizes,
+) -> Result<Plan, DoesNotFit> {
+    plan_with(effects, input, sizes, true)
+}
+
+/// [`plan`]; `explain`: when nothing fits, also find whether a smaller image would.
+fn plan_with(
+    effects: Effects,
+    input: &PlanInput,
+    sizes: &dyn ImageSizes,
+    explain: bool,
 ) -> Result<Plan, DoesNotFit> {
     let too_large = input.dims.iter().any(|&d| d > input.max_image_dimension_3d);
     let sample_bytes = voxels(input.dims) * input.sample_kind.size_bytes() as u64;
@@ -491,7 +502,11 @@ pub fn plan(
         .find(|&m| fits(&build(input, sizes, apply(m).0, Vec::new())))
     else {
         let smallest = build(input, sizes, apply((1 << ladder.len()) - 1).0, Vec::new());
-        return Err(does_not_fit(input, &smallest));
+        let mut error = does_not_fit(input, &smallest);
+        if explain {
+            error.image = image_that_fits(effects, input, sizes);
+        }
+        return Err(error);
     };
     for i in 0..ladder.len() {
         let without = mask & !(1 << i);
@@ -511,52 +526,4 @@ pub fn plan(
         });
     }
     Ok(build(input, sizes, final_choices, degradations))
-}
-
-/// The error for a plan whose smallest form, `smallest`, still exceeds the budget.
-fn does_not_fit(input: &PlanInput, smallest: &Plan) -> DoesNotFit {
-    let current = smallest;
-    let over_budget = current.peak_bytes > input.budget;
-    let limit = bricking_limit(input.dims);
-    let over_bricking = current.layout != Layout::Whole && current.peak_bytes > limit;
-    let mut limits = Vec::new();
-    if over_budget || !over_bricking {
-        limits.push(format!(
-            "does not fit the memory budget of {} bytes",
-            input.budget
-        ));
-    }
-    if over_bricking {
-        let why = if input.dims.iter().any(|&d| d > input.max_image_dimension_3d) {
-            format!(
-                "exceeds the device's 3D image limit of {} whole, ",
-                input.max_image_dimension_3d
-            )
-        } else {
-            String::new()
-        };
-        limits.push(format!(
-            "{why}cannot be bricked within {limit} bytes ({BRICKING_MAX_RATIO}x its R16 size plus \
-             {} MiB: a volume thinner than a {STORAGE_BRICK}-voxel brick leaves most of every \
-             {}^3 slot empty)",
-            BRICKING_SLACK >> 20,
-            STORAGE_BRICK + 2 * STORAGE_HALO
-        ));
-    }
-    DoesNotFit {
-        dims: input.dims,
-        volume_bytes: 2 * voxels(input.dims),
-        budget: input.budget,
-        limit: limits.join(" and "),
-        smallest_plan: format!(
-            "{:?}, {}, {:?} gradients",
-            current.normalized_format,
-            match current.layout {
-                Layout::Whole => "whole volume".to_string(),
-                Layout::Bricked { resident, .. } => format!("{resident} resident bricks"),
-            },
-            current.effects.gradient_source
-        ),
-        smallest_bytes: current.peak_bytes,
-    }
 }

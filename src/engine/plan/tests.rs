@@ -488,3 +488,27 @@ fn the_vessel_channel_plans_its_vesselness_and_is_the_rung_before_bricking() {
             .any(|d| d.what.contains("no vesselness"))
     );
 }
+
+#[test]
+fn an_image_too_large_for_the_budget_is_named_as_the_cause_with_the_size_that_fits() {
+    // Issue 30: a 16384x16384 render of a 400 KB volume was blamed on bricking the volume.
+    let mut i = input();
+    i.dims = [48, 48, 40];
+    i.image = [16384, 16384];
+    i.budget = 2 << 30;
+    let err = plan(f16_effects(), &i, &TexelSizes).unwrap_err();
+    let text = err.to_string();
+    assert!(
+        text.contains("the 16384x16384 image is too large, not the volume"),
+        "{text}"
+    );
+    assert!(text.contains("use a smaller --size"), "{text}");
+    let (_, [w, h]) = err.image.unwrap();
+    assert_eq!(w, h);
+    assert!(w > 1024 && w < 16384, "{w}");
+    // The size it names fits, and one pixel more does not.
+    i.image = [w, h];
+    plan(f16_effects(), &i, &TexelSizes).unwrap();
+    i.image = [w + 1, h + 1];
+    assert!(plan(f16_effects(), &i, &TexelSizes).is_err());
+}

@@ -5,13 +5,10 @@
 //!   was read into (one `memmove`, no second allocation; none at all when the voxels already start
 //!   at byte 0) and byte-swapped in place when big-endian. That is the single copy of the voxels.
 //! - int32, uint32, int64, uint64, float64 are converted to f32 into a new buffer (the single
-//!   copy), after subtracting an offset chosen in f64 / i128 so that f32 keeps the spread of the
-//!   data: `stored = (x - offset) / scale`. Offset: integers whose finite range lies within
-//!   +-2^24 (exact in f32) get none; other integers get the integer midpoint of their range
-//!   (exact in i128); floats get the midpoint only when the data sits far from zero relative to
-//!   its spread (|midpoint| > 64 * half-range, e.g. 1e30 + tiny), because subtracting a midpoint
-//!   from data that straddles or approaches zero would destroy small values. Scale is 1 unless
-//!   the centred data would overflow f32 (beyond 1e36), then a power of two (exact).
+//!   copy) by `pack.rs`, which chooses an offset and a scale (`stored = (x - offset) / scale`)
+//!   so that f32 keeps the spread of the data, the minimum and maximum of integers stay exact,
+//!   and a handful of float64 voxels beyond f32's reach (the 1e300 voxel) is clamped with a
+//!   warning instead of scaling every other voxel to 0; every loss is a warning.
 //!   The map absorbs both: `physical = stored * (scale * slope) + (offset * slope + inter)`.
 //! - NaN and infinities stay (f32 can hold them); they are excluded from the offset's range.
 //! - RGB24 / RGBA32 become f32 luminance with the Rec. 709 weights 0.2126 R + 0.7152 G +
@@ -25,6 +22,7 @@
 use super::datatype::Datatype;
 use super::error::NiftiError;
 use super::header::ByteOrder;
+use super::pack::{floats, integers};
 use crate::volume::{LinearMap, SampleKind, Samples};
 
 /// The converted frame.
@@ -164,16 +162,40 @@ pub fn convert_frame(
     }
 
     let src = buf.get(start..end).unwrap_or_default();
-    let (out, offset, scale, reach) = match datatype {
-        Datatype::Int32 => integers(src, |b: [u8; 4]| i128::from(read_i32(b, big)))?,
-        Datatype::Uint32 => integers(src, |b: [u8; 4]| i128::from(read_u32(b, big)))?,
-        Datatype::Int64 => integers(src, |b: [u8; 8]| i128::from(read_i64(b, big)))?,
-        Datatype::Uint64 => integers(src, |b: [u8; 8]| i128::from(read_u64(b, big)))?,
-        _ => floats(src, big)?,
+    let name = datatype.name();
+    let w = &mut warnings;
+    let packed = match datatype {
+        Datatype::Int32 => integers(
+            src,
+            |b: [u8; 4]| i128::from(read_i32(b, big)),
+            name,
+            w,
+            alloc,
+        )?,
+        Datatype::Uint32 => integers(
+            src,
+            |b: [u8; 4]| i128::from(read_u32(b, big)),
+            name,
+            w,
+            alloc,
+        )?,
+        Datatype::Int64 => integers(
+            src,
+            |b: [u8; 8]| i128::from(read_i64(b, big)),
+            name,
+            w,
+            alloc,
+        )?,
+        Datatype::Uint64 => integers(
+            src,
+            |b: [u8; 8]| i128::from(read_u64(b, big)),
+            name,
+            w,
+            alloc,
+        )?,
+        _ => floats(src, big, w, alloc)?,
     };
-    if datatype == Datatype::Float64 {
-        precision_warning(src, &out, big, &mut warnings);
-    }
+    let (out, offset, scale, reach) = (packed.bytes, packed.offset, packed.scale, packed.reach);
     let conversion = LinearMap {
         slope: scale,
         intercept: offset,
@@ -281,134 +303,6 @@ fn read_u64(b: [u8; 8], big: bool) -> u64 {
     }
 }
 
-/// Iterates fixed-size chunks of `src` as arrays.
-fn arrays<const N: usize>(src: &[u8]) -> impl Iterator<Item = [u8; N]> + '_ {
-    src.chunks_exact(N).map(|c| {
-        let mut a = [0u8; N];
-        a.copy_from_slice(c);
-        a
-    })
-}
-
-/// Integer datatypes to f32 with an exact integer offset. Returns (bytes, offset, scale, largest
-/// |stored|).
-fn integers<const N: usize>(
-    src: &[u8],
-    read: impl Fn([u8; N]) -> i128,
-) -> Result<(Vec<u8>, f64, f64, f64), NiftiError> {
-    let (mut lo, mut hi) = (i128::MAX, i128::MIN);
-    for x in arrays::<N>(src).map(&read) {
-        lo = lo.min(x);
-        hi = hi.max(x);
-    }
-    const EXACT: i128 = 1 << 24;
-    let offset: i128 = if lo > hi || (lo >= -EXACT && hi <= EXACT) {
-        0
-    } else {
-        lo + (hi - lo) / 2
-    };
-    let mut out = alloc(src.len() / N * 4)?;
-    // The reach is measured on the f32 values written, not on the exact integers: rounding to
-    // f32 can move a value up by half an ulp, and `safe_map` must bound what is stored.
-    let mut reach = 0.0f64;
-    for x in arrays::<N>(src).map(&read) {
-        let stored = (x - offset) as f32;
-        reach = reach.max(f64::from(stored).abs());
-        out.extend_from_slice(&stored.to_le_bytes());
-    }
-    Ok((out, offset as f64, 1.0, reach))
-}
-
-/// Says so when storing float64 as f32 lost distinctions the data had: neighbouring voxels (in
-/// file order) with different finite float64 values whose f32 values are equal. Either f32's
-/// 24-bit rounding at the data's reach, or underflow of small values once data reaching 1e308
-/// is scaled into f32's range; both lose less than 2^-23 of the range, below I_norm's 1/65536,
-/// so the warning says the image is unaffected and the exact values are not kept.
-fn precision_warning(src: &[u8], out: &[u8], big: bool, warnings: &mut Vec<String>) {
-    let read = |b: [u8; 8]| {
-        if big {
-            f64::from_be_bytes(b)
-        } else {
-            f64::from_le_bytes(b)
-        }
-    };
-    let originals = arrays::<8>(src).map(read);
-    let stored = arrays::<4>(out).map(f32::from_le_bytes);
-    let mut previous: Option<(f64, f32)> = None;
-    let (mut merged, mut reach) = (0usize, 0.0f64);
-    for (x, y) in originals.zip(stored) {
-        if !x.is_finite() {
-            previous = None;
-            continue;
-        }
-        reach = reach.max(x.abs());
-        if let Some((px, py)) = previous
-            && px != x
-            && py == y
-        {
-            merged += 1;
-        }
-        previous = Some((x, y));
-    }
-    if merged > 0 {
-        warnings.push(format!(
-            "float64 voxels are stored as float32: {merged} pairs of neighbouring voxels with \
-             different values became equal (the data reaches {reach:e}); the differences lost \
-             are below 1/65536 of the intensity range, so I_norm and the image do not change, \
-             but the float64 values are not kept exactly"
-        ));
-    }
-}
-
-/// float64 to f32 with the offset/scale rule of the module doc. Returns (bytes, offset, scale,
-/// largest |stored|).
-fn floats(src: &[u8], big: bool) -> Result<(Vec<u8>, f64, f64, f64), NiftiError> {
-    let read = |b: [u8; 8]| {
-        if big {
-            f64::from_be_bytes(b)
-        } else {
-            f64::from_le_bytes(b)
-        }
-    };
-    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-    for x in arrays::<8>(src).map(read).filter(|x| x.is_finite()) {
-        lo = lo.min(x);
-        hi = hi.max(x);
-    }
-    let (offset, scale) = if lo <= hi {
-        // Halves first: (lo + hi) could overflow for values near f64::MAX.
-        let mid = lo / 2.0 + hi / 2.0;
-        let half = hi / 2.0 - lo / 2.0;
-        let offset = if mid.abs() > 64.0 * half { mid } else { 0.0 };
-        // Finite: with an offset, |x - mid| <= half; without one, |x| <= max(|lo|, |hi|).
-        let reach = (hi - offset).abs().max((lo - offset).abs());
-        let mut scale = 1.0f64;
-        // Powers of two: dividing by them is exact, and the loop runs at most ~60 times.
-        while reach.is_finite() && reach / scale > 1e36 {
-            scale *= 65536.0;
-        }
-        (offset, scale)
-    } else {
-        (0.0, 1.0)
-    };
-    let mut out = alloc(src.len() / 8 * 4)?;
-    let mut stored_reach = 0.0f64;
-    for x in arrays::<8>(src).map(read) {
-        let mut stored = ((x - offset) / scale) as f32;
-        // Found by fuzzing: for |x| within half an f32 ulp of f64::MAX, rounding to f32 moves
-        // the stored value past x, and `stored * scale + offset` overflows to infinity. One
-        // f32 step toward zero (an error no larger than the rounding itself) keeps it finite.
-        if x.is_finite() && !(f64::from(stored) * scale + offset).is_finite() {
-            stored = f32::from_bits(stored.to_bits().saturating_sub(1));
-        }
-        if stored.is_finite() {
-            stored_reach = stored_reach.max(f64::from(stored).abs());
-        }
-        out.extend_from_slice(&stored.to_le_bytes());
-    }
-    Ok((out, offset, scale, stored_reach))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -438,12 +332,31 @@ mod tests {
             .find(|w| w.contains("stored as float32"))
             .unwrap_or_else(|| panic!("{:?}", c.warnings));
         assert!(warning.contains("2 pairs"), "{warning}");
-        assert!(warning.contains("do not change"), "{warning}");
         for i in 0..5 {
             assert!(c.to_physical.apply(c.samples.get(i)).is_finite());
         }
         // An ordinary float64 volume keeps every distinction: no warning.
         let c = convert_f64(&[1.0, 2.0, 3.5, -7.25, 1e6]);
         assert!(c.warnings.is_empty(), "{:?}", c.warnings);
+    }
+
+    #[test]
+    fn one_hot_float64_voxel_leaves_the_others_exact() {
+        let mut values: Vec<f64> = (0..1000).map(|i| f64::from(i % 300)).collect();
+        values[500] = 1e300;
+        let c = convert_f64(&values);
+        for (i, &x) in values.iter().enumerate() {
+            let y = c.to_physical.apply(c.samples.get(i));
+            if i == 500 {
+                assert_eq!(y, 1e36_f32 as f64);
+            } else {
+                assert_eq!(y, x, "voxel {i}");
+            }
+        }
+        assert!(
+            c.warnings.iter().any(|w| w.contains("clamped")),
+            "{:?}",
+            c.warnings
+        );
     }
 }

@@ -37,6 +37,7 @@ pub mod header;
 mod layout;
 mod load;
 pub mod orientation;
+mod pack;
 mod writer;
 
 pub use bounded::inflate_if_gzip;
