@@ -20,10 +20,12 @@
 //! - The hash for provenance is of the assembled samples and the series UID (the files
 //!   themselves are not read a second time).
 
+mod consistency;
 mod contain;
 mod geometry;
 mod headers;
 mod lengths;
+mod mosaic;
 mod photometric;
 mod pixels;
 mod series;

@@ -225,6 +225,9 @@ fn decode_file(
     if h.transfer_syntax == RLE_LOSSLESS {
         check_rle_headers(&obj)?;
     }
+    if let Some(tiles) = &h.mosaic {
+        return decode_mosaic(&obj, h, tiles, frames, slots, kind);
+    }
     for &(slot, frame) in frames {
         let decoded = obj
             .decode_pixel_data_frame(frame)
@@ -246,6 +249,44 @@ fn decode_file(
         let mut guard = slots[slot].lock().map_err(|_| "a slot lock failed")?;
         let out = guard.take().ok_or("two frames were given one slot")?;
         convert(&data[..slice_len * bytes_per], out, h, kind);
+    }
+    Ok(())
+}
+
+/// Decodes a mosaic's one stored image and cuts each frame's tile out of it.
+fn decode_mosaic(
+    obj: &dicom_object::DefaultDicomObject,
+    h: &FileHeader,
+    tiles: &super::mosaic::Tiles,
+    frames: &[(usize, u32)],
+    slots: &[Mutex<Option<&mut [u8]>>],
+    kind: SampleKind,
+) -> Result<(), String> {
+    let decoded = obj
+        .decode_pixel_data_frame(0)
+        .map_err(|e| reason(&h.path, &e.to_string()))?;
+    let bytes_per = (h.bits_allocated as usize).div_ceil(8);
+    if decoded.bits_allocated() != h.bits_allocated || decoded.samples_per_pixel() != 1 {
+        return Err(format!(
+            "its mosaic decodes to {} bits and {} samples per pixel, not {} bits and 1",
+            decoded.bits_allocated(),
+            decoded.samples_per_pixel(),
+            h.bits_allocated
+        ));
+    }
+    let data = decoded.data();
+    for &(slot, tile) in frames {
+        let cut = tiles.cut(data, tile as usize, bytes_per).ok_or_else(|| {
+            format!(
+                "its mosaic decodes to {} bytes, too few for {} x {} pixels",
+                data.len(),
+                tiles.rows,
+                tiles.cols
+            )
+        })?;
+        let mut guard = slots[slot].lock().map_err(|_| "a slot lock failed")?;
+        let out = guard.take().ok_or("two frames were given one slot")?;
+        convert(&cut, out, h, kind);
     }
     Ok(())
 }
@@ -300,6 +341,7 @@ fn read_native(
 ) -> Option<Result<(), String>> {
     use std::os::unix::fs::FileExt;
     if !cfg!(target_endian = "little")
+        || h.mosaic.is_some()
         || kind == SampleKind::F32
         || !NATIVE_LE.contains(&h.transfer_syntax.as_str())
         || h.bits_allocated as usize != 8 * kind.size_bytes()
