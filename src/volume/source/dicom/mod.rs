@@ -108,13 +108,8 @@ pub enum DicomError {
         /// What was asked for.
         choice: SeriesChoice,
     },
-    /// No stack qualifies as the default.
-    #[error(
-        "{}: no series is a 3-D image stack ({detail}); choose one with --series (`morphray \
-         info {}` lists them)",
-        path.display(),
-        path.display()
-    )]
+    /// No stack qualifies as the default (`detail` says why and what to do).
+    #[error("{}: {detail}", path.display())]
     NoDefault {
         /// The input.
         path: PathBuf,
@@ -345,6 +340,10 @@ pub fn survey_files(paths: &[PathBuf]) -> Result<Survey, DicomError> {
     files.dedup();
     files.truncate(headers::MAX_FILES);
     let mut scan = headers::read_all(&files);
+    // Files named on the command line (not found in a named folder) win ties of position.
+    for h in &mut scan.images {
+        h.named = paths.contains(&h.path);
+    }
     scan.notes.push(format!(
         "{} paths were given as one input ({} file(s))",
         paths.len(),
@@ -389,22 +388,71 @@ fn survey_scan(path: PathBuf, scan: Scan) -> Result<Survey, DicomError> {
         return Err(DicomError::NoImages { path, detail });
     }
     let stacks = series::stacks(&scan);
-    let default = best(&stacks, 0..stacks.len(), true).ok_or_else(|| {
-        let roles: Vec<String> = stacks
-            .iter()
-            .map(|s| match &s.layout {
-                Err(e) => format!("{:?}: {e}", s.role).to_lowercase(),
-                Ok(l) => format!("{:?} of {} slice(s)", s.role, l.dims[2]).to_lowercase(),
-            })
-            .collect();
-        roles.join("; ")
-    });
+    let default =
+        best(&stacks, 0..stacks.len(), true).ok_or_else(|| why_no_default(&stacks, &path));
     Ok(Survey {
         path,
         scan,
         stacks,
         default,
     })
+}
+
+/// Why no stack is a default, and what to do, in one line (issue 30: this was a list of every
+/// stack, 2884 characters for 130 one-file series).
+fn why_no_default(stacks: &[Stack], path: &Path) -> String {
+    let info = format!("`morphray info {}` lists them", path.display());
+    let single = |s: &Stack| s.layout.as_ref().is_ok_and(|l| l.dims[2] == 1);
+    if let [one] = stacks
+        && single(one)
+        && one.role == Role::Image
+    {
+        let dims = one.layout.as_ref().map(|l| l.dims).unwrap_or_default();
+        return format!(
+            "it holds one 2-D slice ({}x{}), not a 3-D volume; give the folder of its whole \
+             series, or open the slice itself with --series 0",
+            dims[0], dims[1]
+        );
+    }
+    let mut uids: Vec<&str> = stacks.iter().map(|s| s.uid.as_str()).collect();
+    uids.sort_unstable();
+    uids.dedup();
+    if stacks.len() > 1 && stacks.iter().all(single) && uids.len() == stacks.len() {
+        return format!(
+            "every one of its {} image files is its own series (a SeriesInstanceUID per file, \
+             as some anonymizers write them), so none forms a 3-D stack; give a folder of one \
+             series whose files share their SeriesInstanceUID, or open one slice with --series \
+             ({info})",
+            stacks.len()
+        );
+    }
+    // Count stacks of each kind rather than list them all.
+    let mut kinds: Vec<(String, usize)> = Vec::new();
+    for s in stacks {
+        let kind = match &s.layout {
+            Err(e) => format!("{:?} that forms no volume ({e})", s.role).to_lowercase(),
+            Ok(l) => format!("{:?} of {} slice(s)", s.role, l.dims[2]).to_lowercase(),
+        };
+        match kinds.iter_mut().find(|(k, _)| *k == kind) {
+            Some((_, n)) => *n += 1,
+            None => kinds.push((kind, 1)),
+        }
+    }
+    let shown: Vec<String> = kinds
+        .iter()
+        .take(3)
+        .map(|(k, n)| format!("{n} {k}"))
+        .collect();
+    let more = kinds.len().saturating_sub(3);
+    format!(
+        "no series is a 3-D image stack ({}{}); choose one with --series ({info})",
+        shown.join("; "),
+        if more > 0 {
+            format!("; {more} other kind(s)")
+        } else {
+            String::new()
+        }
+    )
 }
 
 /// The headers of the files `path` names (see the module's decisions).
@@ -444,6 +492,10 @@ fn scan(path: &Path) -> Result<Scan, DicomError> {
     .collect();
     let mut scan = headers::read_all(&siblings);
     scan.images.retain(|h| h.series_uid == uid);
+    // The file named wins a tie of positions over its siblings (issue 30: it was replaced).
+    for h in &mut scan.images {
+        h.named = same_file(&h.path, path);
+    }
     scan.images.sort_by(|a, b| a.path.cmp(&b.path));
     scan.notes.push(format!(
         "one slice was given: its series' {} file(s) in {} were read with it",
@@ -451,6 +503,15 @@ fn scan(path: &Path) -> Result<Scan, DicomError> {
         folder.display()
     ));
     Ok(scan)
+}
+
+/// True when `a` and `b` name the same file (device and inode; else equal paths).
+fn same_file(a: &Path, b: &Path) -> bool {
+    use std::os::unix::fs::MetadataExt;
+    match (std::fs::metadata(a), std::fs::metadata(b)) {
+        (Ok(x), Ok(y)) => x.dev() == y.dev() && x.ino() == y.ino(),
+        _ => a == b,
+    }
 }
 
 /// The volume of the chosen stack, with the survey it came from.
