@@ -74,7 +74,11 @@ fn bits_stored_zero_or_above_bits_allocated_refuses_that_file_with_its_reason() 
             o.put(us(tags::BITS_STORED, stored));
         });
         let v = read(&dir).unwrap();
-        let skipped: Vec<&String> = v.warnings.iter().filter(|w| w.contains("skipped")).collect();
+        let skipped: Vec<&String> = v
+            .warnings
+            .iter()
+            .filter(|w| w.contains("skipped"))
+            .collect();
         assert_eq!(skipped.len(), 1, "{:?}", v.warnings);
         assert!(
             skipped[0].contains(&format!("BitsStored {stored} contradicts BitsAllocated 16")),
@@ -113,7 +117,10 @@ fn pixel_data_longer_or_shorter_than_rows_x_columns_is_refused_not_cut() {
     assert!(!text.contains("out of range"), "{text}");
     // Alone, the shorter one fails with the same reason, one line, not a decoder's.
     let e = read(&files[3]).unwrap_err();
-    assert!(e.contains("PixelData holds only 960") && !e.contains("Frame #0"), "{e}");
+    assert!(
+        e.contains("PixelData holds only 960") && !e.contains("Frame #0"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -160,7 +167,11 @@ fn a_series_larger_than_available_memory_is_refused_up_front_with_both_numbers()
     );
     assert_eq!(e.trim().lines().count(), 1, "{e}");
     // With the memory there, the same folder opens.
-    assert!(morphray(&["info", dir.to_str().unwrap()], None).status.success());
+    assert!(
+        morphray(&["info", dir.to_str().unwrap()], None)
+            .status
+            .success()
+    );
 }
 
 #[test]
@@ -185,7 +196,11 @@ fn a_nifti_gz_whose_declared_size_exceeds_available_memory_is_refused_before_inf
         e.contains("inflating the") && e.contains("but only 2.0 KB is available (MemAvailable)"),
         "{e}"
     );
-    assert!(morphray(&["info", nii.to_str().unwrap()], None).status.success());
+    assert!(
+        morphray(&["info", nii.to_str().unwrap()], None)
+            .status
+            .success()
+    );
 }
 
 #[test]
@@ -222,8 +237,7 @@ fn one_slice_alone_says_so_and_info_still_lists_it() {
     series(&dir, "1.2.826.0.1.3680043.2.1125.30.7", 1);
     let e = read(&dir).unwrap_err();
     assert!(
-        e.contains("it holds one 2-D slice (24x20), not a 3-D volume")
-            && e.contains("--series 0"),
+        e.contains("it holds one 2-D slice (24x20), not a 3-D volume") && e.contains("--series 0"),
         "{e}"
     );
     let o = morphray(&["info", dir.to_str().unwrap()], None);
@@ -257,5 +271,9 @@ fn every_file_its_own_series_is_said_in_one_short_line_with_a_count() {
         e.contains("every one of its 40 image files is its own series"),
         "{e}"
     );
-    assert!(e.len() < 400 && !e.contains("image of 1 slice(s)"), "{} chars: {e}", e.len());
+    assert!(
+        e.len() < 400 && !e.contains("image of 1 slice(s)"),
+        "{} chars: {e}",
+        e.len()
+    );
 }

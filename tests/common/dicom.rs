@@ -572,11 +572,17 @@ pub fn write_mosaic(dir: &Path, spec: &Spec) -> PathBuf {
     spec_m.image_type = format!("{}\\MOSAIC", spec.image_type);
     spec_m.rows = mr as u16;
     spec_m.cols = mc as u16;
-    spec_m.extra.push((tags::MANUFACTURER, VR::LO, "SIEMENS".into()));
+    spec_m
+        .extra
+        .push((tags::MANUFACTURER, VR::LO, "SIEMENS".into()));
     common(&spec_m, &mut obj, &format!("{}.1", spec.uid), MR_IMAGE);
     text(&mut obj, tags::INSTANCE_NUMBER, VR::IS, "1");
     let d: Vec<f64> = spec.row_dir.iter().chain(&spec.col_dir).copied().collect();
-    obj.put(DataElement::new(tags::IMAGE_ORIENTATION_PATIENT, VR::DS, ds(&d)));
+    obj.put(DataElement::new(
+        tags::IMAGE_ORIENTATION_PATIENT,
+        VR::DS,
+        ds(&d),
+    ));
     // The grid's corner: the first tile's first pixel moved back by half the grid minus a tile.
     let first = spec.position(slice_of(0));
     let across = (mc - tc) as f64 / 2.0 * spec.pixel_spacing[1];
@@ -584,19 +590,45 @@ pub fn write_mosaic(dir: &Path, spec: &Spec) -> PathBuf {
     let corner: Vec<f64> = (0..3)
         .map(|a| first[a] - spec.row_dir[a] * across - spec.col_dir[a] * down)
         .collect();
-    obj.put(DataElement::new(tags::IMAGE_POSITION_PATIENT, VR::DS, ds(&corner)));
-    obj.put(DataElement::new(tags::PIXEL_SPACING, VR::DS, ds(&spec.pixel_spacing)));
-    obj.put(DataElement::new(tags::SPACING_BETWEEN_SLICES, VR::DS, ds(&[spec.gap])));
+    obj.put(DataElement::new(
+        tags::IMAGE_POSITION_PATIENT,
+        VR::DS,
+        ds(&corner),
+    ));
+    obj.put(DataElement::new(
+        tags::PIXEL_SPACING,
+        VR::DS,
+        ds(&spec.pixel_spacing),
+    ));
+    obj.put(DataElement::new(
+        tags::SPACING_BETWEEN_SLICES,
+        VR::DS,
+        ds(&[spec.gap]),
+    ));
     let (slope, intercept) = (spec.rescale)(0);
     obj.put(DataElement::new(tags::RESCALE_SLOPE, VR::DS, ds(&[slope])));
-    obj.put(DataElement::new(tags::RESCALE_INTERCEPT, VR::DS, ds(&[intercept])));
-    text(&mut obj, dicom_core::Tag(0x0019, 0x0010), VR::LO, "SIEMENS MR HEADER");
+    obj.put(DataElement::new(
+        tags::RESCALE_INTERCEPT,
+        VR::DS,
+        ds(&[intercept]),
+    ));
+    text(
+        &mut obj,
+        dicom_core::Tag(0x0019, 0x0010),
+        VR::LO,
+        "SIEMENS MR HEADER",
+    );
     obj.put(DataElement::new(
         dicom_core::Tag(0x0019, 0x100A),
         VR::US,
         PrimitiveValue::from(n as u16),
     ));
-    text(&mut obj, dicom_core::Tag(0x0029, 0x0010), VR::LO, "SIEMENS CSA HEADER");
+    text(
+        &mut obj,
+        dicom_core::Tag(0x0029, 0x0010),
+        VR::LO,
+        "SIEMENS CSA HEADER",
+    );
     let normal = spec.normal();
     let sign = if against { -1.0 } else { 1.0 };
     let csa = csa_header(&[
@@ -612,7 +644,11 @@ pub fn write_mosaic(dir: &Path, spec: &Spec) -> PathBuf {
         PrimitiveValue::U8(csa.into()),
     ));
     let words: Vec<u16> = words.iter().map(|&v| v as u16).collect();
-    obj.put(DataElement::new(tags::PIXEL_DATA, VR::OW, PrimitiveValue::U16(words.into())));
+    obj.put(DataElement::new(
+        tags::PIXEL_DATA,
+        VR::OW,
+        PrimitiveValue::U16(words.into()),
+    ));
     let path = dir.join("mosaic.dcm");
     write(obj, spec.encoding, &path);
     path

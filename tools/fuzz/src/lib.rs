@@ -6,6 +6,9 @@
 //! that does not fit its data, or an affine the derivative twin cannot invert, would reach the
 //! GPU and fail (or render garbage) there.
 
+pub mod dicom_check;
+pub mod dicom_file;
+
 use morphray::reference::derivatives::IndexToWorld;
 use morphray::reference::minmax::finite_min_max;
 use morphray::volume::nifti::gzip::Limit;

@@ -136,7 +136,11 @@ fn deflated(stream: &[u8], stop_at_pixels: bool) -> Result<(Walk, Seen), String>
     };
     if stop_at_pixels || ended {
         let mut w = Walker::new(&inflated, inflated.len(), 0, stop_at_pixels);
-        let walk = if ended { w.dataset(None, 0)? } else { Walk::Fits };
+        let walk = if ended {
+            w.dataset(None, 0)?
+        } else {
+            Walk::Fits
+        };
         return Ok((walk, if ended { w.seen } else { seen }));
     }
     let declared = seen.declared_pixels();

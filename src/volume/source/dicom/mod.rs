@@ -10,16 +10,25 @@
 //!   chosen stack's pixels decoded in parallel (`pixels`). [`survey`] stops after the second
 //!   step: `morphray info` lists series from it without decoding a pixel.
 //! - One slice given alone stands for its series: the files of its folder (not sub-folders)
-//!   with its SeriesInstanceUID are read too, and a note says so.
+//!   with its SeriesInstanceUID are read too, and a note says so. A file named on the command
+//!   line is never replaced by another at its position: it wins the tie, and the others are
+//!   listed in a warning (issue 30).
+//! - Siemens mosaics are cut into their tiles where headers are read (`mosaic`); every tag is
+//!   checked against the pixel data it describes before use (`consistency`); a deflated data
+//!   set is inflated only as far as its header declares (`lengths`), and a stack whose pixels
+//!   need more memory than the host has available is refused before anything is allocated
+//!   (`pixels`, with `host_memory`).
 //! - The series commands use by default is the largest 3-D image stack (most voxels; ties: the
 //!   first listed); localizers, derived images and single slices are never picked by default
-//!   but can be chosen with [`SeriesChoice`].
+//!   but can be chosen with [`SeriesChoice`]. When none qualifies, one line says why (one
+//!   slice; every file its own series; else counts of each kind of stack) and what to do.
 //! - Corrupt files are listed (`Survey::skipped`, and as warnings on the volume) and left out;
 //!   one whose pixels fail to decode is dropped and the stack laid out again (a dropped slice
 //!   becomes a gap, which the layout resamples with a warning).
 //! - The hash for provenance is of the assembled samples and the series UID (the files
 //!   themselves are not read a second time).
 
+mod choice;
 mod consistency;
 mod contain;
 mod geometry;
@@ -36,6 +45,7 @@ pub use series::Role;
 
 use super::{InputError, LoadTimings, ReadOptions, SourceVolume, VolumeReader};
 use crate::volume::{AffineSource, Orientation, Volume};
+use choice::{best, why_no_default};
 use headers::Scan;
 use series::Stack;
 use std::fmt;
@@ -290,29 +300,6 @@ impl Survey {
     }
 }
 
-/// The largest stack (most voxels) among `candidates` with a layout; `volumes_only`: image
-/// stacks of at least two slices.
-fn best(
-    stacks: &[Stack],
-    candidates: impl Iterator<Item = usize>,
-    volumes_only: bool,
-) -> Option<usize> {
-    let mut best: Option<(usize, usize)> = None;
-    for i in candidates {
-        let Ok(layout) = &stacks[i].layout else {
-            continue;
-        };
-        if volumes_only && (stacks[i].role != Role::Image || layout.dims[2] < 2) {
-            continue;
-        }
-        let voxels = layout.dims.iter().product::<usize>();
-        if best.is_none_or(|(_, v)| voxels > v) {
-            best = Some((i, voxels));
-        }
-    }
-    best.map(|(i, _)| i)
-}
-
 /// Reads the headers under `path` and groups them into stacks.
 pub fn survey(path: &Path) -> Result<Survey, DicomError> {
     survey_scan(path.to_path_buf(), scan(path)?)
@@ -396,63 +383,6 @@ fn survey_scan(path: PathBuf, scan: Scan) -> Result<Survey, DicomError> {
         stacks,
         default,
     })
-}
-
-/// Why no stack is a default, and what to do, in one line (issue 30: this was a list of every
-/// stack, 2884 characters for 130 one-file series).
-fn why_no_default(stacks: &[Stack], path: &Path) -> String {
-    let info = format!("`morphray info {}` lists them", path.display());
-    let single = |s: &Stack| s.layout.as_ref().is_ok_and(|l| l.dims[2] == 1);
-    if let [one] = stacks
-        && single(one)
-        && one.role == Role::Image
-    {
-        let dims = one.layout.as_ref().map(|l| l.dims).unwrap_or_default();
-        return format!(
-            "it holds one 2-D slice ({}x{}), not a 3-D volume; give the folder of its whole \
-             series, or open the slice itself with --series 0",
-            dims[0], dims[1]
-        );
-    }
-    let mut uids: Vec<&str> = stacks.iter().map(|s| s.uid.as_str()).collect();
-    uids.sort_unstable();
-    uids.dedup();
-    if stacks.len() > 1 && stacks.iter().all(single) && uids.len() == stacks.len() {
-        return format!(
-            "every one of its {} image files is its own series (a SeriesInstanceUID per file, \
-             as some anonymizers write them), so none forms a 3-D stack; give a folder of one \
-             series whose files share their SeriesInstanceUID, or open one slice with --series \
-             ({info})",
-            stacks.len()
-        );
-    }
-    // Count stacks of each kind rather than list them all.
-    let mut kinds: Vec<(String, usize)> = Vec::new();
-    for s in stacks {
-        let kind = match &s.layout {
-            Err(e) => format!("{:?} that forms no volume ({e})", s.role).to_lowercase(),
-            Ok(l) => format!("{:?} of {} slice(s)", s.role, l.dims[2]).to_lowercase(),
-        };
-        match kinds.iter_mut().find(|(k, _)| *k == kind) {
-            Some((_, n)) => *n += 1,
-            None => kinds.push((kind, 1)),
-        }
-    }
-    let shown: Vec<String> = kinds
-        .iter()
-        .take(3)
-        .map(|(k, n)| format!("{n} {k}"))
-        .collect();
-    let more = kinds.len().saturating_sub(3);
-    format!(
-        "no series is a 3-D image stack ({}{}); choose one with --series ({info})",
-        shown.join("; "),
-        if more > 0 {
-            format!("; {more} other kind(s)")
-        } else {
-            String::new()
-        }
-    )
 }
 
 /// The headers of the files `path` names (see the module's decisions).

@@ -180,7 +180,10 @@ pub fn csa_values(buf: &[u8], name: &str) -> Option<Vec<String>> {
             pos += len.div_ceil(4) * 4;
             if !value.is_empty() {
                 let text = String::from_utf8_lossy(value);
-                values.push(text.trim_matches(|c: char| c == '\0' || c.is_whitespace()).to_string());
+                values.push(
+                    text.trim_matches(|c: char| c == '\0' || c.is_whitespace())
+                        .to_string(),
+                );
             }
         }
         if tag_name == name.as_bytes() {

@@ -180,9 +180,14 @@ fn check_memory(
         .min(files.len().max(1)) as u64;
     let slices_out = layout.dims[2] as u64;
     let per_slice = (layout.dims[0] * layout.dims[1]) as u64;
-    let rescale_varies = layout.order.iter().any(|s| s.rescale != layout.order[0].rescale);
+    let rescale_varies = layout
+        .order
+        .iter()
+        .any(|s| s.rescale != layout.order[0].rescale);
     let second_copy = if layout.resample.is_some() || rescale_varies {
-        slices_out.saturating_mul(per_slice).saturating_mul(4.max(kind.size_bytes() as u64))
+        slices_out
+            .saturating_mul(per_slice)
+            .saturating_mul(4.max(kind.size_bytes() as u64))
     } else {
         0
     };

@@ -11,8 +11,9 @@
 //!   InstanceNumber or file names; spacing is the (lower) median difference of those positions, never
 //!   SliceThickness (used only for a single slice).
 //! - Checks, and what is done (each leaves a warning on the volume):
-//!   - duplicate positions (within 0.01 mm): the first by InstanceNumber (then file name) is
-//!     kept, the others are left out;
+//!   - duplicate positions (within 0.01 mm): a file named on the command line, else the first
+//!     by InstanceNumber (then file name) is kept, the others are left out and named in the
+//!     warning (at most three; a time series of mosaics keeps its first volume this way);
 //!   - gaps that differ from the median by more than 1% (or 0.01 mm), which includes missing
 //!     slices: the stack is resampled onto a uniform grid of the median spacing by linear
 //!     interpolation between the two neighbouring slices (at most 2n+16 slices, else refused);
@@ -344,7 +345,10 @@ fn duplicates_warning(count: usize, left_out: &[usize], scan: &Scan) -> String {
         .take(3)
         .map(|&f| {
             let p = &scan.images[f].path;
-            p.file_name().unwrap_or(p.as_os_str()).to_string_lossy().into_owned()
+            p.file_name()
+                .unwrap_or(p.as_os_str())
+                .to_string_lossy()
+                .into_owned()
         })
         .collect();
     let more = files.len().saturating_sub(3);
