@@ -2,9 +2,9 @@
 //! NumberOfImagesInMosaic (0019,100A), Rows, Columns and a CSA header (0029,1010) come from
 //! the input, then pixel data of the remaining bytes (often too short or too long, which the
 //! tag checks must refuse). Bytes: 0..2 images, 2..4 rows, 4..6 columns (each mod 512), 6 the
-//! CSA header's length, then the CSA bytes (prefixed with a valid "SV10" head when bit 0 of
-//! byte 7 is set, so the tag loop is reached), then pixel bytes; when the last byte is odd the
-//! pixel data is padded or cut to exactly Rows x Columns x 2.
+//! CSA header's length, 7 flags (bit 0: the CSA bytes get a valid "SV10" head, so its tag loop
+//! is reached), then the CSA bytes, then pixel bytes; when the last byte is odd the pixel data
+//! is padded or cut to exactly Rows x Columns x 2.
 //!
 //! Checks beyond "no panic": everything `dicom_series` checks; an accepted mosaic volume has
 //! the tile size of a ceil(sqrt(n)) grid and n slices, and its slice spacing is positive.
@@ -15,13 +15,13 @@ use morphray_fuzz::dicom_check::{fresh_dir, survey_and_load};
 use morphray_fuzz::dicom_file::{element, image_elements, preamble, text};
 
 fuzz_target!(|data: &[u8]| {
-    if data.len() < 8 {
+    if data.len() < 9 {
         return;
     }
     let word = |i: usize| u16::from_le_bytes([data[i], data[i + 1]]) % 512;
     let (images, rows, cols) = (word(0), word(2), word(4));
     let csa_len = data[6] as usize;
-    let rest = &data[7..];
+    let rest = &data[8..];
     let cut = csa_len.min(rest.len());
     let mut csa = Vec::new();
     if data[7] & 1 == 1 {

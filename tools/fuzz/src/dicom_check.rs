@@ -63,8 +63,8 @@ pub fn survey_and_load(dir: &Path) -> Option<Volume> {
         }
         Ok((v, _)) => {
             assert_eq!(v.samples.len(), v.dims.iter().product::<usize>());
-            crate::check_orientation(&v.orientation);
-            crate::check_warnings(&v.warnings);
+            super::check_orientation(&v.orientation);
+            super::check_warnings(&v.warnings);
             assert!(v.spacing_mm.iter().all(|s| s.is_finite() && *s > 0.0));
             assert!(v.to_physical.slope.is_finite() && v.to_physical.slope != 0.0);
             assert!(v.to_physical.intercept.is_finite());

@@ -93,8 +93,8 @@ pub fn tiles(
     let per_side = (images as f64).sqrt().ceil() as usize;
     let fits = images <= 65535
         && per_side > 0
-        && rows as usize % per_side == 0
-        && cols as usize % per_side == 0;
+        && (rows as usize).is_multiple_of(per_side)
+        && (cols as usize).is_multiple_of(per_side);
     if !fits {
         return Err(format!(
             "ImageType MOSAIC with {images} images cannot be cut from Rows x Columns {rows} x \
