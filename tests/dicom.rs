@@ -602,3 +602,32 @@ fn fuzz_finding_an_rle_header_with_too_many_segments_is_refused() {
     let e = read(&dir, None).unwrap_err();
     assert!(e.contains("segments (1 to 15"), "{e}");
 }
+
+#[test]
+fn a_siemens_mosaic_is_cut_into_its_slices_with_their_positions() {
+    for (name, spec) in [
+        (
+            "mosaic-along",
+            Spec {
+                slices: 5,
+                mosaic: writer::Mosaic::Along,
+                ..Spec::oblique("1.2.826.0.1.3680043.2.1125.1.40")
+            },
+        ),
+        (
+            "mosaic-against",
+            Spec {
+                slices: 9,
+                mosaic: writer::Mosaic::Against,
+                ..Spec::sagittal("1.2.826.0.1.3680043.2.1125.1.41")
+            },
+        ),
+    ] {
+        let dir = folder(name);
+        writer::write_series(&dir, &spec);
+        let v = read(&dir, None).unwrap_or_else(|e| panic!("{name}: {e}"));
+        // Before issue 30 this was one 2-D image of the whole grid (e.g. 72x60x1).
+        assert_matches(&v, &spec, plain(&spec));
+        assert!(v.warnings.is_empty(), "{name}: {:?}", v.warnings);
+    }
+}

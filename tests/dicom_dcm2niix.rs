@@ -193,3 +193,25 @@ fn rescaled_rle_and_jpeg_lossless_series_agree_with_dcm2niix() {
         },
     );
 }
+
+#[test]
+fn siemens_mosaics_agree_with_dcm2niix() {
+    // 5 slices in a 3 x 3 grid (4 empty tiles): an oblique axial stored along row x column,
+    // and a sagittal stored against it (the CSA normal says so), as Siemens stores R to L.
+    compare(
+        "mosaic-oblique",
+        &Spec {
+            slices: 5,
+            mosaic: writer::Mosaic::Along,
+            ..Spec::oblique("1.2.826.0.1.3680043.2.1125.2.8")
+        },
+    );
+    compare(
+        "mosaic-sagittal-against",
+        &Spec {
+            slices: 7,
+            mosaic: writer::Mosaic::Against,
+            ..Spec::sagittal("1.2.826.0.1.3680043.2.1125.2.9")
+        },
+    );
+}

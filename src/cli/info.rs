@@ -342,7 +342,12 @@ fn run_dicom(args: &InfoArgs, global: &super::GlobalOptions) -> Result<(), Error
     } else {
         print_dicom(&report);
     }
-    picked.map(|_| ()).map_err(wrap)
+    // Without --series, a listing with no default is still a listing (issue 30: `info` failed
+    // with the same "choose one with --series" it tells the user to run it for).
+    match (&choice, picked) {
+        (None, Err(dicom::DicomError::NoDefault { .. })) => Ok(()),
+        (_, picked) => picked.map(|_| ()).map_err(wrap),
+    }
 }
 
 /// The text form of [`DicomReport`].

@@ -68,6 +68,20 @@ pub struct Spec {
     pub modality: &'static str,
     /// More text elements of every file (RepetitionTime, ProtocolName, ...).
     pub extra: Vec<(dicom_core::Tag, VR, String)>,
+    /// A Siemens mosaic: one file whose tiles are the slices.
+    pub mosaic: Mosaic,
+}
+
+/// How a mosaic is written.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Mosaic {
+    /// Not a mosaic.
+    No,
+    /// Tiles in slice order along row x column; the CSA SliceNormalVector says so.
+    Along,
+    /// Tiles stored against row x column (as Siemens stores sagittal R to L); the CSA
+    /// SliceNormalVector points against it.
+    Against,
 }
 
 fn no_rescale(_: usize) -> (f64, f64) {
@@ -102,6 +116,7 @@ impl Spec {
             photometric: "MONOCHROME2",
             modality: "MR",
             extra: Vec::new(),
+            mosaic: Mosaic::No,
         }
     }
 
@@ -368,6 +383,9 @@ pub fn write_series(dir: &Path, spec: &Spec) -> Vec<PathBuf> {
     if spec.multiframe {
         return vec![write_multiframe(dir, spec)];
     }
+    if spec.mosaic != Mosaic::No {
+        return vec![write_mosaic(dir, spec)];
+    }
     let mut files = Vec::new();
     for k in 0..spec.slices {
         if spec.skip.contains(&k) {
@@ -494,6 +512,144 @@ fn write_multiframe(dir: &Path, spec: &Spec) -> PathBuf {
     let frames: Vec<Vec<i32>> = order.iter().map(|&k| spec.slice_values(k)).collect();
     obj.put(pixel_data(spec, &frames));
     let path = dir.join("enhanced.dcm");
+    write(obj, spec.encoding, &path);
+    path
+}
+
+/// A Siemens CSA image header ("SV10") with string-valued tags.
+pub fn csa_header(tags: &[(&str, Vec<String>)]) -> Vec<u8> {
+    let mut b = b"SV10\x04\x03\x02\x01".to_vec();
+    b.extend_from_slice(&(tags.len() as u32).to_le_bytes());
+    b.extend_from_slice(&77u32.to_le_bytes());
+    for (name, values) in tags {
+        let mut tag = [0u8; 84];
+        tag[..name.len()].copy_from_slice(name.as_bytes());
+        tag[64..68].copy_from_slice(&(values.len() as u32).to_le_bytes());
+        tag[68..70].copy_from_slice(b"DS");
+        tag[76..80].copy_from_slice(&(values.len() as u32).to_le_bytes());
+        tag[80..84].copy_from_slice(&77u32.to_le_bytes());
+        b.extend_from_slice(&tag);
+        for v in values {
+            let len = v.len() as u32 + 1;
+            for word in [len, len, 77, len] {
+                b.extend_from_slice(&word.to_le_bytes());
+            }
+            let mut value = v.as_bytes().to_vec();
+            value.push(0);
+            while value.len() % 4 != 0 {
+                value.push(0);
+            }
+            b.extend_from_slice(&value);
+        }
+    }
+    b
+}
+
+/// One Siemens mosaic file holding the spec's slices as tiles of a ceil(sqrt(n))-square grid
+/// (empty tiles zero), with ImageType MOSAIC, NumberOfImagesInMosaic (0019,100A), a CSA header
+/// (NumberOfImagesInMosaic, SliceNormalVector) and ImagePositionPatient at the grid's corner,
+/// as Siemens writes them. The positions the reader must find are `Spec::position`.
+pub fn write_mosaic(dir: &Path, spec: &Spec) -> PathBuf {
+    let n = spec.slices;
+    let per_side = (n as f64).sqrt().ceil() as usize;
+    let (tr, tc) = (spec.rows as usize, spec.cols as usize);
+    let (mr, mc) = (tr * per_side, tc * per_side);
+    let against = spec.mosaic == Mosaic::Against;
+    // Tile m holds slice m along the normal, or slice n-1-m against it.
+    let slice_of = |m: usize| if against { n - 1 - m } else { m };
+    let mut words = vec![0i32; mr * mc];
+    for m in 0..n {
+        let values = spec.slice_values(slice_of(m));
+        let (gr, gc) = (m / per_side, m % per_side);
+        for y in 0..tr {
+            for x in 0..tc {
+                words[(gr * tr + y) * mc + gc * tc + x] = values[y * tc + x];
+            }
+        }
+    }
+    let mut obj = InMemDicomObject::new_empty();
+    let mut spec_m = spec.clone();
+    spec_m.image_type = format!("{}\\MOSAIC", spec.image_type);
+    spec_m.rows = mr as u16;
+    spec_m.cols = mc as u16;
+    spec_m
+        .extra
+        .push((tags::MANUFACTURER, VR::LO, "SIEMENS".into()));
+    common(&spec_m, &mut obj, &format!("{}.1", spec.uid), MR_IMAGE);
+    text(&mut obj, tags::INSTANCE_NUMBER, VR::IS, "1");
+    let d: Vec<f64> = spec.row_dir.iter().chain(&spec.col_dir).copied().collect();
+    obj.put(DataElement::new(
+        tags::IMAGE_ORIENTATION_PATIENT,
+        VR::DS,
+        ds(&d),
+    ));
+    // The grid's corner: the first tile's first pixel moved back by half the grid minus a tile.
+    let first = spec.position(slice_of(0));
+    let across = (mc - tc) as f64 / 2.0 * spec.pixel_spacing[1];
+    let down = (mr - tr) as f64 / 2.0 * spec.pixel_spacing[0];
+    let corner: Vec<f64> = (0..3)
+        .map(|a| first[a] - spec.row_dir[a] * across - spec.col_dir[a] * down)
+        .collect();
+    obj.put(DataElement::new(
+        tags::IMAGE_POSITION_PATIENT,
+        VR::DS,
+        ds(&corner),
+    ));
+    obj.put(DataElement::new(
+        tags::PIXEL_SPACING,
+        VR::DS,
+        ds(&spec.pixel_spacing),
+    ));
+    obj.put(DataElement::new(
+        tags::SPACING_BETWEEN_SLICES,
+        VR::DS,
+        ds(&[spec.gap]),
+    ));
+    let (slope, intercept) = (spec.rescale)(0);
+    obj.put(DataElement::new(tags::RESCALE_SLOPE, VR::DS, ds(&[slope])));
+    obj.put(DataElement::new(
+        tags::RESCALE_INTERCEPT,
+        VR::DS,
+        ds(&[intercept]),
+    ));
+    text(
+        &mut obj,
+        dicom_core::Tag(0x0019, 0x0010),
+        VR::LO,
+        "SIEMENS MR HEADER",
+    );
+    obj.put(DataElement::new(
+        dicom_core::Tag(0x0019, 0x100A),
+        VR::US,
+        PrimitiveValue::from(n as u16),
+    ));
+    text(
+        &mut obj,
+        dicom_core::Tag(0x0029, 0x0010),
+        VR::LO,
+        "SIEMENS CSA HEADER",
+    );
+    let normal = spec.normal();
+    let sign = if against { -1.0 } else { 1.0 };
+    let csa = csa_header(&[
+        ("NumberOfImagesInMosaic", vec![n.to_string()]),
+        (
+            "SliceNormalVector",
+            normal.iter().map(|v| format!("{:.8}", sign * v)).collect(),
+        ),
+    ]);
+    obj.put(DataElement::new(
+        dicom_core::Tag(0x0029, 0x1010),
+        VR::OB,
+        PrimitiveValue::U8(csa.into()),
+    ));
+    let words: Vec<u16> = words.iter().map(|&v| v as u16).collect();
+    obj.put(DataElement::new(
+        tags::PIXEL_DATA,
+        VR::OW,
+        PrimitiveValue::U16(words.into()),
+    ));
+    let path = dir.join("mosaic.dcm");
     write(obj, spec.encoding, &path);
     path
 }

@@ -39,6 +39,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 import cases_input  # noqa: E402
 import cases_issue30  # noqa: E402
+import cases_issue30_dicom  # noqa: E402
 import cases_issue30_misc  # noqa: E402
 import cases_run  # noqa: E402
 import runner  # noqa: E402
@@ -98,7 +99,7 @@ def validation_available(binary):
 def build_cases(ws, quick, only):
     cases = []
     for builder in (cases_input.BUILDERS + cases_run.BUILDERS + cases_issue30.BUILDERS
-                    + cases_issue30_misc.BUILDERS):
+                    + cases_issue30_dicom.BUILDERS + cases_issue30_misc.BUILDERS):
         cases += builder(ws)
     if only:
         cases = [c for c in cases if only in c.cls]

@@ -13,6 +13,9 @@
 //!   exact errors of the full inflation (trailing garbage, corrupt member).
 //! - The `.img` of a pair ([`inflate_image`]) is bounded by what its `.hdr` declares.
 //! - Non-gzip bytes pass through untouched, whatever they are (the parser judges them).
+//! - Before inflating, twice the declared size (the inflated bytes, and the samples converted
+//!   from them) plus the compressed bytes must fit in the host's available memory
+//!   (`host_memory::check`): a refusal names both numbers instead of the OOM killer acting.
 
 use super::error::NiftiError;
 use super::gzip::{self, Limit};
@@ -69,7 +72,24 @@ pub fn inflate_if_gzip(bytes: Vec<u8>) -> Result<(Vec<u8>, usize), NiftiError> {
     } else {
         header_limit(&header::decode(&prefix)?)?
     };
+    fits_in_memory(&limit, bytes.len())?;
     gzip::inflate_within(bytes, limit)
+}
+
+/// Refuses an inflation whose declared result, converted, cannot fit in available memory.
+fn fits_in_memory(limit: &Limit, compressed: usize) -> Result<(), NiftiError> {
+    let needed = (limit.declared as u64)
+        .saturating_mul(2)
+        .saturating_add(compressed as u64);
+    crate::volume::host_memory::check(
+        needed,
+        &format!(
+            "inflating the {} {}",
+            crate::volume::host_memory::human(limit.declared as u64),
+            limit.what
+        ),
+    )
+    .map_err(NiftiError::NotEnoughMemory)
 }
 
 /// Inflates the `.img` bytes of the pair whose header is `decoded`, within the size that header
@@ -78,5 +98,7 @@ pub fn inflate_image(bytes: Vec<u8>, decoded: &Decoded) -> Result<(Vec<u8>, usiz
     if !gzip::is_gzip(&bytes) {
         return Ok((bytes, 0));
     }
-    gzip::inflate_within(bytes, image_limit(decoded)?)
+    let limit = image_limit(decoded)?;
+    fits_in_memory(&limit, bytes.len())?;
+    gzip::inflate_within(bytes, limit)
 }

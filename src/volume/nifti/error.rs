@@ -44,6 +44,11 @@ pub enum NiftiError {
         what: &'static str,
     },
 
+    /// What the header declares does not fit in the host's available memory (checked before
+    /// inflating: a 2 MB `.nii.gz` may honestly declare 1024^3 voxels).
+    #[error("{0}")]
+    NotEnoughMemory(String),
+
     /// A gzip member could not be inflated (bad deflate data, checksum or length mismatch, or the
     /// file was cut short).
     #[error(

@@ -6,6 +6,12 @@
 //! that does not fit its data, or an affine the derivative twin cannot invert, would reach the
 //! GPU and fail (or render garbage) there.
 
+// The DICOM targets' helpers; tests/fuzz_regressions.rs includes this file but not them.
+#[allow(dead_code)]
+pub mod dicom_check;
+#[allow(dead_code)]
+pub mod dicom_file;
+
 use morphray::reference::derivatives::IndexToWorld;
 use morphray::reference::minmax::finite_min_max;
 use morphray::volume::nifti::gzip::Limit;

@@ -18,6 +18,7 @@
 
 use super::contain::contained;
 use super::lengths;
+use super::mosaic;
 use crate::files::read::open_regular;
 use dicom_dictionary_std::tags;
 use dicom_object::{InMemDicomObject, OpenFileOptions};
@@ -92,6 +93,31 @@ pub struct FileHeader {
     /// What the file says about the scan: Modality, sequence, TR/TE/TI, contrast agent,
     /// SeriesDescription, ProtocolName (`analysis::modality` decides from them).
     pub facts: crate::analysis::ScanFacts,
+    /// A Siemens mosaic: `rows` and `cols` are then one tile's, and each frame a tile.
+    pub mosaic: Option<super::mosaic::Tiles>,
+    /// The length PixelData declares (None: encapsulated, or not known).
+    pub pixel_bytes: Option<u64>,
+    /// Named on the command line (not found beside a named file): wins a tie of positions.
+    pub named: bool,
+}
+
+impl FileHeader {
+    /// Rows and Columns as stored (the whole mosaic for a mosaic).
+    pub fn stored_size(&self) -> (u32, u32) {
+        match &self.mosaic {
+            Some(t) => (t.rows, t.cols),
+            None => (self.rows, self.cols),
+        }
+    }
+
+    /// Frames as stored (one for a mosaic).
+    pub fn stored_frames(&self) -> usize {
+        if self.mosaic.is_some() {
+            1
+        } else {
+            self.frames.len()
+        }
+    }
 }
 
 /// A file that looked like DICOM but could not be used, and why.
@@ -269,21 +295,29 @@ fn read_one(path: &Path) -> Outcome {
     // usually the first 16 KB hold them all.
     let mut bytes = head.to_vec();
     let mut want = 16 * 1024;
-    loop {
+    let seen = loop {
         let more = want.min(file_len).saturating_sub(bytes.len());
         if let Err(e) = (&mut file).take(more as u64).read_to_end(&mut bytes) {
             return bad(format!("cannot be read: {e}"));
         }
-        match lengths::check(&bytes, file_len.max(bytes.len()), true) {
+        match lengths::check_seen(&bytes, file_len.max(bytes.len()), true) {
             Err(reason) => return bad(reason),
-            Ok(lengths::Walk::NeedMore) if bytes.len() < file_len => want = want.saturating_mul(4),
-            Ok(_) => break,
+            Ok((lengths::Walk::NeedMore, _)) if bytes.len() < file_len => {
+                want = want.saturating_mul(4)
+            }
+            Ok((_, s)) => break s,
         }
-    }
+    };
     // The parser starts at the magic; the file goes on where `bytes` ends.
     let reader = (&bytes[128..]).chain(std::io::BufReader::with_capacity(16 * 1024, file));
     match parse_header(reader, path) {
-        Ok(Some(h)) => Outcome::Image(Box::new(h)),
+        Ok(Some(mut h)) => {
+            h.pixel_bytes = seen.pixel_len.flatten().map(|n| n as u64);
+            match super::consistency::check(&h) {
+                Ok(()) => Outcome::Image(Box::new(h)),
+                Err(reason) => bad(reason),
+            }
+        }
         Ok(None) => Outcome::NoPixels,
         Err(reason) => Outcome::Bad(Skipped {
             path: path.to_path_buf(),
@@ -330,11 +364,38 @@ fn describe(
             "declares {frame_count} frames (at most {MAX_FRAMES})"
         ));
     }
-    let bits_allocated = int(obj, tags::BITS_ALLOCATED).unwrap_or(16).clamp(0, 64) as u16;
+    let (bits_allocated, bits_stored) = bits(obj)?;
     let slice_thickness = float(obj, tags::SPACING_BETWEEN_SLICES)
         .or_else(|| float(obj, tags::SLICE_THICKNESS))
         .filter(|t| t.is_finite() && *t > 0.0);
-    let frames = frames(obj, frame_count as usize);
+    let mut frames = frames(obj, frame_count as usize);
+    let image_type: Vec<String> = strings(obj, tags::IMAGE_TYPE)
+        .iter()
+        .map(|s| s.trim().to_ascii_uppercase())
+        .collect();
+    let csa = obj
+        .get(dicom_core::Tag(0x0029, 0x1010))
+        .and_then(|e| e.to_bytes().ok())
+        .map(|b| b.into_owned());
+    let mosaic = if frame_count == 1 {
+        mosaic::tiles(
+            &image_type,
+            private_us(obj, dicom_core::Tag(0x0019, 0x100A)),
+            csa.as_deref(),
+            rows as u32,
+            cols as u32,
+        )?
+    } else {
+        None
+    };
+    let (rows, cols) = match &mosaic {
+        Some(tiles) => {
+            let spacing = slice_thickness.unwrap_or(1.0);
+            frames = mosaic::frames(&frames[0], tiles, csa.as_deref(), spacing);
+            (tiles.tile_rows() as i64, tiles.tile_cols() as i64)
+        }
+        None => (rows, cols),
+    };
     Ok(Some(FileHeader {
         path: path.to_path_buf(),
         series_uid: text(obj, tags::SERIES_INSTANCE_UID),
@@ -342,19 +403,14 @@ fn describe(
         description: text(obj, tags::SERIES_DESCRIPTION),
         modality: text(obj, tags::MODALITY),
         sop_class: text(obj, tags::SOP_CLASS_UID),
-        image_type: strings(obj, tags::IMAGE_TYPE)
-            .iter()
-            .map(|s| s.trim().to_ascii_uppercase())
-            .collect(),
+        image_type,
         instance_number: int(obj, tags::INSTANCE_NUMBER),
         echo: text(obj, tags::ECHO_NUMBERS),
         frame_of_reference: text(obj, tags::FRAME_OF_REFERENCE_UID),
         rows: rows as u32,
         cols: cols as u32,
         bits_allocated,
-        bits_stored: int(obj, tags::BITS_STORED)
-            .unwrap_or(bits_allocated as i64)
-            .clamp(1, bits_allocated.max(1) as i64) as u16,
+        bits_stored,
         signed: int(obj, tags::PIXEL_REPRESENTATION) == Some(1),
         samples_per_pixel: int(obj, tags::SAMPLES_PER_PIXEL).unwrap_or(1).clamp(0, 16) as u16,
         photometric: text(obj, tags::PHOTOMETRIC_INTERPRETATION)
@@ -364,7 +420,38 @@ fn describe(
         slice_thickness,
         frames,
         facts: scan_facts(obj),
+        mosaic,
+        pixel_bytes: None,
+        named: false,
     }))
+}
+
+/// BitsAllocated and BitsStored, refused when they contradict each other (BitsStored 0 or
+/// above BitsAllocated would turn every value into garbage: issue 30).
+fn bits(obj: &InMemDicomObject) -> Result<(u16, u16), String> {
+    let allocated = int(obj, tags::BITS_ALLOCATED).unwrap_or(16);
+    if !(1..=64).contains(&allocated) {
+        return Err(format!(
+            "BitsAllocated {allocated} is not a pixel size (1 to 64 bits)"
+        ));
+    }
+    let stored = int(obj, tags::BITS_STORED).unwrap_or(allocated);
+    if !(1..=allocated).contains(&stored) {
+        return Err(format!(
+            "BitsStored {stored} contradicts BitsAllocated {allocated} (it must be 1 to \
+             {allocated})"
+        ));
+    }
+    Ok((allocated as u16, stored as u16))
+}
+
+/// An unsigned 16-bit private value: US in explicit VR, two raw bytes (UN) in implicit VR.
+fn private_us(obj: &InMemDicomObject, tag: dicom_core::Tag) -> Option<i64> {
+    let e = obj.get(tag)?;
+    e.to_int::<i64>().ok().or_else(|| {
+        let b = e.to_bytes().ok()?;
+        (b.len() == 2).then(|| u16::from_le_bytes([b[0], b[1]]) as i64)
+    })
 }
 
 /// The tags `analysis::modality` reads: top level first, then the shared functional groups of

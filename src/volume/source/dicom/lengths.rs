@@ -9,7 +9,8 @@
 //!
 //! Decisions:
 //! - Every element and item length must fit in the bytes that follow it (for a deflated data
-//!   set: in its inflated bytes, inflated here with at most 1032 bytes per byte of file);
+//!   set: in its inflated bytes, inflated here within what its own header declares, see
+//!   [`deflated`]);
 //!   sequences and items nest at most [`MAX_DEPTH`] deep. Undefined lengths are followed to
 //!   their delimiters. Nothing else is judged: dicom-rs does the parsing.
 //! - The walk runs over bytes in memory; when it runs past the end of what was read while the
@@ -20,8 +21,11 @@ use std::io::Read;
 
 /// Deepest nesting of sequences accepted.
 pub const MAX_DEPTH: usize = 32;
-/// Most bytes of data set one byte of a deflated file may inflate to.
-const MAX_INFLATE_RATIO: usize = 1032;
+/// Most bytes a deflated data set may inflate to before its pixel data (its header part).
+const MAX_DEFLATED_HEADER: usize = 64 << 20;
+/// Bytes a deflated data set may hold beyond its header and declared pixels (trailing
+/// elements, padding), plus 1/64 of the declared size.
+const DEFLATE_SLACK: u64 = 1 << 20;
 
 /// The outcome of a walk.
 #[derive(Debug, PartialEq)]
@@ -32,56 +36,136 @@ pub enum Walk {
     NeedMore,
 }
 
+/// What a walk saw of the top-level image tags, for the checks against the data.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Seen {
+    /// The PixelData element's length: Some(None) when undefined (encapsulated).
+    pub pixel_len: Option<Option<usize>>,
+    /// Rows, Columns, NumberOfFrames, BitsAllocated, SamplesPerPixel as declared.
+    pub rows: Option<u64>,
+    /// Columns.
+    pub cols: Option<u64>,
+    /// NumberOfFrames.
+    pub frames: Option<u64>,
+    /// BitsAllocated.
+    pub bits: Option<u64>,
+    /// SamplesPerPixel.
+    pub samples: Option<u64>,
+}
+
+impl Seen {
+    /// Rows x Columns x frames x samples x bytes, as the header declares them (absent tags
+    /// count as the defaults: 1 frame, 1 sample, 16 bits; absent Rows or Columns as 0).
+    pub fn declared_pixels(&self) -> u64 {
+        let bytes = self.bits.unwrap_or(16).div_ceil(8);
+        [
+            self.rows.unwrap_or(0),
+            self.cols.unwrap_or(0),
+            self.frames.unwrap_or(1).max(1),
+            self.samples.unwrap_or(1).max(1),
+            bytes,
+        ]
+        .iter()
+        .try_fold(1u64, |a, &b| a.checked_mul(b))
+        .unwrap_or(u64::MAX)
+    }
+}
+
 /// Walks `bytes` (a whole file from its start, or its first part when `file_len` is larger):
 /// the meta group from offset 132, then the data set in its transfer syntax; stops at the
 /// pixel data when `stop_at_pixels`.
 pub fn check(bytes: &[u8], file_len: usize, stop_at_pixels: bool) -> Result<Walk, String> {
-    let mut meta = Walker {
-        bytes,
-        file_len,
-        pos: 132,
-        explicit: true,
-        little: true,
-        stop_at_pixels,
-    };
+    check_seen(bytes, file_len, stop_at_pixels).map(|(walk, _)| walk)
+}
+
+/// [`check`], with what the walk saw of the image tags.
+pub fn check_seen(
+    bytes: &[u8],
+    file_len: usize,
+    stop_at_pixels: bool,
+) -> Result<(Walk, Seen), String> {
+    let mut meta = Walker::new(bytes, file_len, 132, stop_at_pixels);
     let ts = match meta.meta_group()? {
         Some(ts) => ts,
-        None => return Ok(Walk::NeedMore),
+        None => return Ok((Walk::NeedMore, Seen::default())),
     };
     let start = meta.pos;
     if ts == "1.2.840.10008.1.2.1.99" {
         if bytes.len() < file_len {
-            return Ok(Walk::NeedMore);
+            return Ok((Walk::NeedMore, Seen::default()));
         }
-        let limit = file_len.saturating_mul(MAX_INFLATE_RATIO);
-        let mut inflated = Vec::new();
-        flate2::read::DeflateDecoder::new(&bytes[start..])
-            .take(limit as u64 + 1)
-            .read_to_end(&mut inflated)
-            .map_err(|e| format!("its deflated data set does not inflate ({e})"))?;
-        if inflated.len() > limit {
-            return Err("its deflated data set inflates beyond 1032 bytes per byte".into());
-        }
-        let len = inflated.len();
-        let mut w = Walker {
-            bytes: &inflated,
-            file_len: len,
-            pos: 0,
-            explicit: true,
-            little: true,
-            stop_at_pixels,
-        };
-        return w.dataset(None, 0).map(|_| Walk::Fits);
+        return deflated(&bytes[start..], stop_at_pixels);
     }
-    let mut w = Walker {
-        bytes,
-        file_len,
-        pos: start,
-        explicit: ts != "1.2.840.10008.1.2",
-        little: ts != "1.2.840.10008.1.2.2",
-        stop_at_pixels,
+    let mut w = Walker::new(bytes, file_len, start, stop_at_pixels);
+    w.explicit = ts != "1.2.840.10008.1.2";
+    w.little = ts != "1.2.840.10008.1.2.2";
+    let walk = w.dataset(None, 0)?;
+    Ok((walk, w.seen))
+}
+
+/// The walk of a deflated data set, inflated within what its own header declares: first up to
+/// its pixel data (at most [`MAX_DEFLATED_HEADER`]), then, unless the caller stops there, up to
+/// that header plus Rows x Columns x frames x bytes plus slack, after checking that much fits
+/// in the host's available memory. A 3 MB file declaring a 384 x 384 image that inflates to
+/// 3 GB is refused once it passes its bound, never held (issue 30).
+fn deflated(stream: &[u8], stop_at_pixels: bool) -> Result<(Walk, Seen), String> {
+    let mut decoder = flate2::read::DeflateDecoder::new(stream);
+    let mut inflated: Vec<u8> = Vec::new();
+    let mut step: usize = 64 * 1024;
+    let inflate_error = |e: std::io::Error| format!("its deflated data set does not inflate ({e})");
+    // The header part: inflate until the walk reaches the pixel data or the stream ends.
+    let (ended, seen) = loop {
+        let got = (&mut decoder)
+            .take(step as u64)
+            .read_to_end(&mut inflated)
+            .map_err(inflate_error)?;
+        let ended = got == 0;
+        let len = if ended { inflated.len() } else { usize::MAX };
+        let mut w = Walker::new(&inflated, len, 0, true);
+        let walk = w.dataset(None, 0)?;
+        if ended || (walk == Walk::Fits && w.seen.pixel_len.is_some()) {
+            break (ended, w.seen);
+        }
+        if inflated.len() >= MAX_DEFLATED_HEADER {
+            return Err(format!(
+                "its deflated data set holds more than {} before its pixel data",
+                crate::volume::host_memory::human(MAX_DEFLATED_HEADER as u64)
+            ));
+        }
+        step = step.saturating_mul(2).min(MAX_DEFLATED_HEADER);
     };
-    w.dataset(None, 0)
+    if stop_at_pixels || ended {
+        let mut w = Walker::new(&inflated, inflated.len(), 0, stop_at_pixels);
+        let walk = if ended {
+            w.dataset(None, 0)?
+        } else {
+            Walk::Fits
+        };
+        return Ok((walk, if ended { w.seen } else { seen }));
+    }
+    let declared = seen.declared_pixels();
+    let bound = (inflated.len() as u64)
+        .saturating_add(declared)
+        .saturating_add(declared / 64)
+        .saturating_add(DEFLATE_SLACK);
+    crate::volume::host_memory::check(bound, "inflating its deflated data set")?;
+    let more = bound.saturating_sub(inflated.len() as u64);
+    (&mut decoder)
+        .take(more.saturating_add(1))
+        .read_to_end(&mut inflated)
+        .map_err(inflate_error)?;
+    if inflated.len() as u64 > bound {
+        return Err(format!(
+            "its deflated data set inflates past {}, more than its header declares (Rows x \
+             Columns x frames x BitsAllocated = {} of pixels, plus slack): a decompression \
+             bomb or a corrupt file",
+            crate::volume::host_memory::human(bound),
+            crate::volume::host_memory::human(declared)
+        ));
+    }
+    let mut w = Walker::new(&inflated, inflated.len(), 0, false);
+    let walk = w.dataset(None, 0)?;
+    Ok((walk, w.seen))
 }
 
 /// Where a walk stands.
@@ -92,6 +176,7 @@ struct Walker<'a> {
     explicit: bool,
     little: bool,
     stop_at_pixels: bool,
+    seen: Seen,
 }
 
 /// An element or item header.
@@ -123,7 +208,45 @@ const PIXEL_DATA: (u16, u16) = (0x7FE0, 0x0010);
 /// `Err(None)`: the bytes given end here (need more, or the file ends).
 type Step<T> = Result<T, Option<String>>;
 
-impl Walker<'_> {
+impl<'a> Walker<'a> {
+    /// An explicit-VR little-endian walk from `pos`.
+    fn new(bytes: &'a [u8], file_len: usize, pos: usize, stop_at_pixels: bool) -> Walker<'a> {
+        Walker {
+            bytes,
+            file_len,
+            pos,
+            explicit: true,
+            little: true,
+            stop_at_pixels,
+            seen: Seen::default(),
+        }
+    }
+
+    /// Notes a top-level image tag's value (`value`: its bytes).
+    fn note(&mut self, tag: (u16, u16), value: &[u8]) {
+        let short = || -> Option<u64> {
+            let b: [u8; 2] = value.try_into().ok()?;
+            Some(if self.little {
+                u16::from_le_bytes(b)
+            } else {
+                u16::from_be_bytes(b)
+            } as u64)
+        };
+        match tag {
+            (0x0028, 0x0010) => self.seen.rows = short(),
+            (0x0028, 0x0011) => self.seen.cols = short(),
+            (0x0028, 0x0100) => self.seen.bits = short(),
+            (0x0028, 0x0002) => self.seen.samples = short(),
+            (0x0028, 0x0008) => {
+                self.seen.frames = String::from_utf8_lossy(value)
+                    .trim_matches(|c: char| c == '\0' || c.is_whitespace())
+                    .parse()
+                    .ok()
+            }
+            _ => {}
+        }
+    }
+
     fn take(&mut self, n: usize) -> Step<&[u8]> {
         let end = self.pos.checked_add(n).ok_or(None)?;
         let slice = self.bytes.get(self.pos..end).ok_or(None)?;
@@ -286,6 +409,9 @@ impl Walker<'_> {
                 }
                 return Ok(Walk::Fits);
             }
+            if depth == 0 && header.tag == PIXEL_DATA {
+                self.seen.pixel_len = Some(header.len);
+            }
             if depth == 0 && self.stop_at_pixels && header.tag >= PIXEL_DATA {
                 self.pos = at;
                 return Ok(Walk::Fits);
@@ -306,6 +432,10 @@ impl Walker<'_> {
                     } else if self.pos + len > self.bytes.len() {
                         return Ok(self.ran_out());
                     } else {
+                        if depth == 0 && header.tag.0 == 0x0028 {
+                            let bytes = self.bytes;
+                            self.note(header.tag, &bytes[self.pos..self.pos + len]);
+                        }
                         self.pos += len;
                         Walk::Fits
                     }

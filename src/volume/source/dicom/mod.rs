@@ -10,20 +10,31 @@
 //!   chosen stack's pixels decoded in parallel (`pixels`). [`survey`] stops after the second
 //!   step: `morphray info` lists series from it without decoding a pixel.
 //! - One slice given alone stands for its series: the files of its folder (not sub-folders)
-//!   with its SeriesInstanceUID are read too, and a note says so.
+//!   with its SeriesInstanceUID are read too, and a note says so. A file named on the command
+//!   line is never replaced by another at its position: it wins the tie, and the others are
+//!   listed in a warning (issue 30).
+//! - Siemens mosaics are cut into their tiles where headers are read (`mosaic`); every tag is
+//!   checked against the pixel data it describes before use (`consistency`); a deflated data
+//!   set is inflated only as far as its header declares (`lengths`), and a stack whose pixels
+//!   need more memory than the host has available is refused before anything is allocated
+//!   (`pixels`, with `host_memory`).
 //! - The series commands use by default is the largest 3-D image stack (most voxels; ties: the
 //!   first listed); localizers, derived images and single slices are never picked by default
-//!   but can be chosen with [`SeriesChoice`].
+//!   but can be chosen with [`SeriesChoice`]. When none qualifies, one line says why (one
+//!   slice; every file its own series; else counts of each kind of stack) and what to do.
 //! - Corrupt files are listed (`Survey::skipped`, and as warnings on the volume) and left out;
 //!   one whose pixels fail to decode is dropped and the stack laid out again (a dropped slice
 //!   becomes a gap, which the layout resamples with a warning).
 //! - The hash for provenance is of the assembled samples and the series UID (the files
 //!   themselves are not read a second time).
 
+mod choice;
+mod consistency;
 mod contain;
 mod geometry;
 mod headers;
 mod lengths;
+mod mosaic;
 mod photometric;
 mod pixels;
 mod series;
@@ -34,6 +45,7 @@ pub use series::Role;
 
 use super::{InputError, LoadTimings, ReadOptions, SourceVolume, VolumeReader};
 use crate::volume::{AffineSource, Orientation, Volume};
+use choice::{best, why_no_default};
 use headers::Scan;
 use series::Stack;
 use std::fmt;
@@ -106,13 +118,8 @@ pub enum DicomError {
         /// What was asked for.
         choice: SeriesChoice,
     },
-    /// No stack qualifies as the default.
-    #[error(
-        "{}: no series is a 3-D image stack ({detail}); choose one with --series (`morphray \
-         info {}` lists them)",
-        path.display(),
-        path.display()
-    )]
+    /// No stack qualifies as the default (`detail` says why and what to do).
+    #[error("{}: {detail}", path.display())]
     NoDefault {
         /// The input.
         path: PathBuf,
@@ -293,29 +300,6 @@ impl Survey {
     }
 }
 
-/// The largest stack (most voxels) among `candidates` with a layout; `volumes_only`: image
-/// stacks of at least two slices.
-fn best(
-    stacks: &[Stack],
-    candidates: impl Iterator<Item = usize>,
-    volumes_only: bool,
-) -> Option<usize> {
-    let mut best: Option<(usize, usize)> = None;
-    for i in candidates {
-        let Ok(layout) = &stacks[i].layout else {
-            continue;
-        };
-        if volumes_only && (stacks[i].role != Role::Image || layout.dims[2] < 2) {
-            continue;
-        }
-        let voxels = layout.dims.iter().product::<usize>();
-        if best.is_none_or(|(_, v)| voxels > v) {
-            best = Some((i, voxels));
-        }
-    }
-    best.map(|(i, _)| i)
-}
-
 /// Reads the headers under `path` and groups them into stacks.
 pub fn survey(path: &Path) -> Result<Survey, DicomError> {
     survey_scan(path.to_path_buf(), scan(path)?)
@@ -343,6 +327,10 @@ pub fn survey_files(paths: &[PathBuf]) -> Result<Survey, DicomError> {
     files.dedup();
     files.truncate(headers::MAX_FILES);
     let mut scan = headers::read_all(&files);
+    // Files named on the command line (not found in a named folder) win ties of position.
+    for h in &mut scan.images {
+        h.named = paths.contains(&h.path);
+    }
     scan.notes.push(format!(
         "{} paths were given as one input ({} file(s))",
         paths.len(),
@@ -387,16 +375,8 @@ fn survey_scan(path: PathBuf, scan: Scan) -> Result<Survey, DicomError> {
         return Err(DicomError::NoImages { path, detail });
     }
     let stacks = series::stacks(&scan);
-    let default = best(&stacks, 0..stacks.len(), true).ok_or_else(|| {
-        let roles: Vec<String> = stacks
-            .iter()
-            .map(|s| match &s.layout {
-                Err(e) => format!("{:?}: {e}", s.role).to_lowercase(),
-                Ok(l) => format!("{:?} of {} slice(s)", s.role, l.dims[2]).to_lowercase(),
-            })
-            .collect();
-        roles.join("; ")
-    });
+    let default =
+        best(&stacks, 0..stacks.len(), true).ok_or_else(|| why_no_default(&stacks, &path));
     Ok(Survey {
         path,
         scan,
@@ -442,6 +422,10 @@ fn scan(path: &Path) -> Result<Scan, DicomError> {
     .collect();
     let mut scan = headers::read_all(&siblings);
     scan.images.retain(|h| h.series_uid == uid);
+    // The file named wins a tie of positions over its siblings (issue 30: it was replaced).
+    for h in &mut scan.images {
+        h.named = same_file(&h.path, path);
+    }
     scan.images.sort_by(|a, b| a.path.cmp(&b.path));
     scan.notes.push(format!(
         "one slice was given: its series' {} file(s) in {} were read with it",
@@ -449,6 +433,15 @@ fn scan(path: &Path) -> Result<Scan, DicomError> {
         folder.display()
     ));
     Ok(scan)
+}
+
+/// True when `a` and `b` name the same file (device and inode; else equal paths).
+fn same_file(a: &Path, b: &Path) -> bool {
+    use std::os::unix::fs::MetadataExt;
+    match (std::fs::metadata(a), std::fs::metadata(b)) {
+        (Ok(x), Ok(y)) => x.dev() == y.dev() && x.ino() == y.ino(),
+        _ => a == b,
+    }
 }
 
 /// The volume of the chosen stack, with the survey it came from.

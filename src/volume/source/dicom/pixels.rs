@@ -93,6 +93,7 @@ pub fn decode(layout: &Layout, scan: &Scan) -> Result<Decoded, PixelError> {
         .checked_mul(layout.order.len())
         .ok_or_else(|| PixelError::Unsupported("the series is too large to hold".into()))?;
     check_size(total, layout, scan)?;
+    check_memory(total, layout, scan, kind)?;
     // A failed reservation is an error rather than an abort; the samples themselves come from
     // a zeroed allocation (pages the kernel zeroes as they are first written, not a memset of
     // the whole volume before the decoders overwrite it).
@@ -151,6 +152,57 @@ fn check_size(total: usize, layout: &Layout, scan: &Scan) -> Result<(), PixelErr
         )));
     }
     Ok(())
+}
+
+/// Refuses a stack whose decoding needs more memory than the host has available, before
+/// anything is allocated or decoded (issue 30: two deflated files were OOM-killed with no
+/// message). Needed: the samples, a second copy when slices are resampled or converted to
+/// float, and per decoding thread the largest file's declared pixels twice (its bytes read or
+/// inflated, and dicom-rs' decoded frame).
+fn check_memory(
+    total: usize,
+    layout: &Layout,
+    scan: &Scan,
+    kind: SampleKind,
+) -> Result<(), PixelError> {
+    let mut files: Vec<usize> = layout.order.iter().map(|s| s.file).collect();
+    files.sort_unstable();
+    files.dedup();
+    let largest = files
+        .iter()
+        .map(|&f| super::consistency::declared_pixel_bytes(&scan.images[f]).unwrap_or(u64::MAX))
+        .max()
+        .unwrap_or(0);
+    let workers = std::thread::available_parallelism()
+        .map(|n| n.get())
+        .unwrap_or(1)
+        .clamp(1, 8)
+        .min(files.len().max(1)) as u64;
+    let slices_out = layout.dims[2] as u64;
+    let per_slice = (layout.dims[0] * layout.dims[1]) as u64;
+    let rescale_varies = layout
+        .order
+        .iter()
+        .any(|s| s.rescale != layout.order[0].rescale);
+    let second_copy = if layout.resample.is_some() || rescale_varies {
+        slices_out
+            .saturating_mul(per_slice)
+            .saturating_mul(4.max(kind.size_bytes() as u64))
+    } else {
+        0
+    };
+    let needed = (total as u64)
+        .saturating_add(second_copy)
+        .saturating_add(workers.saturating_mul(largest).saturating_mul(2));
+    crate::volume::host_memory::check(
+        needed,
+        &format!(
+            "decoding its {} file(s) ({} of pixels declared)",
+            files.len(),
+            crate::volume::host_memory::human(total as u64)
+        ),
+    )
+    .map_err(PixelError::Unsupported)
 }
 
 /// Runs the jobs on scoped threads; returns the files that failed.
@@ -225,6 +277,9 @@ fn decode_file(
     if h.transfer_syntax == RLE_LOSSLESS {
         check_rle_headers(&obj)?;
     }
+    if let Some(tiles) = &h.mosaic {
+        return decode_mosaic(&obj, h, tiles, frames, slots, kind);
+    }
     for &(slot, frame) in frames {
         let decoded = obj
             .decode_pixel_data_frame(frame)
@@ -246,6 +301,44 @@ fn decode_file(
         let mut guard = slots[slot].lock().map_err(|_| "a slot lock failed")?;
         let out = guard.take().ok_or("two frames were given one slot")?;
         convert(&data[..slice_len * bytes_per], out, h, kind);
+    }
+    Ok(())
+}
+
+/// Decodes a mosaic's one stored image and cuts each frame's tile out of it.
+fn decode_mosaic(
+    obj: &dicom_object::DefaultDicomObject,
+    h: &FileHeader,
+    tiles: &super::mosaic::Tiles,
+    frames: &[(usize, u32)],
+    slots: &[Mutex<Option<&mut [u8]>>],
+    kind: SampleKind,
+) -> Result<(), String> {
+    let decoded = obj
+        .decode_pixel_data_frame(0)
+        .map_err(|e| reason(&h.path, &e.to_string()))?;
+    let bytes_per = (h.bits_allocated as usize).div_ceil(8);
+    if decoded.bits_allocated() != h.bits_allocated || decoded.samples_per_pixel() != 1 {
+        return Err(format!(
+            "its mosaic decodes to {} bits and {} samples per pixel, not {} bits and 1",
+            decoded.bits_allocated(),
+            decoded.samples_per_pixel(),
+            h.bits_allocated
+        ));
+    }
+    let data = decoded.data();
+    for &(slot, tile) in frames {
+        let cut = tiles.cut(data, tile as usize, bytes_per).ok_or_else(|| {
+            format!(
+                "its mosaic decodes to {} bytes, too few for {} x {} pixels",
+                data.len(),
+                tiles.rows,
+                tiles.cols
+            )
+        })?;
+        let mut guard = slots[slot].lock().map_err(|_| "a slot lock failed")?;
+        let out = guard.take().ok_or("two frames were given one slot")?;
+        convert(&cut, out, h, kind);
     }
     Ok(())
 }
@@ -300,6 +393,7 @@ fn read_native(
 ) -> Option<Result<(), String>> {
     use std::os::unix::fs::FileExt;
     if !cfg!(target_endian = "little")
+        || h.mosaic.is_some()
         || kind == SampleKind::F32
         || !NATIVE_LE.contains(&h.transfer_syntax.as_str())
         || h.bits_allocated as usize != 8 * kind.size_bytes()

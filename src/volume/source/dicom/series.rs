@@ -11,8 +11,9 @@
 //!   InstanceNumber or file names; spacing is the (lower) median difference of those positions, never
 //!   SliceThickness (used only for a single slice).
 //! - Checks, and what is done (each leaves a warning on the volume):
-//!   - duplicate positions (within 0.01 mm): the first by InstanceNumber (then file name) is
-//!     kept, the others are left out;
+//!   - duplicate positions (within 0.01 mm): a file named on the command line, else the first
+//!     by InstanceNumber (then file name) is kept, the others are left out and named in the
+//!     warning (at most three; a time series of mosaics keeps its first volume this way);
 //!   - gaps that differ from the median by more than 1% (or 0.01 mm), which includes missing
 //!     slices: the stack is resampled onto a uniform grid of the median spacing by linear
 //!     interpolation between the two neighbouring slices (at most 2n+16 slices, else refused);
@@ -54,6 +55,8 @@ pub struct Slice {
     pub rescale: (f64, f64),
     /// Tie-breaker for duplicates: InstanceNumber.
     pub instance: Option<i64>,
+    /// Its file was named on the command line: it wins a tie of positions.
+    pub named: bool,
 }
 
 /// Frames of one series with one orientation, size and kind: a candidate volume.
@@ -119,6 +122,7 @@ pub fn stacks(scan: &Scan) -> Vec<Stack> {
                 position: f.position,
                 rescale: f.rescale,
                 instance: h.instance_number,
+                named: h.named,
             });
         }
     }
@@ -246,18 +250,22 @@ pub fn layout(slices: &[Slice], scan: &Scan) -> Result<Layout, String> {
         .collect();
     order.sort_by(|a, b| {
         a.0.total_cmp(&b.0)
+            .then(b.1.named.cmp(&a.1.named))
             .then(a.1.instance.cmp(&b.1.instance))
             .then(a.1.file.cmp(&b.1.file))
             .then(a.1.frame.cmp(&b.1.frame))
     });
     let before = order.len();
-    order.dedup_by(|later, kept| (later.0 - kept.0).abs() < SAME_POSITION_MM);
+    let mut left_out: Vec<usize> = Vec::new();
+    order.dedup_by(|later, kept| {
+        let same = (later.0 - kept.0).abs() < SAME_POSITION_MM;
+        if same {
+            left_out.push(later.1.file);
+        }
+        same
+    });
     if order.len() < before {
-        warnings.push(format!(
-            "{} frames repeat another's position (within {SAME_POSITION_MM} mm): the first by \
-             InstanceNumber was kept at each position",
-            before - order.len()
-        ));
+        warnings.push(duplicates_warning(before - order.len(), &left_out, scan));
     }
     let dist: Vec<f64> = order.iter().map(|o| o.0).collect();
     let order: Vec<Slice> = order.into_iter().map(|o| o.1).collect();
@@ -324,6 +332,37 @@ pub fn layout(slices: &[Slice], scan: &Scan) -> Result<Layout, String> {
         affine: affine_ras(first_pos, row, col, pixel_spacing, step),
         warnings,
     })
+}
+
+/// One line: how many frames repeated a position, which rule kept one, and the files left out
+/// (at most three named).
+fn duplicates_warning(count: usize, left_out: &[usize], scan: &Scan) -> String {
+    let mut files = left_out.to_vec();
+    files.sort_unstable();
+    files.dedup();
+    let names: Vec<String> = files
+        .iter()
+        .take(3)
+        .map(|&f| {
+            let p = &scan.images[f].path;
+            p.file_name()
+                .unwrap_or(p.as_os_str())
+                .to_string_lossy()
+                .into_owned()
+        })
+        .collect();
+    let more = files.len().saturating_sub(3);
+    format!(
+        "{count} frames repeat another's position (within {SAME_POSITION_MM} mm): at each \
+         position the file named on the command line, else the first by InstanceNumber, was \
+         kept; left out: {}{}",
+        names.join(", "),
+        if more > 0 {
+            format!(" and {more} more file(s)")
+        } else {
+            String::new()
+        }
+    )
 }
 
 /// For each of `m` uniform positions from `dist[0]` by `gap`: the neighbours and the weight of
