@@ -4,8 +4,9 @@
 //!
 //! Decisions:
 //! - A host pass: the mask (a few hundred kB on the working grid) is read back and exported to
-//!   the volume's grid exactly as `derive --maps brain` exports it (trilinear value >= 0.5 at
-//!   each voxel centre, `reference::brain_mask`), and each voxel inside is normalized with the
+//!   the volume's grid by nearest lookup (`WorkingMask::export_nearest`: each voxel its block;
+//!   the trilinear export `derive --maps brain` writes cost about 250 ms of chris_t1's first
+//!   pixel on this machine, and differs only in a half-block rim), and each voxel inside is normalized with the
 //!   volume's own `imin`/`imax` (eq. 1 in f64, then f32 and the kernel's binning, as
 //!   `reference::histogram_of_samples` does). No new GPU pass, no volume-sized readback.
 //! - Frame 0 of the stored samples (what the histogram kernel saw); a denoised volume's
@@ -86,7 +87,7 @@ impl Engine {
             dims: image.extent().map(|d| d as usize),
             factors: brain.factors,
         };
-        let inside = mask.export(volume.dims);
+        let inside = mask.export_nearest(volume.dims);
         let hist = histogram_inside(volume, &inside, report.imin, report.imax);
         Ok(refit_report(report, &hist))
     }

@@ -54,6 +54,29 @@ impl WorkingMask<'_> {
         sum
     }
 
+    /// The mask on the volume's grid of `fine` voxels by nearest lookup: each voxel takes its
+    /// block's value (`at(p, true)` is the block `p / factors`), one read a voxel with no
+    /// arithmetic, for host passes on the first pixel's path (the tissue fit's histogram: 9 M
+    /// trilinear reads took about 250 ms of it on this machine). Differs from [`Self::export`]
+    /// only in the half-block rim the trilinear threshold rounds.
+    pub fn export_nearest(&self, fine: [usize; 3]) -> Vec<u8> {
+        let d = self.dims;
+        let total = fine[0] * fine[1] * fine[2];
+        if d.contains(&0) || self.values.len() < d[0] * d[1] * d[2] {
+            return vec![0; total];
+        }
+        let block = |p: usize, a: usize| (p / self.factors[a].max(1) as usize).min(d[a] - 1);
+        let columns: Vec<usize> = (0..fine[0]).map(|i| block(i, 0)).collect();
+        let mut out = Vec::with_capacity(total);
+        for k in 0..fine[2] {
+            for j in 0..fine[1] {
+                let row = d[0] * (block(j, 1) + d[1] * block(k, 2));
+                out.extend(columns.iter().map(|&q| u8::from(self.values[row + q] >= 0.5)));
+            }
+        }
+        out
+    }
+
     /// The mask on the volume's grid of `fine` voxels: 1 where the trilinear value is at least
     /// 0.5 at the voxel centre.
     pub fn export(&self, fine: [usize; 3]) -> Vec<u8> {
@@ -187,5 +210,11 @@ mod tests {
         assert!((m.at([1.0, 0.0, 0.0], false) - 0.25).abs() < 1e-12);
         assert_eq!(m.at([1.0, 0.0, 0.0], true), 0.0);
         assert_eq!(m.export([8, 1, 1]), [0, 0, 1, 1, 1, 1, 0, 0]);
+        // Nearest: each voxel its block, as `at(p, true)`.
+        assert_eq!(m.export_nearest([8, 1, 1]), [0, 0, 1, 1, 1, 1, 0, 0]);
+        for p in 0..8 {
+            let nearest = m.at([p as f64, 0.0, 0.0], true);
+            assert_eq!(f64::from(m.export_nearest([8, 1, 1])[p]), nearest);
+        }
     }
 }
