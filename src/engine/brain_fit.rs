@@ -22,7 +22,7 @@ use crate::analysis::{FitDomain, TissueReport, WindowsFrom, tissue_fit};
 use crate::gpu::{Access, GpuResult};
 use crate::reference::BINS;
 use crate::reference::brain_mask::WorkingMask;
-use crate::reference::tissue_fit::histogram_inside;
+use crate::reference::tissue_fit::histogram_inside_mask;
 use crate::volume::Volume;
 
 /// Refits `report`'s tissue classes to `hist` (the histogram inside the brain); true when the
@@ -87,8 +87,9 @@ impl Engine {
             dims: image.extent().map(|d| d as usize),
             factors: brain.factors,
         };
-        let inside = mask.export_nearest(volume.dims);
-        let hist = histogram_inside(volume, &inside, report.imin, report.imax);
+        // Every second voxel along each axis: an eighth of the work (on the first pixel's path)
+        // and still hundreds of thousands of brain voxels for 256 bins.
+        let hist = histogram_inside_mask(volume, &mask, 2, (report.imin, report.imax));
         Ok(refit_report(report, &hist))
     }
 }

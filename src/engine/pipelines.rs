@@ -181,6 +181,20 @@ pub(super) fn first_frame_keys(
     if raymarch.skip_empty {
         keys.push(PipelineKey::Occupancy);
     }
+    // With extraction on, the first frame of a head reads the mask (BRAIN=on, as render.rs
+    // decides) and that of any other volume does not: both are compiled ahead, so neither is on
+    // the main thread's path (on the H200 the main thread waited 182 ms for pipelines with
+    // BRAIN=on compiled there, 107 ms without extraction).
+    let extracting = raymarch.mode == 0
+        && !bricked
+        && effects.brain != crate::passes::brain::BrainSwitch::Off
+        && effects.derivative_outputs().is_some();
+    if extracting {
+        keys.push(PipelineKey::Raymarch(RaymarchVariant {
+            brain: true,
+            ..raymarch
+        }));
+    }
     keys.push(PipelineKey::Raymarch(raymarch));
     keys
 }

@@ -71,7 +71,11 @@ impl WorkingMask<'_> {
         for k in 0..fine[2] {
             for j in 0..fine[1] {
                 let row = d[0] * (block(j, 1) + d[1] * block(k, 2));
-                out.extend(columns.iter().map(|&q| u8::from(self.values[row + q] >= 0.5)));
+                out.extend(
+                    columns
+                        .iter()
+                        .map(|&q| u8::from(self.values[row + q] >= 0.5)),
+                );
             }
         }
         out

@@ -216,6 +216,45 @@ pub fn histogram_inside(
     bins
 }
 
+/// [`histogram_inside`] over the voxels at every `stride`-th index along each axis whose block
+/// of the working-grid `mask` is set (nearest lookup, `WorkingMask::export_nearest`), without
+/// building a volume-sized mask.
+pub fn histogram_inside_mask(
+    volume: &crate::volume::Volume,
+    mask: &super::brain_mask::WorkingMask<'_>,
+    stride: usize,
+    (imin, imax): (f64, f64),
+) -> [u32; BINS] {
+    let mut bins = [0u32; BINS];
+    let (d, w) = (volume.dims, mask.dims);
+    let stride = stride.max(1);
+    if w.contains(&0) || mask.values.len() < w[0] * w[1] * w[2] {
+        return bins;
+    }
+    if volume.samples.len() < d[0] * d[1] * d[2] {
+        return bins;
+    }
+    let block = |p: usize, a: usize| (p / mask.factors[a].max(1) as usize).min(w[a] - 1);
+    for k in (0..d[2]).step_by(stride) {
+        for j in (0..d[1]).step_by(stride) {
+            let row = w[0] * (block(j, 1) + w[1] * block(k, 2));
+            for i in (0..d[0]).step_by(stride) {
+                if mask.values[row + block(i, 0)] < 0.5 {
+                    continue;
+                }
+                let stored = volume.samples.get(i + d[0] * (j + d[1] * k));
+                if stored.is_finite() {
+                    let physical = volume.to_physical.apply(stored);
+                    let v = super::normalize::normalize_value(physical, imin, imax);
+                    let b = super::histogram::bin_of(v as f32);
+                    bins[b] = bins[b].saturating_add(1);
+                }
+            }
+        }
+    }
+    bins
+}
+
 /// Caps the tail class's weight at [`MAX_TAIL_WEIGHT`], the others scaled to keep the sum.
 pub fn cap_tail(weights: &mut [f64; CLASSES]) {
     let tail = weights[CLASSES - 1];
