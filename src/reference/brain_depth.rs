@@ -107,9 +107,9 @@ mod tests {
     fn a_ring_of_scalp_encloses_the_head() {
         // A ring of foreground cells in every slice: the head is the ring and what it holds.
         let d = [9, 9, 2];
-        let fg: Vec<u8> = (0..81 * 2)
+        let fg: Vec<u8> = (0..81 * 2i32)
             .map(|c| {
-                let (x, y) = ((c % 9) as i32 - 4, ((c / 9) % 9) as i32 - 4);
+                let (x, y) = (c % 9 - 4, (c / 9) % 9 - 4);
                 u8::from(x.abs().max(y.abs()) == 3)
             })
             .collect();

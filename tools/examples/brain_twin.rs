@@ -181,6 +181,7 @@ fn run() -> Result<(), String> {
                     close_mm,
                     grow_mm,
                     coarse: args.coarse,
+                    ..BrainParams::for_band(lo, hi)
                 };
                 let t = Instant::now();
                 let out = extract(&input, volume.dims, h, &params).map_err(|e| e.to_string())?;
