@@ -201,6 +201,25 @@ fn a_nifti_gz_whose_declared_size_exceeds_available_memory_is_refused_before_inf
             .status
             .success()
     );
+    // Uncompressed: the bytes are read, their conversion is refused the same way.
+    let raw = dir.join("v.nii");
+    let o = morphray(
+        &[
+            "convert",
+            nii.to_str().unwrap(),
+            "-o",
+            raw.to_str().unwrap(),
+        ],
+        None,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = morphray(&["info", raw.to_str().unwrap()], Some("2000"));
+    let e = stderr(&o);
+    assert!(!o.status.success());
+    assert!(
+        e.contains("uncompressed image") && e.contains("but only 2.0 KB is available"),
+        "{e}"
+    );
 }
 
 #[test]

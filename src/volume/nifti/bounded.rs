@@ -12,7 +12,8 @@
 //! - A stream shorter than [`PEEK_LEN`] is inflated within that length, so tiny files keep the
 //!   exact errors of the full inflation (trailing garbage, corrupt member).
 //! - The `.img` of a pair ([`inflate_image`]) is bounded by what its `.hdr` declares.
-//! - Non-gzip bytes pass through untouched, whatever they are (the parser judges them).
+//! - Non-gzip bytes pass through untouched, whatever they are (the parser judges them), once
+//!   their conversion (about as many bytes again) is known to fit in available memory.
 //! - Before inflating, twice the declared size (the inflated bytes, and the samples converted
 //!   from them) plus the compressed bytes must fit in the host's available memory
 //!   (`host_memory::check`): a refusal names both numbers instead of the OOM killer acting.
@@ -59,6 +60,7 @@ pub fn image_limit(decoded: &Decoded) -> Result<Limit, NiftiError> {
 /// past the limit, and the header's own errors when its first bytes are not a valid header.
 pub fn inflate_if_gzip(bytes: Vec<u8>) -> Result<(Vec<u8>, usize), NiftiError> {
     if !gzip::is_gzip(&bytes) {
+        converts_in_memory(bytes.len())?;
         return Ok((bytes, 0));
     }
     let prefix = gzip::peek(&bytes, PEEK_LEN)?;
@@ -92,10 +94,24 @@ fn fits_in_memory(limit: &Limit, compressed: usize) -> Result<(), NiftiError> {
     .map_err(NiftiError::NotEnoughMemory)
 }
 
+/// Refuses an uncompressed image of `len` bytes (already read) whose conversion, about as much
+/// again, cannot fit in available memory.
+fn converts_in_memory(len: usize) -> Result<(), NiftiError> {
+    crate::volume::host_memory::check(
+        len as u64,
+        &format!(
+            "converting the {} uncompressed image",
+            crate::volume::host_memory::human(len as u64)
+        ),
+    )
+    .map_err(NiftiError::NotEnoughMemory)
+}
+
 /// Inflates the `.img` bytes of the pair whose header is `decoded`, within the size that header
 /// declares for it (validating the header's sizes first); non-gzip bytes pass through.
 pub fn inflate_image(bytes: Vec<u8>, decoded: &Decoded) -> Result<(Vec<u8>, usize), NiftiError> {
     if !gzip::is_gzip(&bytes) {
+        converts_in_memory(bytes.len())?;
         return Ok((bytes, 0));
     }
     let limit = image_limit(decoded)?;
