@@ -1,5 +1,5 @@
-//! The histogram panel: I_norm histogram (log counts), the detected CSF/GM/WM peaks, and one
-//! draggable band per tissue window.
+//! The histogram panel: I_norm histogram (log counts), the detected CSF/GM/WM peaks, the fitted
+//! tissue classes as curves (`histogram_fit`), and one draggable band per tissue window.
 //!
 //! Decisions:
 //! - Drawn with egui's painter rather than egui_plot: the bands need their own drag handles
@@ -160,6 +160,14 @@ pub fn show(
             Pos2::new(x0 + bin_width.max(1.0), layout.plot.bottom()),
         );
         painter.rect_filled(bar, 0.0, BAR_COLOUR);
+    }
+
+    // The fitted classes (issue 28), over the bars.
+    if let Some(report) = report {
+        let fitted = report.fit.as_ref().map(|f| (f, false));
+        if let Some((fit, rejected)) = fitted.or(report.rejected_fit.as_ref().map(|f| (f, true))) {
+            super::histogram_fit::draw(&painter, &layout, fit, rejected, scale, classification);
+        }
     }
 
     // Peaks.

@@ -41,6 +41,7 @@ pub mod crosshair_3d;
 pub mod file_panel;
 pub mod frame_log;
 pub mod histogram;
+pub mod histogram_fit;
 pub mod loader;
 pub mod script;
 pub mod slices_panel;

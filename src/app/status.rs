@@ -84,6 +84,24 @@ pub struct Status {
     /// The adaptive quality level while the image is coarser than requested
     /// (`interactive: step x2, scale 0.75`).
     pub quality: Option<String>,
+    /// What the volume was read as and where its windows come from (issue 28): modality,
+    /// contrast, each with its basis, and the windows' source.
+    pub identity: Option<String>,
+}
+
+/// The status bar's identity line of `report`: `MR (metadata) | T1 (metadata): ... | windows
+/// from the fit`.
+pub fn identity_text(report: &crate::analysis::TissueReport) -> String {
+    let windows = match report.windows_from {
+        crate::analysis::WindowsFrom::Fit => "windows from the tissue fit",
+        crate::analysis::WindowsFrom::Modes => "windows from the histogram's modes",
+        other => other.words(),
+    };
+    format!(
+        "modality {}  |  contrast {}  |  {windows}",
+        report.modality.summary(),
+        report.contrast.summary()
+    )
 }
 
 impl Status {

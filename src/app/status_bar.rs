@@ -18,6 +18,9 @@ pub(super) fn status_bar(ui: &mut Ui, status: &Status) {
     ui.horizontal(|ui| {
         ui.label(RichText::new(status.volume_text()).small());
     });
+    if let Some(identity) = &status.identity {
+        ui.label(RichText::new(identity.as_str()).small());
+    }
     ui.horizontal(|ui| {
         ui.label(RichText::new(status.timing_text()).small());
         let shares = status.pass_shares();

@@ -42,6 +42,7 @@ impl Viewer {
         }
         self.render_blocked = None;
         self.status.file = loaded.label.clone();
+        self.status.identity = Some(crate::app::status::identity_text(&loaded.report));
         self.controls.files.series = loaded.series.clone();
         self.controls.files.frame = loaded.frame;
         self.status.dims = prepared.dims;
