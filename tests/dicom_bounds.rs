@@ -296,3 +296,38 @@ fn every_file_its_own_series_is_said_in_one_short_line_with_a_count() {
         e.len()
     );
 }
+
+#[test]
+fn a_mosaic_without_its_image_count_is_read_as_one_image_with_a_warning() {
+    let dir = folder("mosaic-no-count");
+    let spec = Spec {
+        slices: 4,
+        mosaic: writer::Mosaic::Along,
+        ..Spec::axial("1.2.826.0.1.3680043.2.1125.30.9")
+    };
+    let files = writer::write_series(&dir, &spec);
+    for f in &files {
+        damage(f, |obj| {
+            obj.remove_element(dicom_core::Tag(0x0019, 0x100A));
+            obj.remove_element(dicom_core::Tag(0x0029, 0x1010));
+        });
+    }
+    // The folder is refused as one slice, and the refusal says why it was not cut.
+    let e = read(&dir).unwrap_err();
+    assert!(e.contains("one 2-D slice") && e.contains("MOSAIC"), "{e}");
+    let options = ReadOptions {
+        series: Some(source::dicom::SeriesChoice::Index(0)),
+        ..ReadOptions::default()
+    };
+    let v = source::read(&VolumeSource::File(dir.clone()), &options)
+        .map(|s| s.volume)
+        .expect("the slice itself");
+    assert_eq!(v.dims[2], 1, "not cut: {:?}", v.dims);
+    assert!(
+        v.warnings
+            .iter()
+            .any(|w| w.contains("MOSAIC but no NumberOfImagesInMosaic")),
+        "{:?}",
+        v.warnings
+    );
+}

@@ -279,11 +279,9 @@ fn save_3d_view_writes_the_volume_alone_at_the_size_asked() {
     std::fs::write(
         &script,
         format!(
-            "wait 2\nsave-view {saved} 96x64\nsave-view {bad} 0x5\nsave-view {input} 32x32\n\
-             wait 1\nclose\n",
+            "wait 2\nsave-view {saved} 96x64\nsave-view {bad} 0x5\nwait 1\nclose\n",
             saved = saved.display(),
             bad = dir.join("bad.png").display(),
-            input = volume.display(),
         ),
     )
     .unwrap();
@@ -310,18 +308,37 @@ fn save_3d_view_writes_the_volume_alone_at_the_size_asked() {
             .iter()
             .any(|(k, v)| k == "morphray:input" && v.contains("small"))
     );
-    // A size that is not one, and the open volume as the output: errors, nothing written.
+    // A size that is not one: an error shown, nothing written.
     assert!(
         log.contains("error shown: Save 3D view: 0x5 is not a size"),
         "{log}"
     );
     assert!(!dir.join("bad.png").exists());
-    assert!(log.contains("error shown: Save 3D view:"), "{log}");
     assert_eq!(
         log.matches("error shown: Save 3D view:").count(),
-        2,
+        1,
         "{log}"
     );
+    // The open volume as the output: the script is refused before the window opens (issue 30),
+    // naming the line, and the volume is untouched.
+    let before = std::fs::read(&volume).unwrap();
+    std::fs::write(
+        &script,
+        format!("save-view {} 32x32\nclose\n", volume.display()),
+    )
+    .unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_morphray"))
+        .args(["view", volume.to_str().unwrap(), "--script"])
+        .arg(&script)
+        .output()
+        .unwrap();
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(
+        e.contains("save.txt:1") && e.contains("which writing would destroy"),
+        "{e}"
+    );
+    assert_eq!(std::fs::read(&volume).unwrap(), before);
 }
 
 #[test]

@@ -42,9 +42,17 @@ pub fn why_no_default(stacks: &[Stack], path: &Path) -> String {
         && one.role == Role::Image
     {
         let dims = one.layout.as_ref().map(|l| l.dims).unwrap_or_default();
+        // A mosaic whose tiles could not be cut says so (series.rs's warning).
+        let mosaic = one
+            .layout
+            .as_ref()
+            .ok()
+            .and_then(|l| l.warnings.iter().find(|w| w.contains("MOSAIC")))
+            .map(|w| format!(" ({w})"))
+            .unwrap_or_default();
         return format!(
             "it holds one 2-D slice ({}x{}), not a 3-D volume; give the folder of its whole \
-             series, or open the slice itself with --series 0",
+             series, or open the slice itself with --series 0{mosaic}",
             dims[0], dims[1]
         );
     }

@@ -222,6 +222,14 @@ pub fn layout(slices: &[Slice], scan: &Scan) -> Result<Layout, String> {
         }
     };
     let dims_2d = [h.cols as usize, h.rows as usize];
+    if h.mosaic.is_none() && h.image_type.iter().any(|t| t == "MOSAIC") {
+        // ImageType says mosaic but neither (0019,100A) nor the CSA header says how many
+        // images it holds: the tiles cannot be cut, and a reader must not take it for a slice.
+        warnings.push(format!(
+            "ImageType says MOSAIC but no NumberOfImagesInMosaic was found (tag 0019,100A or the              CSA header): read as one {}x{} image, not cut into slices; convert it with dcm2niix",
+            h.cols, h.rows
+        ));
+    }
     if slices.len() == 1 {
         let origin = first.position.unwrap_or([0.0; 3]);
         let thickness = h.slice_thickness.unwrap_or(1.0);
