@@ -112,9 +112,10 @@ pub struct Cli {
     )]
     pub pipeline_cache: Option<String>,
 
-    /// Which intensity range becomes I_norm 0..1 (the scale the tissue windows are in): `robust` =
-    /// from percentiles of the finite voxels, so a few hot voxels (fat, vessels, spikes) cannot
-    /// squeeze every tissue into the darkest bins; values outside are clamped.
+    /// Which intensity range becomes I_norm 0..1 (the scale of the tissue windows)
+    ///
+    /// `robust` = from percentiles of the finite voxels, so a few hot voxels (fat, vessels,
+    /// spikes) cannot squeeze every tissue into the darkest bins; values outside are clamped.
     ///
     /// `minmax` = the paper's eq. 1, the finite minimum and maximum (paper-literal preset;
     /// `morphray peaks` reports both).
@@ -317,6 +318,9 @@ pub struct PeaksArgs {
     /// Frame of a 4-D file to analyse (0-based).
     #[arg(long, default_value_t = 0)]
     pub frame: usize,
+    /// Look by modality to report (mr, ct, angio, post-contrast, epi; `list` names them).
+    #[arg(long, value_name = "NAME", value_parser = super::preset_arg::parse_preset)]
+    pub preset: Option<super::preset_arg::PresetArg>,
 }
 
 /// Options of `render`.

@@ -24,6 +24,7 @@ mod overlay;
 mod peaks;
 mod phantom;
 mod plan;
+pub mod preset_arg;
 mod progress;
 pub mod render;
 pub mod scene_args;
@@ -67,6 +68,10 @@ pub fn main() -> ExitCode {
             .unwrap_or_default();
         eprintln!("morphray: internal error (a bug, please report it): {message}{place}");
     }));
+    if preset_arg::asks_for_list(&std::env::args().collect::<Vec<_>>()) {
+        output::print_line(&preset_arg::list_text());
+        return ExitCode::SUCCESS;
+    }
     let cli = Cli::parse();
     match run(&cli) {
         Ok(()) => ExitCode::SUCCESS,

@@ -44,6 +44,8 @@ struct PeaksReport<'a> {
     contrast: &'a ContrastReport,
     /// The foreground window shown when no tissue class was found (in `windows.wm`).
     fallback: Option<&'a crate::analysis::Fallback>,
+    /// The look by modality a render would use (`scene::preset`; `--preset` names one).
+    preset: String,
     /// The tissue mixture fitted by EM (means, SDs, weights, goodness), beside the Table-1 row.
     fit: Option<&'a crate::analysis::Fit>,
     /// Which path placed `windows`: the fit, the modes or the fallback.
@@ -168,6 +170,12 @@ pub fn run(args: &PeaksArgs, global: &super::GlobalOptions) -> Result<(), Error>
         modality: &r.modality,
         contrast: &r.contrast,
         fallback: r.fallback.as_ref(),
+        preset: crate::scene::SceneRecipe {
+            preset: super::preset_arg::PresetArg::preset(args.preset),
+            ..crate::scene::SceneRecipe::default()
+        }
+        .preset_for(r)
+        .label(r),
         fit: r.fit.as_ref(),
         windows_from: r.windows_from,
         rejected_fit: r.rejected_fit.as_ref(),
@@ -202,6 +210,7 @@ pub fn run(args: &PeaksArgs, global: &super::GlobalOptions) -> Result<(), Error>
     print_line(&normalization_line(r));
     print_line(&format!("modality {}", report.modality.summary()));
     print_line(&format!("contrast {}", report.contrast.summary()));
+    print_line(&format!("preset: {}", report.preset));
     if let Some(fallback) = report.fallback {
         print_line(&format!("fallback {}", fallback.reason));
     }

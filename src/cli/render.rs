@@ -152,7 +152,8 @@ pub fn recipe_from_args(args: &SceneArgs) -> Result<SceneRecipe, Error> {
             WindowsArg::Adaptive => WindowSet::Adaptive,
             WindowsArg::Paper => WindowSet::Paper,
         },
-        visible: Some(visible),
+        // The default list leaves visibility to the preset (a CT shows bone, not "wm").
+        visible: (!default_tissues(&args.tissues)).then_some(visible),
         window: tissues_only(&args.window, |&(c, lo, hi)| (c, (lo, hi)))
             .map(|(t, (lo, hi))| (t, lo, hi))
             .collect(),
@@ -177,10 +178,20 @@ pub fn recipe_from_args(args: &SceneArgs) -> Result<SceneRecipe, Error> {
         clip: args.clip.clip().map_err(Error::Usage)?,
         colormap: args.clip.colormap,
         denoise: args.denoise,
+        preset: super::preset_arg::PresetArg::preset(args.preset),
         ..SceneRecipe::default()
     };
     recipe.check().map_err(|e| Error::Usage(e.0))?;
     Ok(recipe)
+}
+
+/// Whether `--tissues` is its default (csf,gm,wm), so the preset decides what is visible.
+fn default_tissues(tissues: &[String]) -> bool {
+    let names: Vec<String> = tissues
+        .iter()
+        .map(|t| t.trim().to_ascii_lowercase())
+        .collect();
+    names == ["csf", "gm", "wm"]
 }
 
 /// Tissues the user asked to see that this volume has no window for (peak not found).
@@ -305,6 +316,9 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
     if let Some(fallback) = opened.report.fallback.as_ref().filter(|_| classified) {
         eprintln!("morphray: note: {}", fallback.reason);
     }
+    let chosen = recipe_from_args(&scene_args)?.preset_for(&opened.report);
+    let preset = chosen.label(&opened.report);
+    print_line(&format!("preset: {preset} ({})", chosen.summary()));
     let (width, height) = args.scene.size.unwrap_or((1024, 1024));
     let mut target = opened
         .engine
@@ -369,6 +383,7 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
             "modality": opened.report.modality,
             "contrast": opened.report.contrast,
             "fallback": opened.report.fallback,
+            "preset": preset,
             "brain": brain,
             "degradations": opened.plan.degradations,
             "overlay": args.overlay,

@@ -119,6 +119,14 @@ pub struct SceneArgs {
     /// suppressed (the paper's Fig. 2). Default: all but pathology and vessels.
     #[arg(long, default_value = "csf,gm,wm", value_delimiter = ',')]
     pub tissues: Vec<String>,
+    /// Look by modality: mr, ct, angio, post-contrast, epi; `list` names them
+    ///
+    /// Default: chosen from what the volume is (CT: bone and vessels in Hounsfield units; MR
+    /// angiogram: bright band and vesselness; BOLD/ASL: foreground; contrast agent: enhancing
+    /// band; else mr). The render names it on its `preset:` line. --tissues, --window,
+    /// --opacity and --color still apply on top.
+    #[arg(long, value_name = "NAME", value_parser = super::preset_arg::parse_preset)]
+    pub preset: Option<super::preset_arg::PresetArg>,
     /// Brain extraction: auto (a head scan shows its brain), on, off
     ///
     /// auto finds the brain of an MR head and classifies tissues inside it only, so the scalp

@@ -168,6 +168,12 @@ impl Engine {
             }
         };
         scene.effects = plan.effects;
+        // A preset that draws the vessel channel (angiography) decides it only after the
+        // analysis, so the plan made before it did not count it: whole volumes take it (the
+        // vesselness is one more volume), a bricked plan keeps its own choice.
+        if plan.layout == Layout::Whole && recipe.vessels_for(&report) {
+            scene.effects.vessels = true;
+        }
         let mut twin = Twin::new(prepared);
         let before_derivatives = Instant::now();
         let derivative_pipelines_before = self.pipeline_times.caller_ms;

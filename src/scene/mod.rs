@@ -12,6 +12,7 @@ pub mod colormap;
 pub mod geometry;
 pub mod occupancy;
 pub mod overlay;
+pub mod preset;
 pub mod recipe;
 pub mod slice;
 pub mod uniforms;
@@ -24,6 +25,7 @@ pub use classification::{Classification, TissueClass, TissueStyle, VesselStyle, 
 pub use clip::{Clip, ClipPlane};
 pub use colormap::Colormap;
 pub use geometry::VolumeGeometry;
+pub use preset::Preset;
 pub use recipe::{RecipeError, SceneRecipe, WindowSet};
 
 /// The path length a tissue's opacity refers to: 1 mm, so opacities mean the same on a 0.5 mm

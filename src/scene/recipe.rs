@@ -14,6 +14,7 @@
 //!   degraded) effects afterwards.
 
 use super::classification::{HeadRecipe, HeadStyle};
+use super::preset::Preset;
 use super::{Camera, Classification, Clip, Colormap, Effects, Scene, TissueClass, VesselStyle};
 use crate::analysis::TissueReport;
 
@@ -69,6 +70,9 @@ pub struct SceneRecipe {
     /// Denoising of I_norm when the volume is opened (before the derivatives and the raymarch);
     /// not part of [`Scene`]: a client opening a volume again keeps its own.
     pub denoise: crate::passes::denoise::Denoise,
+    /// The look by modality (`scene::preset`), applied before `visible`, `window`, `opacity`
+    /// and `colour`; None chooses it from the analysis (`Preset::auto`).
+    pub preset: Option<Preset>,
 }
 
 impl Default for SceneRecipe {
@@ -151,6 +155,7 @@ impl SceneRecipe {
             clip: scene.clip,
             colormap: scene.colormap,
             denoise: crate::passes::denoise::Denoise::None,
+            preset: None,
         }
     }
 
@@ -160,6 +165,7 @@ impl SceneRecipe {
         let mut scene = Scene::new(self.classification_for(report));
         scene.camera = self.camera;
         scene.effects = self.effects;
+        scene.effects.vessels = self.vessels_for(report);
         scene.step_voxels = self.step_voxels;
         scene.jitter = self.jitter;
         scene.background = self.background;
@@ -171,6 +177,20 @@ impl SceneRecipe {
         scene
     }
 
+    /// The preset this recipe uses on `report`: the one named, or the automatic choice.
+    pub fn preset_for(&self, report: &TissueReport) -> Preset {
+        self.preset.unwrap_or_else(|| Preset::auto(report))
+    }
+
+    /// Whether the scene should draw the vessel channel: asked for, or the preset wants it (in
+    /// DVR; a hand-made classification keeps the effects as given).
+    pub fn vessels_for(&self, report: &TissueReport) -> bool {
+        self.effects.vessels
+            || (self.classification.is_none()
+                && self.effects.mode == super::RenderMode::Dvr
+                && self.preset_for(report).wants_vessels())
+    }
+
     fn classification_for(&self, report: &TissueReport) -> Classification {
         if let Some(classification) = self.classification {
             return classification;
@@ -180,6 +200,7 @@ impl SceneRecipe {
             WindowSet::Paper => &report.paper_windows,
         };
         let mut classification = Classification::from_tissue_windows(windows);
+        self.preset_for(report).apply(&mut classification, report);
         if let Some(visible) = &self.visible {
             classification.show_only(visible);
         }

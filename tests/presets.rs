@@ -1,0 +1,148 @@
+//! Presets by modality through the command line (issue 28 item 3): the head phantom as a CT
+//! renders its skull with the automatic `ct` preset; a TOF-like tube phantom named as a BIDS
+//! `_angio` picks `angio` and shows its vessels; `--preset list`; an unknown name is a one-line
+//! error. `render` and `peaks` need a Vulkan device (lavapipe here).
+
+#[path = "common/pictures.rs"]
+#[allow(dead_code)]
+mod pictures;
+
+use morphray::volume::nifti::write_nifti1;
+use pictures::Picture;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn morphray(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_morphray"))
+        .args(args)
+        .env("MORPHRAY_VALIDATION", "required")
+        .output()
+        .expect("the morphray binary runs")
+}
+
+fn ok(args: &[&str]) -> String {
+    let o = morphray(args);
+    assert!(
+        o.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+fn folder(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("morphray-presets-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// Bright ivory pixels (bone; not the red vessel band, not the dimmer MR look).
+fn bright(p: [u8; 3]) -> bool {
+    p[0] > 170 && p[1] > 130
+}
+
+#[test]
+fn the_head_phantom_as_ct_shows_its_skull_with_the_automatic_ct_preset() {
+    let dir = folder("ct");
+    let nii = dir.join("head_ct.nii");
+    ok(&[
+        "phantom",
+        "--head",
+        "--contrast",
+        "ct",
+        "--dims",
+        "48x48x48",
+        "-o",
+        s(&nii),
+    ]);
+    let png = dir.join("ct.png");
+    let out = ok(&["render", s(&nii), "-o", s(&png), "--size", "96x96"]);
+    assert!(out.contains("preset: ct (CT in Hounsfield units"), "{out}");
+    let ct = Picture::read(&png);
+    // The skull encloses the head: the middle of the picture is bone seen from the front.
+    let centre = ct.find(Some([40, 40, 16, 16]), bright).len();
+    assert!(centre > 200, "only {centre} of 256 centre pixels show bone");
+    // The provenance names the preset.
+    let text = std::fs::read(&png).unwrap();
+    let text = String::from_utf8_lossy(&text);
+    assert!(
+        text.contains("\"preset\":\"ct\""),
+        "no preset in the provenance"
+    );
+    // By hand, the MR look of the same file shows no skull in the middle of the picture.
+    let mr_png = dir.join("mr.png");
+    let out = ok(&[
+        "render",
+        s(&nii),
+        "-o",
+        s(&mr_png),
+        "--size",
+        "96x96",
+        "--preset",
+        "brain",
+    ]);
+    assert!(out.contains("preset: mr"), "{out}");
+    let mr = Picture::read(&mr_png)
+        .find(Some([40, 40, 16, 16]), bright)
+        .len();
+    assert!(mr * 2 < centre, "mr {mr} vs ct {centre}");
+    // With bone hidden (only the CT preset's skin band) the middle goes dark: it was the bone.
+    let skin_png = dir.join("skin.png");
+    ok(&[
+        "render",
+        s(&nii),
+        "-o",
+        s(&skin_png),
+        "--size",
+        "96x96",
+        "--tissues",
+        "csf",
+    ]);
+    let skin = Picture::read(&skin_png)
+        .find(Some([40, 40, 16, 16]), bright)
+        .len();
+    assert_eq!(skin, 0, "bone hidden, yet {skin} bright centre pixels");
+}
+
+#[test]
+fn a_bids_angio_tube_phantom_picks_the_angio_preset_and_shows_vessels() {
+    let dir = folder("angio");
+    let nii = dir.join("sub-01_angio.nii");
+    let tubes = morphray::volume::vessel_phantom::tubes();
+    write_nifti1(&tubes.volume, &nii, false).unwrap();
+    let peaks = ok(&["peaks", s(&nii), "--json"]);
+    let peaks: serde_json::Value = serde_json::from_str(&peaks).unwrap();
+    assert_eq!(peaks["preset"], "angio", "{peaks}");
+    let png = dir.join("angio.png");
+    let out = ok(&["render", s(&nii), "-o", s(&png), "--size", "96x96"]);
+    assert!(out.contains("preset: angio"), "{out}");
+    let red = Picture::read(&png).find(None, pictures::dominant(0)).len();
+    assert!(red > 100, "only {red} red vessel pixels");
+}
+
+#[test]
+fn preset_list_names_every_preset_and_an_unknown_name_is_one_line() {
+    let out = ok(&["render", "--preset", "list"]);
+    let names: Vec<&str> = out
+        .lines()
+        .filter_map(|l| l.split_whitespace().next())
+        .collect();
+    assert_eq!(
+        names,
+        ["mr", "ct", "angio", "post-contrast", "epi"],
+        "{out}"
+    );
+    let o = morphray(&["peaks", "--preset", "bone"]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    let first = err.lines().next().unwrap_or("");
+    assert!(
+        first.contains("unknown preset `bone`; use mr, ct, angio, post-contrast, epi"),
+        "{err}"
+    );
+}
