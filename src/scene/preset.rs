@@ -67,7 +67,7 @@ pub const PRESETS: [(Preset, &str); 5] = [
     ),
     (
         Preset::Epi,
-        "EPI, BOLD, ASL: one translucent foreground window on the (mean) frame",
+        "EPI, BOLD, ASL: one translucent foreground window on the loaded frame",
     ),
 ];
 
