@@ -22,7 +22,8 @@
 //!   skull-stripped brain leaves, less than a head whose mask stopped at the brain), the
 //!   component ran into the scalp, and the chain runs again on the cut volume. Always cutting
 //!   would cost a skull-stripped brain, whose surface is the head's, its outer `scalp_mm`.
-//! - `scalp_mm` 8: a scipy prototype on the fine grid (this machine) that kept the eroded core
+//! - `scalp_mm` 8: a scipy prototype on the fine grid (`tools/figures/brain_depth_prototype.py`,
+//!   this machine) that kept the eroded core
 //!   11 mm deep (the band 6.5 mm deep, with the 4.5 mm erosion) took T2w's mask from 2314 to
 //!   1841 cm^3, inside its skull on every slice looked at; 8 mm allows for the coarse head's
 //!   extra depth of up to a cell.
