@@ -33,7 +33,8 @@ pub const MIN_SEPARATION_BINS: f64 = 3.0;
 pub const MIN_SEPARATION_SDS: f64 = 2.0;
 /// The same inside a brain mask with a close fit ([`BRAIN_MIN_GOODNESS`]): there the histogram
 /// holds only brain, so classes that overlap (T2's GM and WM: T2w's fit inside its mask had GM
-/// and WM 1.2 SDs apart, goodness 0.952, weights 0.30 / 0.44) are tissues, not one mode split.
+/// and WM 1.2 SDs apart, goodness 0.952, weights 0.30 / 0.44; `morphray peaks T2w.nii.gz`, this
+/// machine) are tissues, not one mode split.
 pub const BRAIN_MIN_SEPARATION_SDS: f64 = 1.0;
 /// Least goodness for [`BRAIN_MIN_SEPARATION_SDS`] to apply.
 pub const BRAIN_MIN_GOODNESS: f64 = 0.9;

@@ -57,7 +57,9 @@ impl WorkingMask<'_> {
     /// The mask on the volume's grid of `fine` voxels by nearest lookup: each voxel takes its
     /// block's value (`at(p, true)` is the block `p / factors`), one read a voxel with no
     /// arithmetic, for host passes on the first pixel's path (the tissue fit's histogram: 9 M
-    /// trilinear reads took about 250 ms of it on this machine). Differs from [`Self::export`]
+    /// trilinear reads took 251 ms of chris_t1's, the "tissue fit in the brain mask" span of
+    /// `morphray render chris_t1.nii.gz --trace T.json`, release, this machine; 31 ms by
+    /// nearest lookup). Differs from [`Self::export`]
     /// only in the half-block rim the trilinear threshold rounds.
     pub fn export_nearest(&self, fine: [usize; 3]) -> Vec<u8> {
         let d = self.dims;
