@@ -20,7 +20,6 @@ use crate::engine::MapRequest;
 use crate::error::Error;
 use crate::files::write::{OutputKind, check_output};
 use crate::passes::denoise::Denoise;
-use crate::passes::vesselness::VesselnessParams;
 use crate::volume::{LinearMap, Samples, Volume};
 use clap::Args;
 use std::path::{Path, PathBuf};
@@ -84,48 +83,11 @@ pub fn base_name(file: Option<&Path>) -> String {
 
 /// Runs the command.
 pub fn run(args: &DeriveArgs, global: &super::GlobalOptions) -> Result<(), Error> {
-    let mut request = MapRequest {
-        denoise: args.denoise,
-        ..Default::default()
-    };
-    let mut wanted: Vec<&'static str> = Vec::new();
-    for m in &args.maps {
-        let name = match m.trim() {
-            "normalized" => "normalized",
-            "gradient" => {
-                request.gradient = true;
-                "gradient"
-            }
-            "curvature" => {
-                request.curvature = true;
-                "curvature"
-            }
-            "brain" => {
-                request.brain = true;
-                "brain"
-            }
-            "vesselness" => {
-                let mut params = VesselnessParams::default();
-                if !args.vessel_scales.is_empty() {
-                    params.scales_mm = args.vessel_scales.clone();
-                }
-                params.validate()?;
-                request.vesselness = Some(params);
-                "vesselness"
-            }
-            other => {
-                return Err(Error::Usage(format!(
-                    "unknown map `{other}`: use normalized, gradient, curvature, vesselness or brain"
-                )));
-            }
-        };
-        if !wanted.contains(&name) {
-            wanted.push(name);
-        }
-    }
-    if args.denoise != Denoise::None {
-        wanted.push("denoised");
-    }
+    let (request, wanted) = MapRequest::named(&args.maps, args.denoise, &args.vessel_scales)
+        .map_err(|e| match e {
+            crate::gpu::GpuError::InvalidRequest(message) => Error::Usage(message),
+            other => Error::from(other),
+        })?;
     let stem = base_name(args.file.first().map(PathBuf::as_path));
     let paths: Vec<(&str, PathBuf)> = wanted
         .iter()

@@ -229,6 +229,20 @@ pub fn contrast_note(report: &TissueReport, windows: WindowsArg) -> Option<Strin
     }
 }
 
+/// Why `rgba8`, a frame of `scene`, shows only the background, and what to try; None when it
+/// shows something. `constant`: the volume has one value (its normalization says so).
+pub fn empty_note(scene: &Scene, constant: bool, rgba8: &[u8]) -> Option<String> {
+    if pixels_off_background(rgba8, scene.background) != 0 {
+        return None;
+    }
+    let why = predict_empty(scene, constant).unwrap_or(EmptyScene::NothingSampled);
+    Some(format!(
+        "the image shows only the background: {}; {}",
+        why.reason(),
+        what_to_try(&why, scene)
+    ))
+}
+
 /// What to try on the command line for an empty image.
 fn what_to_try(why: &EmptyScene, scene: &Scene) -> String {
     match why {
@@ -399,15 +413,10 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
         let size = (frame.width, frame.height);
         movie.push(&args.movie, frames, size, &frame.rgba8, &provenance)?;
         progress.step();
-        if !said_empty && pixels_off_background(&frame.rgba8, scene.background) == 0 {
+        let constant = opened.twin.prepared.normalization.constant;
+        if let Some(note) = empty_note(&scene, constant, &frame.rgba8).filter(|_| !said_empty) {
             // Never a silent empty image (the exit status stays 0: the scene may mean it).
-            let constant = opened.twin.prepared.normalization.constant;
-            let why = predict_empty(&scene, constant).unwrap_or(EmptyScene::NothingSampled);
-            eprintln!(
-                "morphray: note: the image shows only the background: {}; {}",
-                why.reason(),
-                what_to_try(&why, &scene)
-            );
+            eprintln!("morphray: note: {note}");
             said_empty = true;
         }
         let gpu_ms: f64 = frame.gpu_timings.iter().map(|p| p.gpu_ms).sum();

@@ -51,6 +51,64 @@ pub struct DerivedMaps {
     pub brain_report: Option<crate::reference::brain_report::BrainReport>,
 }
 
+impl MapRequest {
+    /// The request for the maps named (`normalized`, `gradient`, `curvature`, `vesselness`,
+    /// `brain`; `morphray derive --maps` and the Python `derive()` take the same names), with
+    /// `denoise` applied first and the vesselness at `vessel_scales` mm (empty: the default
+    /// scales). Returns the names to export in order, each once, `denoised` last when
+    /// denoising is on. Fails on an unknown name or unusable vessel scales.
+    pub fn named(
+        names: &[String],
+        denoise: Denoise,
+        vessel_scales: &[f32],
+    ) -> GpuResult<(MapRequest, Vec<&'static str>)> {
+        let mut request = MapRequest {
+            denoise,
+            ..Default::default()
+        };
+        let mut wanted: Vec<&'static str> = Vec::new();
+        for name in names {
+            let name = match name.trim() {
+                "normalized" => "normalized",
+                "gradient" => {
+                    request.gradient = true;
+                    "gradient"
+                }
+                "curvature" => {
+                    request.curvature = true;
+                    "curvature"
+                }
+                "brain" => {
+                    request.brain = true;
+                    "brain"
+                }
+                "vesselness" => {
+                    let mut params = VesselnessParams::default();
+                    if !vessel_scales.is_empty() {
+                        params.scales_mm = vessel_scales.to_vec();
+                    }
+                    params.validate()?;
+                    request.vesselness = Some(params);
+                    "vesselness"
+                }
+                other => {
+                    return Err(GpuError::InvalidRequest(format!(
+                        "unknown map `{other}`: use normalized, gradient, curvature, vesselness \
+                         or brain"
+                    )));
+                }
+            };
+            if !wanted.contains(&name) {
+                wanted.push(name);
+            }
+        }
+        if denoise != Denoise::None {
+            wanted.push("denoised");
+        }
+        Ok((request, wanted))
+    }
+}
+
 impl Engine {
     /// Computes the requested maps of `prepared` (module decisions).
     pub fn derived_maps(

@@ -363,6 +363,20 @@ impl Engine {
         )
     }
 
+    /// Chooses how the next volumes opened are normalized and identified (the command line's
+    /// `--normalize`, `--contrast` and `--modality`). A client that opens volumes of several
+    /// kinds on one engine, as the Python package does, sets them before each open.
+    pub fn set_identity(
+        &mut self,
+        normalize: crate::analysis::NormalizeMode,
+        contrast: crate::analysis::ContrastChoice,
+        modality: crate::analysis::ModalityChoice,
+    ) {
+        self.config.normalize = normalize;
+        self.config.analysis.contrast = contrast;
+        self.config.analysis.modality = modality;
+    }
+
     /// The format the next `prepare` stores I_norm in.
     pub fn normalized_format(&self) -> vk::Format {
         self.config.normalized_format

@@ -17,6 +17,7 @@ from __future__ import annotations
 import json
 import os
 import struct
+import warnings
 import zlib
 
 import numpy as np
@@ -26,6 +27,7 @@ from ._native import DeviceError, Error, InputError, MemoryBudgetError
 
 __all__ = [
     "Volume",
+    "scene_options",
     "open",
     "phantom",
     "configure",
@@ -39,6 +41,102 @@ __version__ = _native.__version__
 
 # Sample types the engine takes as they are; other dtypes become float32.
 _NATIVE_DTYPES = (np.uint8, np.int8, np.uint16, np.int16, np.float32)
+
+# ---------------------------------------------------------------------------------------------
+# Scene options: the command line's own (one option model, `morphray::cli::scene_options`).
+# Keyword arguments are written as the words a shell would pass and parsed by the library, so
+# names, units, defaults and errors are `morphray render`'s. Python spellings: underscores for
+# dashes (clip_plane), True/False for on/off switches and flags, tuples for pairs and lists, a
+# dict for the repeatable TISSUE=VALUE options (window={"wm": (0.7, 0.9)}, opacity={"csf": 0.1},
+# color={"wm": "#f0f0e0"}), colours as "#rrggbb" or (R, G, B) in 0..255.
+
+_SCENE_OPTIONS = {long.replace("-", "_"): (long, kind, values, default, help_)
+                  for long, kind, values, default, help_ in _native.scene_options()}
+# Python-only spelling kept for convenience: jitter=False is no_jitter=True.
+_ALIASES = {"jitter": lambda v: ("no_jitter", not v)}
+
+
+def _number(value) -> str:
+    if isinstance(value, bool):
+        raise TypeError("expected a number, not a bool")
+    if isinstance(value, (int, np.integer)):
+        return str(int(value))
+    return repr(float(value))
+
+
+def _item(value) -> str:
+    """One value as the command line writes it: a str as it is, a number, or a tuple of
+    numbers joined the way its option expects (pairs LO:HI, everything else by commas)."""
+    if isinstance(value, str):
+        return value
+    if isinstance(value, (tuple, list, np.ndarray)):
+        parts = [_number(v) for v in value]
+        return ":".join(parts) if len(parts) == 2 else ",".join(parts)
+    return _number(value)
+
+
+def _value(name: str, value) -> str:
+    if name == "size" and not isinstance(value, str):
+        if isinstance(value, (int, np.integer)) and not isinstance(value, bool):
+            return f"{int(value)}x{int(value)}"
+        return "x".join(str(int(v)) for v in value)
+    if name == "crop" and not isinstance(value, str):
+        return ",".join(f"{_number(a)}:{_number(b)}" for a, b in value)
+    if name == "pan" and not isinstance(value, str):
+        return ",".join(_number(v) for v in value)
+    return _item(value)
+
+
+def _scene_words(caller: str, options: dict) -> list:
+    """The command-line words of `options` (keyword arguments of `caller`)."""
+    words = []
+    for name, value in options.items():
+        if name in _ALIASES:
+            name, value = _ALIASES[name](value)
+        if name not in _SCENE_OPTIONS:
+            known = ", ".join(sorted(list(_SCENE_OPTIONS) + list(_ALIASES)))
+            raise TypeError(f"{caller}() got an unexpected keyword argument {name!r}; the scene "
+                            f"options are {known} (`morphray render --help` explains each)")
+        if value is None:
+            continue
+        long, kind, values, _, _ = _SCENE_OPTIONS[name]
+        flag = f"--{long}"
+        if kind == "flag":
+            if value:
+                words.append(flag)
+        elif isinstance(value, bool):
+            if set(values) != {"on", "off"}:
+                raise TypeError(f"{name} takes one of {values}, not a bool")
+            words.append(f"{flag}={'on' if value else 'off'}")
+        elif kind == "list":
+            items = [value] if isinstance(value, str) else list(value)
+            if not items:
+                items = [""]
+            words.append(f"{flag}=" + ",".join(str(v) for v in items))
+        elif kind == "repeated":
+            if isinstance(value, dict):
+                entries = [f"{k}={_item(v)}" for k, v in value.items()]
+            elif isinstance(value, str) or (isinstance(value, tuple) and value
+                                            and not isinstance(value[0], (tuple, list))):
+                entries = [_item(value)]
+            else:
+                entries = [_item(v) for v in value]
+            words.extend(f"{flag}={e}" for e in entries)
+        else:
+            words.append(f"{flag}={_value(name, value)}")
+    return words
+
+
+def scene_options() -> list:
+    """The scene options render() and open() take, as (name, kind, accepted values, default,
+    help) tuples: the command line's, with underscores for dashes."""
+    return [(name, kind, values, default, help_)
+            for name, (_, kind, values, default, help_) in _SCENE_OPTIONS.items()]
+
+
+def _identity(normalize, contrast, modality) -> dict:
+    return {"normalize": str(normalize), "contrast": str(contrast), "modality": str(modality)}
+
 
 
 def configure(device=None, memory_budget=None, validation=False):
@@ -75,14 +173,15 @@ def _as_volume_array(array):
     return array
 
 
-def _open_array(array, affine, name):
+def _open_array(array, affine, name, scene, identity):
     affine = np.asarray(affine, dtype=np.float64)
     if affine.shape != (4, 4):
         raise InputError(f"the affine must be 4x4, not of shape {affine.shape}")
-    return Volume(_native.open_array(_as_volume_array(array), affine, name=name))
+    return Volume(_native.open_array(_as_volume_array(array), affine, scene, identity, name=name))
 
 
-def open(source, frame: int = 0, series=None) -> "Volume":
+def open(source, frame: int = 0, series=None, normalize="robust", contrast="auto",
+         modality="auto", **scene) -> "Volume":
     """Opens a volume on the process's device and analyses its histogram.
 
     source: a path (str or os.PathLike) to a NIfTI-1/2 or ANALYZE file (.nii, .nii.gz,
@@ -92,10 +191,17 @@ def open(source, frame: int = 0, series=None) -> "Volume":
     frame: which volume of a 4D file or image.
     series: for DICOM, a SeriesInstanceUID or the index `morphray info PATH` lists (default: the
     largest 3-D image series).
+    normalize ("robust" or "minmax"), contrast ("auto", "t1", "t2", "pd", "flair") and modality
+    ("auto", "mr", "ct", "pt", "other"): as `--normalize`, `--contrast` and `--modality`.
+    **scene: render()'s scene options (e.g. preset="angio", tissues=["gm", "wm"]): the scene the
+    volume is planned for, as the command line plans for its arguments; render() may still ask
+    for another scene.
     """
+    words = _scene_words("open", scene)
+    identity = _identity(normalize, contrast, modality)
     if isinstance(source, (str, os.PathLike)):
         return Volume(_native.open_file(
-            os.fspath(source), frame=int(frame),
+            os.fspath(source), words, identity, frame=int(frame),
             series=None if series is None else str(series)))
     if hasattr(source, "dataobj") and hasattr(source, "affine"):
         data = np.asanyarray(source.dataobj)
@@ -104,23 +210,26 @@ def open(source, frame: int = 0, series=None) -> "Volume":
                 raise InputError(f"frame {frame} is out of range: the image has {data.shape[3]} frames")
             data = data[..., frame]
         name = getattr(source, "get_filename", lambda: None)() or "nibabel image"
-        return _open_array(data, source.affine, str(name))
+        return _open_array(data, source.affine, str(name), words, identity)
     if isinstance(source, tuple) and len(source) == 2:
-        return _open_array(source[0], source[1], "array")
+        return _open_array(source[0], source[1], "array", words, identity)
     raise TypeError(
         "morphray.open takes a path, a nibabel image or an (array, affine) pair, "
         f"not {type(source).__name__}")
 
 
-def phantom(shape=(256, 256, 192), seed=None, noise=True, head=False, spacing=1.0) -> "Volume":
+def phantom(shape=(256, 256, 192), seed=None, noise=True, head=False, spacing=1.0,
+            normalize="robust", **scene) -> "Volume":
     """Opens the synthetic T1 phantom (the paper's cohort-A size at 1 mm by default).
 
     head=True makes a whole head around the brain (skin, fat, muscle, skull, eyes, a face and a
     neck: `morphray phantom --head`), which brain extraction finds and masks; spacing is the
     voxel size in mm (the anatomy scales with the grid: 96x108x90 voxels of 2 mm hold a brain of
-    about 800 cm^3).
+    about 800 cm^3). normalize and **scene as for open().
     """
-    return Volume(_native.open_phantom(tuple(int(n) for n in shape), seed=seed, noise=noise,
+    return Volume(_native.open_phantom(_scene_words("phantom", scene),
+                                       _identity(normalize, "auto", "auto"),
+                                       dims=tuple(int(n) for n in shape), seed=seed, noise=noise,
                                        head=bool(head), spacing=float(spacing)))
 
 
@@ -170,46 +279,84 @@ class Volume:
         "contrast", "background_threshold", "dims", "file", "warnings"}."""
         return json.loads(self._native.summary_json())
 
-    def render(self, size=(512, 512), mode="dvr", tissues=None, windows="adaptive",
-               azimuth=0.0, elevation=0.0, zoom=1.0, projection="perspective",
-               curvature=False, shading=False, step=0.5, jitter=True,
-               background=(0.0, 0.0, 0.0), brain="auto", head_opacity=None,
-               head_color=None) -> np.ndarray:
+    @property
+    def affine(self) -> np.ndarray:
+        """The 4x4 voxel-to-world (RAS+ mm) affine of (i, j, k) indices, as nibabel's."""
+        return np.array(self.header["affine"], dtype=np.float64)
+
+    @property
+    def spacing(self) -> tuple:
+        """Voxel size along i, j, k in mm (the header's pixdim)."""
+        return tuple(self.header["pixdim"])
+
+    @property
+    def header(self) -> dict:
+        """A NIfTI-like header: "dim", "pixdim", "datatype" (stored dtype), "scl_slope",
+        "scl_inter", "affine" (4x4 rows), "affine_source" (sform, qform, pixdim, dicom or
+        synthetic), "xyz_units", "descrip", and "facts" (what the file says about the scan:
+        modality, sequence, timing, names)."""
+        return json.loads(_native.volume_header(self._native))
+
+    def __array__(self, dtype=None, copy=None):
+        """The volume's values in physical units, (i, j, k) as nibabel's: the stored dtype
+        when the file has no scaling, float32 otherwise."""
+        data = _native.volume_data(self._native)
+        return data if dtype is None else data.astype(dtype)
+
+    def to_nifti(self, path, data=None, force=False) -> None:
+        """Writes the volume, or `data` (an (i, j, k) array on the volume's grid, e.g. a map
+        from derive()) with the volume's affine, as NIfTI-1 (.nii or .nii.gz). An existing file
+        is replaced only with force=True; the input file never."""
+        if data is not None:
+            data = np.asanyarray(data)
+            if data.dtype not in _NATIVE_DTYPES:
+                data = data.astype(np.float32)
+        _native.to_nifti(self._native, os.fspath(path), data=data, force=bool(force))
+
+    def to_nibabel(self, data=None):
+        """A nibabel Nifti1Image of the volume, or of `data` on its grid, with its affine
+        (nibabel must be installed)."""
+        import nibabel
+        array = np.asarray(self) if data is None else np.asanyarray(data)
+        if array.shape != self.shape:
+            raise ValueError(f"data of shape {array.shape} is not on the volume's grid {self.shape}")
+        return nibabel.Nifti1Image(array, self.affine)
+
+    def render(self, **options) -> np.ndarray:
         """Renders one frame; returns an (H, W, 4) uint8 RGBA array (rows top to bottom).
 
-        The arguments are `morphray render`'s: size=(W, H); mode "dvr", "mip" or "minip";
-        tissues, e.g. ["gm", "wm"] (default csf, gm, wm), "head" among them drawing the head
-        (skin, fat, muscle) translucent around an extracted brain; windows "adaptive" (on this
-        volume's peaks) or "paper"; azimuth and elevation in degrees; zoom; projection
-        "perspective" or "orthographic"; curvature and shading (the paper's eq. 3 and Phong);
-        step in voxels; jitter; background RGB in 0..1; brain "auto" (a head scan shows its
-        brain: tissues are classified inside the extracted brain only), "on" (mask whenever a
-        brain is found, also in a skull-stripped volume) or "off" (every voxel); head_opacity
-        (per mm, 0..1) and head_color (RGB in 0..1) style the head layer (`--opacity head=`,
-        `--color head=`). Switching between "auto" and "on" costs nothing; "off" and back
-        recomputes the derived volumes once.
+        The options are `morphray render`'s scene options by the same names and units
+        (underscores for dashes; `morphray.scene_options()` lists them, `morphray render
+        --help` explains each): size=(W, H) or N (default 512x512), mode "dvr" | "mip" |
+        "minip", tissues=["gm", "wm"] ("head" draws the head around an extracted brain),
+        preset, brain "auto" | "on" | "off", windows "adaptive" | "paper", view "left" | ...,
+        azimuth, elevation, zoom, pan=(right, up) mm, projection, step (voxels), curvature and
+        shading (True/False or "on"/"off"; a still is shaded unless shading=False, as the
+        command line's), gradient, derived_precision, background "#rrggbb" or (R, G, B) in
+        0..255, no_jitter (or jitter=False), window={"wm": (0.7, 0.9)} (I_norm), opacity=
+        {"csf": 0.1} (per mm), color={"wm": "#f0f0e0"}, crop=((0, 1), (0, 1), (0.5, 1)),
+        clip_plane=[(1, 0, 0, 0)], colormap, denoise. A bad name raises TypeError, a bad value
+        ValueError with the command line's message. A picture that shows only the background
+        raises a warning (warnings.warn) saying why and what to try.
         """
-        width, height = (int(v) for v in size)
-        if tissues is not None:
-            tissues = [tissues] if isinstance(tissues, str) else [str(t) for t in tissues]
-        r, g, b = (float(c) for c in background)
-        return self._native.render(
-            width, height, mode=str(mode), tissues=tissues, windows=str(windows),
-            azimuth=float(azimuth), elevation=float(elevation), zoom=float(zoom),
-            projection=str(projection), curvature=bool(curvature), shading=bool(shading),
-            step=float(step), jitter=bool(jitter), background=(r, g, b), brain=str(brain),
-            head_opacity=None if head_opacity is None else float(head_opacity),
-            head_color=None if head_color is None else tuple(float(c) for c in head_color))
+        image, note = self._native.render(_scene_words("render", options))
+        if note:
+            warnings.warn(f"morphray: {note}", stacklevel=2)
+        return image
 
-    def derive(self, maps=("gradient", "curvature")) -> dict:
-        """The derived maps as (i, j, k) arrays on the input grid, computed on the GPU:
-        "gradient" = |grad I_norm| per mm (the paper's eq. 4 term), "curvature" = k = g^T H g
-        (eq. 3) and "vesselness" (Frangi, 0..1) as float32; "brain" as uint8, 1 inside the
-        extracted brain (as brain="on" masks; all 0 when no brain-like region was found, which
-        `brain_report()` says)."""
+    def derive(self, maps=("gradient", "curvature"), denoise="none", vessel_scales=None) -> dict:
+        """The derived maps as (i, j, k) arrays on the input grid, computed on the GPU, by
+        `morphray derive`'s names: "normalized" (I_norm), "gradient" (|grad I_norm| per mm, the
+        paper's eq. 4 term), "curvature" (k = g^T H g, eq. 3), "vesselness" (Frangi, 0..1, at
+        vessel_scales mm) as float32, "denoised" (with denoise="gaussian:1", "median" or
+        "bilateral:1,0.1", as --denoise; the other maps are then computed from it); "brain" as
+        uint8, 1 inside the extracted brain (as brain="on" masks; all 0 when no brain-like
+        region was found, which `brain_report()` says). Save one with to_nifti(path, data=...)."""
         if isinstance(maps, str):
             maps = [maps]
-        return self._native.derive([str(m) for m in maps])
+        scales = [] if vessel_scales is None else [float(v) for v in vessel_scales]
+        return self._native.derive([str(m) for m in maps], denoise=str(denoise),
+                                   vessel_scales=scales)
 
     def brain_report(self) -> dict:
         """What brain extraction decided: {"decision": "head" | "skull_stripped" | "not_found",
@@ -221,7 +368,9 @@ class Volume:
 
     def _repr_png_(self) -> bytes:
         """A 256x256 DVR thumbnail for Jupyter."""
-        return _png(self.render(size=(256, 256), azimuth=35.0, elevation=20.0))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return _png(self.render(size=(256, 256), azimuth=35.0, elevation=20.0))
 
     def __repr__(self) -> str:
         x, y, z = self.shape

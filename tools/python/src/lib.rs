@@ -16,6 +16,7 @@ mod errors;
 mod recipe;
 mod state;
 mod volume;
+mod volume_io;
 
 use pyo3::prelude::*;
 
@@ -29,6 +30,10 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(volume::open_file, m)?)?;
     m.add_function(wrap_pyfunction!(volume::open_phantom, m)?)?;
     m.add_function(wrap_pyfunction!(volume::open_array, m)?)?;
+    m.add_function(wrap_pyfunction!(volume_io::volume_data, m)?)?;
+    m.add_function(wrap_pyfunction!(volume_io::volume_header, m)?)?;
+    m.add_function(wrap_pyfunction!(volume_io::to_nifti, m)?)?;
+    m.add_function(wrap_pyfunction!(recipe::scene_options, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

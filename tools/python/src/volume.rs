@@ -3,22 +3,28 @@
 //! Decisions:
 //! - The volume keeps its GPU data (the twin: normalized volume, histogram, derived volumes)
 //!   until the Python object is collected, so successive renders run the raymarch only.
-//! - A bricked volume (over the memory budget) keeps its host copy: which bricks are resident
-//!   depends on the scene's windows and mode, so a render with other tissues, windows or mode
-//!   opens it again with that recipe rather than showing missing bricks.
+//! - Every volume keeps its host copy (as a nibabel image keeps its data): `np.asarray(vol)`,
+//!   `to_nifti` and the header read it, and a bricked volume (over the memory budget) is opened
+//!   again from it when a render's tissues, windows or mode change which bricks are resident,
+//!   rather than showing missing bricks.
+//! - `open()` takes the scene options too (the recipe the plan is made for: a preset that turns
+//!   the vessel channel on is planned with it) and the identity options (`normalize`,
+//!   `contrast`, `modality`), set on the shared engine before each open.
 //! - A file is read and inflated before the engine is locked, so threads opening several files
 //!   overlap their reads with each other's GPU work.
 //! - Arrays come in as (i, j, k)-indexed numpy arrays (nibabel's order) and are copied once into
 //!   the engine's x-fastest order; maps go out in the same (i, j, k) order.
 
 use crate::errors;
-use crate::recipe::{SceneSettings, recipe};
+use crate::recipe;
 use crate::state::{self, State};
 use morphray::analysis::TissueReport;
+use morphray::analysis::{ContrastChoice, ModalityChoice, NormalizeMode};
+use morphray::cli::args::{ContrastArg, ModalityArg, NormalizeArg};
 use morphray::engine::plan::{Layout, Plan};
 use morphray::engine::{DerivedMaps, MapRequest, OpenOptions, Twin, VolumeLayout};
 use morphray::passes::brain::BrainSwitch;
-use morphray::passes::vesselness::VesselnessParams;
+use morphray::passes::denoise::Denoise;
 use morphray::reference::brain_report::{BrainDecision, BrainReport};
 use morphray::scene::SceneRecipe;
 use morphray::study::batch_summary::ScanSummary;
@@ -43,8 +49,12 @@ struct Inner {
     plan: Plan,
     /// The recipe the twin was prepared for.
     recipe: SceneRecipe,
-    /// The host copy of a bricked volume (module doc).
-    host: Option<HostVolume>,
+    /// The host copy (module doc).
+    host: HostVolume,
+    /// Whether the volume is bricked (over the memory budget).
+    bricked: bool,
+    /// The identity options it was opened with (set again when it is reopened).
+    identity: (NormalizeMode, ContrastChoice, ModalityChoice),
     generation: u64,
 }
 
@@ -52,6 +62,8 @@ struct Inner {
 #[pyclass(frozen, module = "morphray")]
 pub struct Volume {
     label: String,
+    /// The file it was read from (never replaced by `to_nifti`).
+    path: Option<PathBuf>,
     dims: [u32; 3],
     warnings: Vec<String>,
     inner: Mutex<Inner>,
@@ -69,36 +81,103 @@ fn open_options(recipe: &SceneRecipe, frame: usize) -> OpenOptions {
     }
 }
 
+/// How a volume is opened: the scene recipe its plan is made for and the identity options.
+pub struct OpenChoice {
+    /// The recipe (from `open()`'s scene options).
+    pub recipe: SceneRecipe,
+    /// `normalize`, `contrast`, `modality`.
+    pub identity: (NormalizeMode, ContrastChoice, ModalityChoice),
+}
+
+impl OpenChoice {
+    /// The choice `scene` (command-line words) and the identity names describe.
+    fn parse(scene: &[String], identity: &Identity) -> PyResult<OpenChoice> {
+        Ok(OpenChoice {
+            recipe: recipe::scene_choice(scene)?.recipe,
+            identity: identity.parse()?,
+        })
+    }
+}
+
+/// `open()`'s identity options as the names the command line takes.
+#[derive(Clone, Debug, FromPyObject)]
+#[pyo3(from_item_all)]
+pub struct Identity {
+    normalize: String,
+    contrast: String,
+    modality: String,
+}
+
+fn value_enum<T: clap::ValueEnum>(option: &str, text: &str) -> PyResult<T> {
+    T::from_str(text, true).map_err(|_| {
+        let names: Vec<String> = T::value_variants()
+            .iter()
+            .filter_map(|v| v.to_possible_value().map(|p| p.get_name().to_string()))
+            .collect();
+        errors::usage(format!(
+            "unknown {option} `{text}`; use {}",
+            names.join(", ")
+        ))
+    })
+}
+
+impl Identity {
+    fn parse(&self) -> PyResult<(NormalizeMode, ContrastChoice, ModalityChoice)> {
+        let normalize: NormalizeArg = value_enum("normalize", &self.normalize)?;
+        let contrast: ContrastArg = value_enum("contrast", &self.contrast)?;
+        let modality: ModalityArg = value_enum("modality", &self.modality)?;
+        Ok((
+            normalize.into(),
+            contrast.analysis().map_err(errors::usage)?,
+            modality.into(),
+        ))
+    }
+}
+
 /// Opens `volume` (already read) on the process's engine.
-fn open_host(state: &mut State, volume: HostVolume, label: String) -> PyResult<Volume> {
-    let recipe = recipe(&SceneSettings::default())?;
+fn open_host(
+    state: &mut State,
+    volume: HostVolume,
+    label: String,
+    choice: OpenChoice,
+) -> PyResult<Volume> {
     let (engine, generation) = state.engine()?;
+    let (normalize, contrast, modality) = choice.identity;
+    engine.set_identity(normalize, contrast, modality);
     let opened = engine
-        .open_with(&volume, &open_options(&recipe, 0))
+        .open_with(&volume, &open_options(&choice.recipe, 0))
         .map_err(errors::open)?;
     let bricked = matches!(opened.plan.layout, Layout::Bricked { .. });
     let dims = opened.twin.prepared.dims;
     Ok(Volume {
         label,
+        path: None,
         dims,
         warnings: volume.warnings.clone(),
         inner: Mutex::new(Inner {
             twin: opened.twin,
             report: opened.report,
             plan: opened.plan,
-            recipe,
-            host: bricked.then_some(volume),
+            recipe: choice.recipe,
+            host: volume,
+            bricked,
+            identity: choice.identity,
             generation,
         }),
     })
 }
 
-fn open_source(py: Python<'_>, source: VolumeSource, read: ReadOptions) -> PyResult<Volume> {
+fn open_source(
+    py: Python<'_>,
+    source: VolumeSource,
+    read: ReadOptions,
+    choice: OpenChoice,
+) -> PyResult<Volume> {
     py.detach(|| {
         // Read and inflate before taking the engine: other threads' GPU work goes on meanwhile.
         let read =
             source::read(&source, &read).map_err(|e| errors::InputError::new_err(e.to_string()))?;
-        open_host(&mut state::lock(), read.volume, read.label)
+        open_host(&mut state::lock(), read.volume, read.label, choice)
     })
 }
 
@@ -106,13 +185,16 @@ fn open_source(py: Python<'_>, source: VolumeSource, read: ReadOptions) -> PyRes
 /// `series`: a DICOM SeriesInstanceUID or the index `morphray info` lists, None for the largest
 /// 3-D series).
 #[pyfunction]
-#[pyo3(signature = (path, frame=0, series=None))]
+#[pyo3(signature = (path, scene, identity, frame=0, series=None))]
 pub fn open_file(
     py: Python<'_>,
     path: PathBuf,
+    scene: Vec<String>,
+    identity: Identity,
     frame: usize,
     series: Option<String>,
 ) -> PyResult<Volume> {
+    let choice = OpenChoice::parse(&scene, &identity)?;
     let series = series
         .map(|s| SeriesChoice::parse(&s))
         .transpose()
@@ -122,16 +204,21 @@ pub fn open_file(
         series,
         ..ReadOptions::default()
     };
-    open_source(py, VolumeSource::File(path), read)
+    let mut volume = open_source(py, VolumeSource::File(path.clone()), read, choice)?;
+    volume.path = Some(path);
+    Ok(volume)
 }
 
 /// Opens the synthetic phantom of `dims` voxels of `spacing` mm (the paper's cohort-A size at
 /// 1 mm by default): the brain in a dark shell, or with `head` a whole T1 head (scalp, skull,
 /// eyes, face, neck: `morphray phantom --head`) whose brain extraction can find.
 #[pyfunction]
-#[pyo3(signature = (dims=(256, 256, 192), seed=None, noise=true, head=false, spacing=1.0))]
+#[pyo3(signature = (scene, identity, dims=(256, 256, 192), seed=None, noise=true, head=false, spacing=1.0))]
+#[allow(clippy::too_many_arguments)]
 pub fn open_phantom(
     py: Python<'_>,
+    scene: Vec<String>,
+    identity: Identity,
     dims: (usize, usize, usize),
     seed: Option<u64>,
     noise: bool,
@@ -155,7 +242,13 @@ pub fn open_phantom(
         noise,
         ..base
     };
-    open_source(py, VolumeSource::Phantom(spec), ReadOptions::default())
+    let choice = OpenChoice::parse(&scene, &identity)?;
+    open_source(
+        py,
+        VolumeSource::Phantom(spec),
+        ReadOptions::default(),
+        choice,
+    )
 }
 
 /// The voxels of an (i, j, k)-indexed array in x-fastest order.
@@ -189,13 +282,16 @@ fn samples_of(array: &Bound<'_, PyAny>) -> PyResult<(Samples, [usize; 3])> {
 /// Opens a 3D array indexed (i, j, k) with its 4x4 index-to-world affine (RAS+ mm, as nibabel's
 /// `img.affine`).
 #[pyfunction]
-#[pyo3(signature = (array, affine, name="array"))]
+#[pyo3(signature = (array, affine, scene, identity, name="array"))]
 pub fn open_array(
     py: Python<'_>,
     array: &Bound<'_, PyAny>,
     affine: PyReadonlyArray2<'_, f64>,
+    scene: Vec<String>,
+    identity: Identity,
     name: &str,
 ) -> PyResult<Volume> {
+    let choice = OpenChoice::parse(&scene, &identity)?;
     let a = affine.as_array();
     if a.shape() != [4, 4] {
         return Err(errors::InputError::new_err(format!(
@@ -213,7 +309,20 @@ pub fn open_array(
     let volume = HostVolume::from_voxels(name, dims, samples, rows, LinearMap::IDENTITY)
         .map_err(|e| errors::InputError::new_err(e.to_string()))?;
     let label = name.to_string();
-    py.detach(|| open_host(&mut state::lock(), volume, label))
+    py.detach(|| open_host(&mut state::lock(), volume, label, choice))
+}
+
+impl Volume {
+    /// Runs `f` on the host copy.
+    pub fn with_host<R>(&self, f: impl FnOnce(&HostVolume) -> R) -> R {
+        let inner = self.inner.lock().unwrap_or_else(|p| p.into_inner());
+        f(&inner.host)
+    }
+
+    /// The file the volume was read from, if any.
+    pub fn input_path(&self) -> Option<&std::path::Path> {
+        self.path.as_deref()
+    }
 }
 
 impl Inner {
@@ -237,15 +346,18 @@ impl Inner {
     /// Opens the host copy again for `recipe` when the volume is bricked and the recipe's
     /// windows, tissues or mode differ from what the resident bricks were chosen for.
     fn reopen_if_needed(&mut self, state: &mut State, recipe: &SceneRecipe) -> PyResult<()> {
-        let Some(host) = &self.host else {
+        if !self.bricked {
             return Ok(());
-        };
+        }
+        let host = &self.host;
         let mut same = recipe.clone();
         same.camera = self.recipe.camera;
         if same == self.recipe {
             return Ok(());
         }
         let (engine, _) = state.engine()?;
+        let (normalize, contrast, modality) = self.identity;
+        engine.set_identity(normalize, contrast, modality);
         let opened = engine
             .open_with(host, &open_options(recipe, 0))
             .map_err(errors::open)?;
@@ -295,57 +407,19 @@ impl Volume {
         serde_json::to_string(&summary).map_err(|e| errors::Error::new_err(e.to_string()))
     }
 
-    /// Renders one frame; returns an (H, W, 4) uint8 array (RGBA, rows top to bottom).
-    #[pyo3(signature = (width, height, mode="dvr".to_string(), tissues=None, windows="adaptive".to_string(),
-        azimuth=0.0, elevation=0.0, zoom=1.0, projection="perspective".to_string(),
-        curvature=false, shading=false, step=0.5, jitter=true, background=(0.0, 0.0, 0.0),
-        brain="auto".to_string(), head_opacity=None, head_color=None))]
-    #[allow(clippy::too_many_arguments)]
+    /// Renders one frame of the scene the command-line words `scene` describe (`morphray
+    /// render`'s scene options; the Python side writes them from its keyword arguments);
+    /// returns an (H, W, 4) uint8 array (RGBA, rows top to bottom) and, when the picture shows
+    /// only the background, why and what to try.
     fn render<'py>(
         &self,
         py: Python<'py>,
-        width: u32,
-        height: u32,
-        mode: String,
-        tissues: Option<Vec<String>>,
-        windows: String,
-        azimuth: f64,
-        elevation: f64,
-        zoom: f64,
-        projection: String,
-        curvature: bool,
-        shading: bool,
-        step: f64,
-        jitter: bool,
-        background: (f32, f32, f32),
-        brain: String,
-        head_opacity: Option<f32>,
-        head_color: Option<(f32, f32, f32)>,
-    ) -> PyResult<Bound<'py, PyArray3<u8>>> {
-        if !(1..=16384).contains(&width) || !(1..=16384).contains(&height) {
-            return Err(errors::usage(format!(
-                "size ({width}, {height}) must be 1..16384 pixels each way"
-            )));
-        }
-        let settings = SceneSettings {
-            mode,
-            tissues,
-            windows,
-            azimuth,
-            elevation,
-            zoom,
-            projection,
-            curvature,
-            shading,
-            step,
-            jitter,
-            background: [background.0, background.1, background.2],
-            brain,
-            head_opacity,
-            head_colour: head_color.map(|c| [c.0, c.1, c.2]),
-        };
-        let recipe = recipe(&settings)?;
-        let pixels = py.detach(|| -> PyResult<Vec<u8>> {
+        scene: Vec<String>,
+    ) -> PyResult<(Bound<'py, PyArray3<u8>>, Option<String>)> {
+        let choice = recipe::scene_choice(&scene)?;
+        let (width, height) = choice.size;
+        let recipe = choice.recipe;
+        let (pixels, note) = py.detach(|| -> PyResult<(Vec<u8>, Option<String>)> {
             let mut state = state::lock();
             let mut inner = self.inner.lock().unwrap_or_else(|p| p.into_inner());
             let generation = inner.generation;
@@ -357,38 +431,38 @@ impl Volume {
             engine
                 .render_twin_into(target, &mut inner.twin, &scene, &mut pixels)
                 .map_err(errors::gpu)?;
-            Ok(pixels)
+            let constant = inner.twin.prepared.normalization.constant;
+            let note = morphray::cli::render::empty_note(&scene, constant, &pixels);
+            Ok((pixels, note))
         })?;
         let shape = (height as usize, width as usize, 4);
         let array = Array3::from_shape_vec(shape, pixels)
             .map_err(|e| errors::Error::new_err(e.to_string()))?;
-        Ok(array.into_pyarray(py))
+        Ok((array.into_pyarray(py), note))
     }
 
-    /// The derived maps as float32 (i, j, k) arrays: `"gradient"` (|grad I_norm| per mm),
-    /// `"curvature"` (k = g^T H g per mm^2, I_norm units; the paper's eq. 3-4) and
-    /// `"vesselness"` (multi-scale Frangi, default scales 0.6-3 mm, in [0, 1]); `"brain"` is a
-    /// uint8 mask (1 inside the extracted brain, all 0 when no brain-like region was found:
+    /// The derived maps as float32 (i, j, k) arrays, by `morphray derive`'s names: `"normalized"`
+    /// (I_norm), `"gradient"` (|grad I_norm| per mm), `"curvature"` (k = g^T H g per mm^2,
+    /// I_norm units; the paper's eq. 3-4), `"vesselness"` (multi-scale Frangi at
+    /// `vessel_scales` mm, default 0.6-3 mm, in [0, 1]) and, with `denoise` (`"gaussian:1"`,
+    /// `"median"`, `"bilateral:1,0.1"`, as `--denoise`), `"denoised"`; `"brain"` is a uint8
+    /// mask (1 inside the extracted brain, all 0 when no brain-like region was found:
     /// `brain_report_json` says which) on the input grid, as `--brain on` masks. The engine's
     /// one export function computes them (`Engine::derived_maps`, as `morphray derive` does).
     /// Whole volumes only (a bricked volume has no whole-volume map to export).
-    #[pyo3(signature = (maps=vec!["gradient".to_string(), "curvature".to_string()]))]
-    fn derive<'py>(&self, py: Python<'py>, maps: Vec<String>) -> PyResult<Bound<'py, PyDict>> {
-        let mut request = MapRequest::default();
-        for m in &maps {
-            match m.as_str() {
-                "gradient" => request.gradient = true,
-                "curvature" => request.curvature = true,
-                "vesselness" => request.vesselness = Some(VesselnessParams::default()),
-                "brain" => request.brain = true,
-                other => {
-                    return Err(errors::usage(format!(
-                        "unknown map `{other}`; use \"gradient\", \"curvature\", \"vesselness\" \
-                         or \"brain\""
-                    )));
-                }
-            }
-        }
+    #[pyo3(signature = (maps, denoise="none".to_string(), vessel_scales=vec![]))]
+    fn derive<'py>(
+        &self,
+        py: Python<'py>,
+        maps: Vec<String>,
+        denoise: String,
+        vessel_scales: Vec<f32>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let denoise: Denoise = denoise
+            .parse()
+            .map_err(|e: String| errors::usage(format!("denoise: {e}")))?;
+        let (request, wanted) = MapRequest::named(&maps, denoise, &vessel_scales)
+            .map_err(|e| errors::usage(e.to_string()))?;
         let computed = py.detach(|| -> PyResult<DerivedMaps> {
             let mut state = state::lock();
             let inner = self.inner.lock().unwrap_or_else(|p| p.into_inner());
@@ -407,14 +481,21 @@ impl Volume {
                 .map_err(|e| errors::Error::new_err(e.to_string()))?;
             out.set_item(name, array.into_pyarray(py))
         };
-        export("gradient", computed.gradient)?;
-        export("curvature", computed.curvature)?;
-        export("vesselness", computed.vesselness)?;
-        if request.brain {
-            let mask = computed.brain.unwrap_or_else(|| vec![0; x * y * z]);
-            let array = Array3::from_shape_vec((x, y, z).f(), mask)
-                .map_err(|e| errors::Error::new_err(e.to_string()))?;
-            out.set_item("brain", array.into_pyarray(py))?;
+        let mut computed = computed;
+        for name in wanted {
+            match name {
+                "normalized" => export(name, Some(std::mem::take(&mut computed.normalized)))?,
+                "gradient" => export(name, computed.gradient.take())?,
+                "curvature" => export(name, computed.curvature.take())?,
+                "vesselness" => export(name, computed.vesselness.take())?,
+                "denoised" => export(name, computed.denoised.take())?,
+                _ => {
+                    let mask = computed.brain.take().unwrap_or_else(|| vec![0; x * y * z]);
+                    let array = Array3::from_shape_vec((x, y, z).f(), mask)
+                        .map_err(|e| errors::Error::new_err(e.to_string()))?;
+                    out.set_item("brain", array.into_pyarray(py))?;
+                }
+            }
         }
         Ok(out)
     }

@@ -1,5 +1,5 @@
 """Brain extraction from Python (issue 27): render(brain="auto"|"on"|"off"), the head layer
-through the command line's names (tissues=[..., "head"], head_opacity, head_color),
+through the command line's names (tissues=[..., "head"], opacity={"head": ...}, color={"head": ...}),
 derive("brain") as a uint8 mask on the input grid, and brain_report()."""
 
 import numpy as np
@@ -63,8 +63,8 @@ def test_the_brain_switch_and_the_head_layer_change_the_picture(head):
     # Back to Auto after Off (the mask is computed again): the same picture as before.
     np.testing.assert_array_equal(head.render(size=size, jitter=False), auto)
     # The head layer alone, styled by hand: opaque red.
-    red = head.render(size=size, jitter=False, tissues=["head"], head_color=(1, 0, 0),
-                      head_opacity=1.0).astype(int)
+    red = head.render(size=size, jitter=False, tissues=["head"], color={"head": "#ff0000"},
+                      opacity={"head": 1.0}).astype(int)
     shown = (red[..., :3] > 24).any(axis=2)
     assert shown.sum() > lit(auto)
     assert (red[..., 0][shown] > 2 * red[..., 1][shown] + 10).mean() > 0.9
@@ -73,10 +73,10 @@ def test_the_brain_switch_and_the_head_layer_change_the_picture(head):
 def test_bad_brain_and_head_arguments_are_value_errors(head):
     with pytest.raises(ValueError, match="brain"):
         head.render(size=(8, 8), brain="maybe")
-    with pytest.raises(ValueError, match="head_opacity"):
-        head.render(size=(8, 8), head_opacity=2.0)
-    with pytest.raises(ValueError, match="head_color"):
-        head.render(size=(8, 8), head_color=(float("nan"), 0, 0))
+    with pytest.raises(ValueError, match="opacity"):
+        head.render(size=(8, 8), opacity={"head": 2.0})
+    with pytest.raises(ValueError, match="color"):
+        head.render(size=(8, 8), color={"head": (float("nan"), 0, 0)})
     with pytest.raises(ValueError, match="head"):
         head.render(size=(8, 8), tissues=["scalp"])
     with pytest.raises(ValueError, match="brain"):

@@ -42,7 +42,8 @@ def test_render_arguments_change_the_image(phantom):
     assert not np.array_equal(dvr, phantom.render(size=(48, 48), mode="mip", jitter=False))
     assert not np.array_equal(dvr, phantom.render(size=(48, 48), azimuth=90, jitter=False))
     assert not np.array_equal(dvr, phantom.render(size=(48, 48), tissues=["csf"], jitter=False))
-    white = phantom.render(size=(48, 48), background=(1, 1, 1), tissues=[], jitter=False)
+    with pytest.warns(UserWarning, match="only the background"):
+        white = phantom.render(size=(48, 48), background="#ffffff", tissues=[], jitter=False)
     assert (white[..., :3] == 255).all()
 
 
