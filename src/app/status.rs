@@ -3,8 +3,10 @@
 //! and errors.
 //!
 //! Decisions: the frame rate counts volume frames, frames whose raymarch ran (issue 16: counting
-//! interface frames read 60.8 FPS beside 1852 ms of GPU time per frame on a CPU device), over
-//! the last second of wall time (not 1 / last frame time, which jumps); GPU times are the last
+//! interface frames read 60.8 FPS beside 1852 ms of GPU time per frame on a CPU device), and of
+//! those only the ones presented: frames that finish together count once (issue 31: counting
+//! each read 12536 volume FPS beside 6.4 s frames), over the last second of wall time (not
+//! 1 / last frame time, which jumps); two records at the same instant give no rate. GPU times are the last
 //! complete volume frame's timestamp-query results, per pass, so a bar per pass shows where the
 //! time goes.
 
@@ -39,7 +41,8 @@ impl FrameRate {
     pub fn fps(&self) -> Option<f64> {
         let (first, last) = (self.times.front()?, self.times.back()?);
         let span = last.duration_since(*first).as_secs_f64();
-        (self.times.len() >= 2 && span > 0.0).then(|| (self.times.len() - 1) as f64 / span)
+        // Under a millisecond between the first and the last record is no measurement.
+        (self.times.len() >= 2 && span >= 1e-3).then(|| (self.times.len() - 1) as f64 / span)
     }
 }
 
@@ -173,6 +176,18 @@ mod tests {
         rate.frame(t0 + Duration::from_millis(3000));
         rate.frame(t0 + Duration::from_millis(3100));
         assert!((rate.fps().unwrap() - 10.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn frames_recorded_at_one_instant_claim_no_rate() {
+        // Two records 0.08 ms apart once read 12536 volume FPS beside 6.4 s frames.
+        let mut rate = FrameRate::default();
+        let t0 = Instant::now();
+        rate.frame(t0);
+        rate.frame(t0 + Duration::from_micros(80));
+        assert_eq!(rate.fps(), None);
+        rate.frame(t0 + Duration::from_millis(6400));
+        assert!(rate.fps().unwrap() < 1.0, "{:?}", rate.fps());
     }
 
     #[test]

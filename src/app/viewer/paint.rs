@@ -225,6 +225,7 @@ impl Viewer {
     /// Logs frames whose composition finished, and adds their times to the status bar.
     pub(super) fn flush_completed(&mut self) {
         let Some(gpu) = &mut self.gpu else { return };
+        let mut presented_volume = false;
         for done in gpu.painter.take_completed() {
             // A frame that raymarched reports its own raymarch; one that only recomposed keeps
             // the last raymarch's time on show.
@@ -232,10 +233,7 @@ impl Viewer {
             self.adaptive
                 .completed(done.serial, raymarch.map(|p| p.gpu_ms));
             let raymarched = raymarch.is_some();
-            if raymarched {
-                // The status bar's rate counts volume frames, not interface frames.
-                self.status.rate.frame(std::time::Instant::now());
-            }
+            presented_volume |= raymarched;
             let mut passes: Vec<(String, f64)> = self
                 .status
                 .passes
@@ -246,6 +244,13 @@ impl Viewer {
             passes.extend(done.passes.iter().map(|p| (p.name.clone(), p.gpu_ms)));
             self.status.passes = passes;
             self.log.completed(done.serial, done.passes);
+        }
+        if presented_volume {
+            // The status bar's rate counts volume frames the user saw, not interface frames
+            // nor frames that finished together (on a slow device several complete between two
+            // looks, and only the last is on screen: counting each read 12536 volume FPS
+            // beside 6.4 s frames).
+            self.status.rate.frame(std::time::Instant::now());
         }
     }
 
