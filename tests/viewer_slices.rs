@@ -379,3 +379,24 @@ fn the_overlay_shows_in_the_3d_view_and_its_switches_hide_it_there_too() {
     let (_, n) = Png::read(&shot).mean_x(rect(&layout_line(&o), "view"), green);
     assert_eq!(n, 0, "label 7 switched off in 3D");
 }
+
+/// Issue 31 item 1: the crosshair's world mm, voxel and value in the file's units are read out
+/// (status bar; the scripted log prints the same line): on the blob, its stored 1000.
+#[test]
+fn the_crosshair_reads_out_mm_voxel_and_value() {
+    let dir = temp_dir("readout");
+    let volume = head(&dir);
+    let script = format!("crosshair {} {} {}\nwait 1\n", BLOB[0], BLOB[1], BLOB[2]);
+    let o = view(&volume, &script, &dir.join("readout.png"), false);
+    let out = String::from_utf8_lossy(&o.stdout);
+    // The nearest voxel of the blob's centre (half-way cases round away from zero).
+    let index = |a: usize| ((DIMS[a] as f64 - 1.0) / 2.0 + BLOB[a]).round();
+    let voxel = format!("voxel {}, {}, {}", index(0), index(1), index(2));
+    let line = out
+        .lines()
+        .find(|l| l.contains("crosshair  L 8.0  A 7.0  S 6.0 mm"))
+        .unwrap_or_else(|| panic!("no readout of the blob in:\n{out}"));
+    assert!(line.contains(&voxel), "{line} (expected {voxel})");
+    assert!(line.ends_with("value 1000"), "{line}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

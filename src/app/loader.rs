@@ -69,6 +69,9 @@ pub struct LoadedVolume {
     pub warnings: Vec<String>,
     /// A host copy of the twin's brain mask, for the slices' outline (None without a mask).
     pub brain_outline: Option<Arc<BrainOutline>>,
+    /// The volume as read (stored samples and scaling), for the crosshair's value in the
+    /// scanner's units (`app::readout`): kept on the host as other viewers keep it.
+    pub host: Arc<crate::volume::Volume>,
 }
 
 /// Work for the thread.
@@ -365,9 +368,10 @@ impl Worker {
         }
         let brain_outline =
             outline_of(engine, opened.twin.derived()).map_err(|e| one_line(&e.to_string()))?;
+        let host = Arc::new(read.volume);
         Ok(Some(LoadedVolume {
             id,
-            warnings: read.volume.warnings.clone(),
+            warnings: host.warnings.clone(),
             label: read.label,
             source: input,
             series: read.series,
@@ -384,6 +388,7 @@ impl Worker {
             passes,
             requested_at,
             brain_outline,
+            host,
         }))
     }
 

@@ -11,6 +11,7 @@
 //! clip_panel.rs      crop sliders, one clip plane, colour map (edits Scene::clip/colormap)
 //! loader.rs          worker thread: opens volumes the library's way (plan, whole or bricked,
 //!                    analyse, derive), derives later effects (never the UI thread)
+//! readout.rs         the crosshair's mm, voxel and value in the scanner's units (HU for CT)
 //! script.rs          scripted actions for tests and demos
 //! frame_log.rs       per-frame passes and action -> first-frame latencies
 //! adaptive.rs        adaptive quality: coarser step/scale while interacting (--frame-budget)
@@ -43,6 +44,7 @@ pub mod frame_log;
 pub mod histogram;
 pub mod histogram_fit;
 pub mod loader;
+pub mod readout;
 pub mod script;
 pub mod slices_panel;
 pub mod status;

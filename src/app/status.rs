@@ -90,6 +90,8 @@ pub struct Status {
     /// What the volume was read as and where its windows come from (issue 28): modality,
     /// contrast, each with its basis, and the windows' source.
     pub identity: Option<String>,
+    /// The crosshair's position and the value there (`app::readout`).
+    pub readout: Option<String>,
 }
 
 /// The status bar's identity line of `report`: `MR (metadata) | T1 (metadata): ... | windows

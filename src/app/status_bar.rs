@@ -21,6 +21,9 @@ pub(super) fn status_bar(ui: &mut Ui, status: &Status) {
     if let Some(identity) = &status.identity {
         ui.label(RichText::new(identity.as_str()).small());
     }
+    if let Some(readout) = &status.readout {
+        ui.label(RichText::new(readout.as_str()).small().monospace());
+    }
     ui.horizontal(|ui| {
         ui.label(RichText::new(status.timing_text()).small());
         let shares = status.pass_shares();

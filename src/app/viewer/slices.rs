@@ -35,6 +35,17 @@ impl Viewer {
         };
         let prepared = &current.loaded.twin.prepared;
         let slices = &mut self.controls.slices;
+        let readout = slices.crosshair.map(|world| {
+            let ct = current.loaded.report.modality.modality == crate::analysis::Modality::Ct;
+            crate::app::readout::readout(&current.loaded.host, world, ct).text()
+        });
+        if readout != self.status.readout {
+            if let Some(line) = &readout {
+                // Scripted runs and tests read where the crosshair went and what is there.
+                self.log.say(line);
+            }
+            self.status.readout = readout;
+        }
         if slices.volume != current.loaded.id {
             match geometry_of(prepared) {
                 Ok(geometry) => slices.set_volume(current.loaded.id, geometry),
