@@ -225,6 +225,8 @@ fn the_viewer_shows_and_hides_the_vessel_channel_from_a_script() {
             .env("MORPHRAY_VALIDATION", "required")
             .args([
                 "view",
+                "--layout",
+                "3d",
                 "--offscreen",
                 volume.to_str().unwrap(),
                 "--size",

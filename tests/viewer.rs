@@ -429,12 +429,20 @@ fn view_within(args: &[&str], window: bool, limit: std::time::Duration) -> Outpu
     let bin = env!("CARGO_BIN_EXE_morphray");
     let mut command = if window {
         let mut c = Command::new(xvfb_run());
-        c.args(["-a", "-s", "-screen 0 1280x1024x24", bin, "view"]);
+        c.args([
+            "-a",
+            "-s",
+            "-screen 0 1280x1024x24",
+            bin,
+            "view",
+            "--layout",
+            "3d",
+        ]);
         c
     } else {
         let mut c = Command::new(bin);
         c.env_remove("DISPLAY").env_remove("WAYLAND_DISPLAY");
-        c.arg("view");
+        c.args(["view", "--layout", "3d"]);
         c
     };
     let mut child = command

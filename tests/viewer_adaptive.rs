@@ -49,7 +49,7 @@ fn view(volume: &Path, script: &Path, budget: &str) -> String {
     let o: Output = Command::new("timeout")
         .arg("600")
         .arg(env!("CARGO_BIN_EXE_morphray"))
-        .arg("view")
+        .args(["view", "--layout", "3d"])
         .arg(volume)
         .args(["--offscreen", "--size", "480x360", "--frames", "1"])
         .arg("--script")
@@ -217,7 +217,15 @@ fn a_budget_that_is_not_a_time_is_a_usage_error() {
         "--frame-budget=nan",
     ] {
         let o = Command::new(env!("CARGO_BIN_EXE_morphray"))
-            .args(["view", "--offscreen", "--frames", "1", budget])
+            .args([
+                "view",
+                "--layout",
+                "3d",
+                "--offscreen",
+                "--frames",
+                "1",
+                budget,
+            ])
             .output()
             .unwrap();
         let stderr = String::from_utf8_lossy(&o.stderr);

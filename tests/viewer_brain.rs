@@ -138,7 +138,13 @@ fn brain_and_head_switches_change_the_picture_the_outline_and_only_recompute_whe
     let o = Command::new(env!("CARGO_BIN_EXE_morphray"))
         .env_remove("DISPLAY")
         .env_remove("WAYLAND_DISPLAY")
-        .args(["view", "--offscreen", volume.to_str().unwrap()])
+        .args([
+            "view",
+            "--layout",
+            "3d",
+            "--offscreen",
+            volume.to_str().unwrap(),
+        ])
         .args(["--size", "720x440", "--frames", "2"])
         .args(["--script", script_path.to_str().unwrap()])
         .env("MORPHRAY_VALIDATION", "required")

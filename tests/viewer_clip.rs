@@ -30,7 +30,7 @@ fn view_under_xvfb(args: &[&str]) -> Output {
     let o = Command::new("timeout")
         .args(["600", "xvfb-run", "-a", "-s", "-screen 0 1280x1024x24"])
         .arg(env!("CARGO_BIN_EXE_morphray"))
-        .arg("view")
+        .args(["view", "--layout", "3d"])
         .args(args)
         .env("MORPHRAY_VALIDATION", "required")
         .output()
@@ -328,7 +328,13 @@ fn save_3d_view_writes_the_volume_alone_at_the_size_asked() {
     )
     .unwrap();
     let o = Command::new(env!("CARGO_BIN_EXE_morphray"))
-        .args(["view", volume.to_str().unwrap(), "--script"])
+        .args([
+            "view",
+            "--layout",
+            "3d",
+            volume.to_str().unwrap(),
+            "--script",
+        ])
         .arg(&script)
         .output()
         .unwrap();

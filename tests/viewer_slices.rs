@@ -78,12 +78,20 @@ fn view_with(volume: &Path, script: &str, shot: &Path, window: bool, extra: &[&s
             "this test needs xvfb-run (Debian: apt-get install xvfb xauth)"
         );
         let mut c = Command::new("xvfb-run");
-        c.args(["-a", "-s", "-screen 0 1280x1024x24", bin, "view"]);
+        c.args([
+            "-a",
+            "-s",
+            "-screen 0 1280x1024x24",
+            bin,
+            "view",
+            "--layout",
+            "3d",
+        ]);
         c
     } else {
         let mut c = Command::new(bin);
         c.env_remove("DISPLAY").env_remove("WAYLAND_DISPLAY");
-        c.args(["view", "--offscreen"]);
+        c.args(["view", "--layout", "3d", "--offscreen"]);
         c
     };
     let o = command
@@ -398,5 +406,36 @@ fn the_crosshair_reads_out_mm_voxel_and_value() {
         .unwrap_or_else(|| panic!("no readout of the blob in:\n{out}"));
     assert!(line.contains(&voxel), "{line} (expected {voxel})");
     assert!(line.ends_with("value 1000"), "{line}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Issue 31 item 7: `morphray view` opens on 3D + slices (the readout's crosshair on show);
+/// `--layout 3d` asks for the 3D view alone.
+#[test]
+fn the_viewer_opens_on_3d_and_slices() {
+    let dir = temp_dir("first-layout");
+    let volume = head(&dir);
+    let run = |extra: &[&str]| {
+        let o = Command::new(env!("CARGO_BIN_EXE_morphray"))
+            .env_remove("DISPLAY")
+            .env_remove("WAYLAND_DISPLAY")
+            .args([
+                "view",
+                "--offscreen",
+                volume.to_str().unwrap(),
+                "--frames",
+                "3",
+            ])
+            .args(["--size", "800x500"])
+            .args(extra)
+            .output()
+            .expect("morphray runs");
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        layout_line(&o)
+    };
+    let first = run(&[]);
+    assert_eq!(word(&first, "slices"), "slices", "{first}");
+    let alone = run(&["--layout", "3d"]);
+    assert_eq!(word(&alone, "slices"), "3d", "{alone}");
     let _ = std::fs::remove_dir_all(&dir);
 }

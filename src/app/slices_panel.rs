@@ -29,7 +29,8 @@ pub enum Layout {
     /// The 3D view alone.
     #[default]
     ThreeD,
-    /// The 3D view and the three slices in a column.
+    /// The 3D view and the three slices in a column: `morphray view`'s first view (as in
+    /// FSLeyes, NiiVue and MRIcroGL; issue 31 item 7), with the crosshair's readout below.
     ThreeDAndSlices,
     /// One slice large beside a small 3D view.
     One(Plane),

@@ -396,6 +396,12 @@ pub struct ViewArgs {
     // The literal is app::adaptive::DEFAULT_BUDGET_MS (app exists only with the viewer feature).
     #[arg(long, value_name = "MS", default_value_t = 16.7, value_parser = parse_budget)]
     pub frame_budget: f64,
+    /// The first layout: slices (3D + axial, coronal and sagittal slices with the crosshair's
+    /// readout), 3d (the 3D view alone), or one slice large (axial, coronal, sagittal).
+    ///
+    /// `V` or the buttons at the view's top left switch it later.
+    #[arg(long, default_value = "slices", value_parser = ["slices", "3d", "axial", "coronal", "sagittal"])]
+    pub layout: String,
     /// Initial scene (--size is the window size, default 1280x800).
     #[command(flatten)]
     pub scene: SceneArgs,

@@ -88,6 +88,8 @@ pub fn run(args: &ViewArgs, global: &super::GlobalOptions) -> Result<(), super::
         overlay,
         frame: args.frame,
         frame_budget_ms: args.frame_budget,
+        layout: crate::app::slices_panel::Layout::parse(&args.layout)
+            .unwrap_or(crate::app::slices_panel::Layout::ThreeDAndSlices),
     };
     crate::app::run(config, args.offscreen, fail_on_validation)?;
     Ok(())

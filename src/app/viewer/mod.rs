@@ -106,6 +106,8 @@ pub struct ViewerConfig {
     pub frame: usize,
     /// Raymarch time budget while interacting, ms (`--frame-budget`; 0: always full quality).
     pub frame_budget_ms: f64,
+    /// The first layout (`--layout`; 3D + slices by default).
+    pub layout: crate::app::slices_panel::Layout,
 }
 
 /// One device's GPU objects; dropped and rebuilt after a device loss.
@@ -278,6 +280,7 @@ impl Viewer {
         let empty = crate::analysis::analyze(&[0; 256], 0.0, 0.0, 0, 0);
         let scene = config.recipe.scene_for(&empty);
         let mut controls = Controls::new(scene);
+        controls.slices.layout = config.layout;
         controls.windows = match config.recipe.windows {
             WindowSet::Adaptive => ui::WindowSource::Adaptive,
             WindowSet::Paper => ui::WindowSource::Paper,
