@@ -8,6 +8,7 @@
 #          the host work of the other shard overlaps);
 #   two    two shards at once, one per GPU (--device 0, --device 1).
 # "two" against "same" is what the second GPU adds; "two" against "one" the whole gain.
+# SHARDS=4 runs four shards instead of two (same: all on GPU 0; two: shards alternate GPUs).
 # Build here: cargo build --release; mkdir -p .gpu; cp target/release/morphray .gpu/;
 #   strip .gpu/morphray; then run(kind="nvidia-h200-x2", command="bash benches/device-two-gpus.sh",
 #   carry=[".gl", ".gpu"]).
@@ -32,24 +33,27 @@ batch() { # OUTDIR ARGS...
     shift
     $M batch "$W/bids" "$out" participant "$@" > "$out.log" 2>&1
 }
+shards=${SHARDS:-2}
 timed() { # NAME RUN: prints wall seconds and scans/s
-    local name=$1 run=$2 start end
+    local name=$1 run=$2 start end s
     rm -rf "$W/o-$name-$run"*
     start=$(date +%s.%N)
     case $name in
         one) batch "$W/o-one-$run" --device 0 ;;
-        same) batch "$W/o-same-$run-a" --device 0 --shard 0/2 &
-              batch "$W/o-same-$run-b" --device 0 --shard 1/2; wait ;;
-        two) batch "$W/o-two-$run-a" --device 0 --shard 0/2 &
-             batch "$W/o-two-$run-b" --device 1 --shard 1/2; wait ;;
+        same) for s in $(seq 0 $((shards - 1))); do
+                  batch "$W/o-same-$run-$s" --device 0 --shard "$s/$shards" &
+              done; wait ;;
+        two) for s in $(seq 0 $((shards - 1))); do
+                 batch "$W/o-two-$run-$s" --device $((s % 2)) --shard "$s/$shards" &
+             done; wait ;;
     esac
     end=$(date +%s.%N)
     local ok
     ok=$(cat "$W"/o-"$name"-"$run"*/logs/participant_shard-*.jsonl 2>/dev/null | grep -c '"status":"ok"')
-    python3 -c "import sys; n,s,e=int(sys.argv[1]),float(sys.argv[2]),float(sys.argv[3]); print(f'$name run $run: {n} scans ok in {e-s:.2f} s: {n/(e-s):.2f} scans/s')" \
+    python3 -c "import sys; n,s,e=int(sys.argv[1]),float(sys.argv[2]),float(sys.argv[3]); print(f'$name ($shards shards) run $run: {n} scans ok in {e-s:.2f} s: {n/(e-s):.2f} scans/s')" \
         "$ok" "$start" "$end" | tee -a "$OUT/two-gpus.txt"
 }
 for run in 1 2 3; do
     for name in one same two; do timed "$name" "$run"; done
 done
-tail -n 3 "$W"/o-two-1-*.log >> "$OUT/two-gpus.txt"
+tail -n 3 "$W"/o-two-1-0.log >> "$OUT/two-gpus.txt"
