@@ -45,6 +45,12 @@ pub enum NormalizeMode {
     Robust,
     /// The paper's eq. 1: the finite minimum and maximum (the paper-literal preset).
     MinMax,
+    /// The robust rule with the foreground's 99.99th percentile as the high end
+    /// ([`PROJECTION_HIGH_PERCENTILE`]): what MIP and MinIP get in place of `Robust`
+    /// ([`NormalizeMode::for_projection`]). A projection shows each ray's brightest voxel, so
+    /// the brightest 0.5 % (a TOF angiogram's vessels) must stay graded instead of clipping
+    /// to white (issue 32 item 5: 42 % of a TOF MIP's foreground pixels were saturated).
+    RobustProjection,
 }
 
 impl NormalizeMode {
@@ -53,6 +59,24 @@ impl NormalizeMode {
         match self {
             NormalizeMode::Robust => "robust",
             NormalizeMode::MinMax => "minmax",
+            NormalizeMode::RobustProjection => "robust (projection: P99.99)",
+        }
+    }
+
+    /// The mode a scene of `projection` (MIP or MinIP) uses: `Robust` becomes
+    /// `RobustProjection`; `MinMax` stays.
+    pub fn for_projection(self, projection: bool) -> NormalizeMode {
+        match self {
+            NormalizeMode::Robust if projection => NormalizeMode::RobustProjection,
+            other => other,
+        }
+    }
+
+    /// The foreground percentile the high end is read at (robust modes).
+    pub fn high_percentile(self) -> f64 {
+        match self {
+            NormalizeMode::RobustProjection => PROJECTION_HIGH_PERCENTILE,
+            _ => HIGH_PERCENTILE,
         }
     }
 }
@@ -61,6 +85,9 @@ impl NormalizeMode {
 pub const LOW_PERCENTILE: f64 = 0.5;
 /// High end: this percentile of the foreground voxels.
 pub const HIGH_PERCENTILE: f64 = 99.5;
+/// High end for MIP and MinIP ([`NormalizeMode::RobustProjection`]): still above a handful of
+/// hot voxels (0.01 % of a 256^3 head's foreground is ~800 voxels), far above the bright 0.5 %.
+pub const PROJECTION_HIGH_PERCENTILE: f64 = 99.99;
 /// The range ends this fraction of its width above the high percentile (see the module doc).
 pub const HEADROOM: f64 = 0.1;
 /// Background threshold: `P_BACKGROUND_LOW + BACKGROUND_FRACTION (P_BACKGROUND_HIGH - ..)`.
@@ -168,14 +195,29 @@ pub fn background_threshold(p_low: f64, p_high: f64) -> f64 {
 
 /// 1-based rank (among all `n` voxels) of the high percentile of the `foreground` top voxels.
 pub fn high_rank(n: u64, foreground: u64) -> u64 {
+    high_rank_at(n, foreground, HIGH_PERCENTILE)
+}
+
+/// [`high_rank`] at the `percent` percentile.
+pub fn high_rank_at(n: u64, foreground: u64, percent: f64) -> u64 {
     let foreground = foreground.clamp(1, n.max(1));
-    (n - foreground) + percentile_rank(foreground, HIGH_PERCENTILE)
+    (n - foreground) + percentile_rank(foreground, percent)
 }
 
 /// One step of the estimator: the percentiles from pass `pass` (1-based) over `h`, either
 /// final or the interval the next pass should cover. `data` is the finite min/max (the
 /// fallback). `None` when `h` counts no voxel.
 pub fn robust_step(h: &RangeHistogram, pass: usize, data: (f64, f64)) -> Option<RobustStep> {
+    robust_step_at(h, pass, data, HIGH_PERCENTILE)
+}
+
+/// [`robust_step`] with the high end at the foreground's `high_percent` percentile.
+pub fn robust_step_at(
+    h: &RangeHistogram,
+    pass: usize,
+    data: (f64, f64),
+    high_percent: f64,
+) -> Option<RobustStep> {
     let n = h.total();
     if n == 0 {
         return None;
@@ -183,7 +225,7 @@ pub fn robust_step(h: &RangeHistogram, pass: usize, data: (f64, f64)) -> Option<
     let value = |percent: f64| at_rank(h, percentile_rank(n, percent));
     let (lo_bin, lo) = value(LOW_PERCENTILE);
     let t = background_threshold(value(P_BACKGROUND_LOW).1, value(P_BACKGROUND_HIGH).1);
-    let (hi_bin, hi) = at_rank(h, high_rank(n, count_at_least(h, t)));
+    let (hi_bin, hi) = at_rank(h, high_rank_at(n, count_at_least(h, t), high_percent));
     let resolved = match (lo_bin, hi_bin) {
         (Some(a), Some(b)) => b + 1 - a.min(b) >= MIN_SPAN_BINS,
         _ => true,

@@ -57,7 +57,8 @@ fn identity<'a>(v: &'a Volume, global: &super::GlobalOptions) -> Identity<'a> {
         };
     }
     let range = match global.normalize {
-        crate::analysis::NormalizeMode::Robust => {
+        crate::analysis::NormalizeMode::Robust
+        | crate::analysis::NormalizeMode::RobustProjection => {
             crate::analysis::range::exact_robust_range(&v.samples, v.to_physical)
                 .map(|r| (r.lo, r.hi))
         }

@@ -333,6 +333,17 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
     let chosen = recipe_from_args(&scene_args)?.preset_for(&opened.report);
     let preset = chosen.label(&opened.report);
     print_line(&format!("preset: {preset} ({})", chosen.summary()));
+    if !classified {
+        // What the projection's grey levels span (issue 32 item 5): the robust range of a
+        // projection ends at the 99.99th percentile, so the brightest structures stay graded.
+        let r = &opened.report;
+        print_line(&format!(
+            "range: {} {:.4}..{:.4} (I_norm 0..1; `--normalize minmax` for the full range)",
+            r.range.mode.name(),
+            r.imin,
+            r.imax
+        ));
+    }
     let (width, height) = args.scene.size.unwrap_or((1024, 1024));
     let mut target = opened
         .engine

@@ -341,7 +341,7 @@ impl Engine {
             budget: self.memory_budget(),
             occupied_fraction,
             force_bricking: self.config.force_bricking,
-            robust_range: self.config.normalize == crate::analysis::NormalizeMode::Robust,
+            robust_range: self.config.normalize != crate::analysis::NormalizeMode::MinMax,
             denoise: crate::passes::denoise::Denoise::None,
             spacing_mm: [1.0; 3],
         }

@@ -102,7 +102,26 @@ impl Engine {
 
     /// [`Engine::open_volume`] with the first plan made by the caller: `first` is
     /// `self.plan(recipe.effects, volume, image, 1.0)` (its time is the caller's).
+    ///
+    /// A MIP or MinIP recipe is normalized with the projection's robust range
+    /// (`NormalizeMode::for_projection`: the brightest voxels stay graded).
     pub fn open_planned(
+        &mut self,
+        volume: &Volume,
+        image: [u32; 2],
+        recipe: &SceneRecipe,
+        first: Result<Plan, DoesNotFit>,
+    ) -> Result<OpenedVolume, OpenError> {
+        let configured = self.config.normalize;
+        let projection = recipe.effects.mode != crate::scene::RenderMode::Dvr;
+        self.config.normalize = configured.for_projection(projection);
+        let opened = self.open_planned_normalized(volume, image, recipe, first);
+        self.config.normalize = configured;
+        opened
+    }
+
+    /// [`Engine::open_planned`] with the normalization mode already chosen.
+    fn open_planned_normalized(
         &mut self,
         volume: &Volume,
         image: [u32; 2],

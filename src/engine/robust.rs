@@ -8,7 +8,7 @@
 
 use super::Engine;
 use super::readback::read_buffer;
-use crate::analysis::range::{RobustStep, finish, robust_step};
+use crate::analysis::range::{RobustStep, finish, robust_step_at};
 use crate::analysis::{NormalizeMode, RangeChoice, RobustRange};
 use crate::gpu::{Access, Buffer, BufferDesc, GpuResult, PassTiming, Recording};
 use crate::passes::fine_histogram::{RESULT_BYTES, decode};
@@ -48,7 +48,15 @@ impl Engine {
         }
         let kind = volume.samples.kind();
         let data = (data_min, data_max);
-        let found = self.robust_range(kind, samples, volume.to_physical, &minmax, data, timings)?;
+        let high = self.config.normalize.high_percentile();
+        let found = self.robust_range(
+            kind,
+            samples,
+            volume.to_physical,
+            &minmax,
+            (data, high),
+            timings,
+        )?;
         let Some(range) = found else {
             return Ok((minmax, choice));
         };
@@ -67,7 +75,7 @@ impl Engine {
         samples: &Arc<Buffer>,
         to_physical: LinearMap,
         minmax: &Normalization,
-        data: (f64, f64),
+        (data, high_percent): ((f64, f64), f64),
         timings: &mut Vec<PassTiming>,
     ) -> GpuResult<Option<RobustRange>> {
         let device = self.device.clone();
@@ -93,7 +101,7 @@ impl Engine {
             rec.end_pass();
             timings.extend(rec.submit()?.wait()?);
             read_buffer(&device, &counts, Access::ComputeWriteBuffer, &mut bytes)?;
-            match robust_step(&decode(&bytes, lo, hi), pass, data) {
+            match robust_step_at(&decode(&bytes, lo, hi), pass, data, high_percent) {
                 None => return Ok(None),
                 Some(RobustStep::Done(range)) => return Ok(Some(range)),
                 Some(RobustStep::Refine { lo, hi }) => {
@@ -133,7 +141,7 @@ pub(crate) fn host_normalization(
     let mut range = None;
     for pass in 1..=crate::analysis::range::MAX_PASSES {
         let h = fine_histogram(&volume.samples, volume.to_physical, lo, hi);
-        match robust_step(&h, pass, data) {
+        match robust_step_at(&h, pass, data, mode.high_percentile()) {
             None => break,
             Some(RobustStep::Done(found)) => {
                 range = Some(found);
