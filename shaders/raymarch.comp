@@ -28,6 +28,13 @@
 // only resident bricks (with halos) in atlases, and every fetch goes through the brick table
 // (sampling.glsl).
 //
+// Classification table (CLASSIFY_TABLE; issue 33 item 1): the tissue and head windows come
+// from one linear lookup each in a 4096-entry table of their opacity-weighted sums, built on the
+// host when the classification changes, instead of two smoothsteps per window per sample; the
+// brain mask, vessels and the division stay per sample (classification.glsl). An approximation
+// of the windows (<= 1.1e-4 of f at a 0.01 edge), measured by the accuracy study; twin:
+// scene::transfer_table.
+//
 // Vessels (VESSELS): the vessel channel is one more classification term, its window on the
 // multi-scale vesselness sampled like the derived volumes (classification.glsl); the f64 twin
 // takes the same vesselness volume (ReferenceRaymarch::with_vesselness).
@@ -62,6 +69,7 @@ layout(constant_id = 9) const bool LABELS = false;        // a label overlay dra
 layout(constant_id = 10) const bool VESSELS = false;      // the vessel channel (classification.glsl)
 layout(constant_id = 11) const bool LONG_STEPS = false;   // longer steps in bricks of low opacity bound
 layout(constant_id = 12) const bool BRAIN = false;        // tissues inside the brain mask, the head layer outside
+layout(constant_id = 13) const bool CLASSIFY_TABLE = false; // tissue windows from the transfer-function table
 
 layout(set = 0, binding = 0) uniform sampler3D volume;          // I_norm, trilinear
 layout(set = 0, binding = 1) uniform sampler3D gradient_volume; // .r |g|, .g k (scaled, see derived_scale)
@@ -121,6 +129,11 @@ layout(set = 0, binding = 7, std430) readonly buffer BrickTable { uint slots[]; 
 // per mm (LABELS only; labels.glsl).
 layout(set = 0, binding = 8, std430) readonly buffer LabelValues { uint words[]; } label_values;
 layout(set = 0, binding = 9, std430) readonly buffer LabelColours { uint rgba[]; } label_colours;
+
+// The transfer-function table (CLASSIFY_TABLE only; src/scene/transfer_table.rs): 4096 entries
+// of the tissues' opacity-weighted sums (rgb: colour sum, a: weight sum) at v = i / 4095, then
+// 4096 of the head layer's.
+layout(set = 0, binding = 12, std430) readonly buffer TransferTable { vec4 entries[]; } transfer_table;
 
 #include "geometry.glsl"
 #include "clip.glsl"

@@ -15,6 +15,7 @@ pub mod overlay;
 pub mod preset;
 pub mod recipe;
 pub mod slice;
+pub mod transfer_table;
 pub mod uniforms;
 pub mod variant;
 pub mod views;
@@ -98,6 +99,16 @@ pub enum OpacityCorrection {
     Naive,
 }
 
+/// How a sample's tissue windows are evaluated (issue 33 item 1).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ClassificationLookup {
+    /// Every window's two smoothsteps per sample (paper eq. 4 as written).
+    Exact,
+    /// One linear lookup in a 4096-entry table of the window sums (`transfer_table`).
+    Table,
+}
+
 /// The quality knobs: what accuracy costs in time (the accuracy study varies each).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
 pub struct Quality {
@@ -115,6 +126,8 @@ pub struct Quality {
     pub empty_space_skipping: bool,
     /// Longer steps in bricks of low opacity bound (needs skipping; off by default).
     pub long_steps: occupancy::LongSteps,
+    /// Tissue windows per sample or from the transfer-function table.
+    pub classification: ClassificationLookup,
 }
 
 impl Default for Quality {
@@ -133,6 +146,7 @@ impl Default for Quality {
             opacity_correction: OpacityCorrection::Exact,
             empty_space_skipping: true,
             long_steps: occupancy::LongSteps::OFF,
+            classification: ClassificationLookup::Exact,
         }
     }
 }
