@@ -299,7 +299,7 @@ fn the_classification_table_matches_its_twin_and_the_exact_windows() {
     let (w, h) = (61, 47);
     for shading in [false, true] {
         let p = prepare(&mut engine, &volume, |s| s.effects.shading = shading);
-        let mut table = p.scene.clone();
+        let mut table = p.scene;
         table.effects.quality.classification = ClassificationLookup::Table;
         let label = if shading { "table, shaded" } else { "table" };
         let gpu_table = gpu_render(&mut engine, &p, &table, w, h);
