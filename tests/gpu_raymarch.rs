@@ -299,13 +299,14 @@ fn the_classification_table_matches_its_twin_and_the_exact_windows() {
     let (w, h) = (61, 47);
     for shading in [false, true] {
         let p = prepare(&mut engine, &volume, |s| s.effects.shading = shading);
-        let mut table = p.scene;
+        let (mut table, mut exact) = (p.scene, p.scene);
         table.effects.quality.classification = ClassificationLookup::Table;
+        exact.effects.quality.classification = ClassificationLookup::Exact;
         let label = if shading { "table, shaded" } else { "table" };
         let gpu_table = gpu_render(&mut engine, &p, &table, w, h);
         let cpu_table = reference(&engine, &p, &table, w, h);
         assert_close(label, &gpu_table, &cpu_table, 40.0, 0.02, 0.25);
-        let gpu_exact = gpu_render(&mut engine, &p, &p.scene, w, h);
+        let gpu_exact = gpu_render(&mut engine, &p, &exact, w, h);
         assert_close(
             &format!("{label} vs exact (GPU)"),
             &gpu_table,
@@ -318,7 +319,7 @@ fn the_classification_table_matches_its_twin_and_the_exact_windows() {
             gpu_table != gpu_exact,
             "{label}: the table variant did not run"
         );
-        let cpu_exact = reference(&engine, &p, &p.scene, w, h);
+        let cpu_exact = reference(&engine, &p, &exact, w, h);
         assert_close(
             &format!("{label} vs exact (twin)"),
             &cpu_table,

@@ -67,8 +67,8 @@ pub(super) fn settings() -> Vec<Setting> {
         s("no empty-space skipping", "empty-space skipping", |x| {
             x.effects.quality.empty_space_skipping = false
         }),
-        s("classification table", "classification", |x| {
-            x.effects.quality.classification = ClassificationLookup::Table
+        s("exact classification", "classification", |x| {
+            x.effects.quality.classification = ClassificationLookup::Exact
         }),
     ];
     // Long steps in bricks of low opacity bound (issue 17 item 2): (factor, threshold in 1e-4).

@@ -26,6 +26,9 @@ use super::classification::{Classification, render_weight};
 /// Entries per half of the table (tissues, head layer).
 pub const TABLE_ENTRIES: usize = 4096;
 
+/// The I_norm distance between neighbouring entries.
+pub const ENTRY_SPACING: f64 = 1.0 / (TABLE_ENTRIES - 1) as f64;
+
 /// Bytes of the GPU table: two halves of `vec4`s.
 pub const TABLE_BYTES: u64 = (2 * TABLE_ENTRIES * 16) as u64;
 
