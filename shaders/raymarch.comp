@@ -28,6 +28,13 @@
 // only resident bricks (with halos) in atlases, and every fetch goes through the brick table
 // (sampling.glsl).
 //
+// Classification table (CLASSIFY_TABLE; issue 33 item 1): the tissue and head windows come
+// from one linear lookup each in a 4096-entry table of their opacity-weighted sums, built on the
+// host when the classification changes, instead of two smoothsteps per window per sample; the
+// brain mask, vessels and the division stay per sample (classification.glsl). An approximation
+// of the windows (<= 1.1e-4 of f at a 0.01 edge), measured by the accuracy study; twin:
+// scene::transfer_table.
+//
 // Vessels (VESSELS): the vessel channel is one more classification term, its window on the
 // multi-scale vesselness sampled like the derived volumes (classification.glsl); the f64 twin
 // takes the same vesselness volume (ReferenceRaymarch::with_vesselness).
@@ -62,6 +69,7 @@ layout(constant_id = 9) const bool LABELS = false;        // a label overlay dra
 layout(constant_id = 10) const bool VESSELS = false;      // the vessel channel (classification.glsl)
 layout(constant_id = 11) const bool LONG_STEPS = false;   // longer steps in bricks of low opacity bound
 layout(constant_id = 12) const bool BRAIN = false;        // tissues inside the brain mask, the head layer outside
+layout(constant_id = 13) const bool CLASSIFY_TABLE = false; // tissue windows from the transfer-function table
 
 layout(set = 0, binding = 0) uniform sampler3D volume;          // I_norm, trilinear
 layout(set = 0, binding = 1) uniform sampler3D gradient_volume; // .r |g|, .g k (scaled, see derived_scale)
@@ -122,6 +130,11 @@ layout(set = 0, binding = 7, std430) readonly buffer BrickTable { uint slots[]; 
 layout(set = 0, binding = 8, std430) readonly buffer LabelValues { uint words[]; } label_values;
 layout(set = 0, binding = 9, std430) readonly buffer LabelColours { uint rgba[]; } label_colours;
 
+// The transfer-function table (CLASSIFY_TABLE only; src/scene/transfer_table.rs): 4096 entries
+// of the tissues' opacity-weighted sums (rgb: colour sum, a: weight sum) at v = i / 4095, then
+// 4096 of the head layer's.
+layout(set = 0, binding = 12, std430) readonly buffer TransferTable { vec4 entries[]; } transfer_table;
+
 #include "geometry.glsl"
 #include "clip.glsl"
 #include "colormap.glsl"
@@ -139,13 +152,20 @@ const uint MODE_MINIP = 2u;
 // Headlight Phong: ambient + diffuse on |n . l| (two-sided) + a white highlight, clamped to 1 so
 // a sample never emits more than white (early termination then changes no pixel by more than
 // 1 - threshold). Without a reliable normal (|n| tiny: flat regions) the sample keeps its colour.
+// Lean (issue 33 item 1): ndl^24 by four squarings and one product instead of pow() (which
+// drivers expand to exp2(24 log2 ndl): two transcendental polynomials on a CPU device), and one
+// inversesqrt instead of length() and a vector division; the same function to f32 rounding.
 vec3 shade(vec3 colour, vec3 normal, vec3 view_direction) {
-    float len = length(normal);
-    if (len < 1e-3) {
+    float len2 = dot(normal, normal);
+    if (len2 < 1e-6) {
         return colour;
     }
-    float ndl = abs(dot(normal / len, view_direction));
-    return min(colour * (0.35 + 0.65 * ndl) + vec3(0.25 * pow(ndl, 24.0)), vec3(1.0));
+    float ndl = abs(dot(normal, view_direction)) * inversesqrt(len2);
+    float n2 = ndl * ndl;
+    float n4 = n2 * n2;
+    float n8 = n4 * n4;
+    float n24 = n8 * n8 * n8;
+    return min(colour * (0.35 + 0.65 * ndl) + vec3(0.25 * n24), vec3(1.0));
 }
 
 void count_samples(uint marched, uint classified) {

@@ -13,18 +13,40 @@ float window_weight(float v, vec4 window) {
 // the brain mask at the sample (1 without one): the tissues weigh `brain`, the head layer
 // (params.head_window / head_colour, opacity 0 when hidden) `1 - brain` (twin:
 // Classification::classify_masked).
+// One half of the transfer-function table at v (CLASSIFY_TABLE): half 0 the tissues' sums,
+// half 1 the head layer's, linearly interpolated between entries (twin: TransferTable::lookup).
+const uint TABLE_ENTRIES = 4096u;
+
+vec4 table_sums(uint half_index, float v) {
+    float x = clamp(v, 0.0, 1.0) * float(TABLE_ENTRIES - 1u);
+    uint i = min(uint(x), TABLE_ENTRIES - 2u);
+    uint base = half_index * TABLE_ENTRIES + i;
+    return mix(transfer_table.entries[base], transfer_table.entries[base + 1u], x - float(i));
+}
+
 vec4 classify_sums(float v, float vessel_weight, float brain) {
     float total = vessel_weight;
     vec3 colour = vessel_weight * params.vessel_colour.rgb;
-    for (int t = 0; t < 4; t++) {
-        float w = brain * window_weight(v, params.windows[t]) * params.colours[t].a;
-        total += w;
-        colour += w * params.colours[t].rgb;
-    }
-    if (BRAIN) {
-        float w = (1.0 - brain) * window_weight(v, params.head_window) * params.head_colour.a;
-        total += w;
-        colour += w * params.head_colour.rgb;
+    if (CLASSIFY_TABLE) {
+        vec4 tissue = table_sums(0u, v);
+        total += brain * tissue.a;
+        colour += brain * tissue.rgb;
+        if (BRAIN) {
+            vec4 head = table_sums(1u, v);
+            total += (1.0 - brain) * head.a;
+            colour += (1.0 - brain) * head.rgb;
+        }
+    } else {
+        for (int t = 0; t < 4; t++) {
+            float w = brain * window_weight(v, params.windows[t]) * params.colours[t].a;
+            total += w;
+            colour += w * params.colours[t].rgb;
+        }
+        if (BRAIN) {
+            float w = (1.0 - brain) * window_weight(v, params.head_window) * params.head_colour.a;
+            total += w;
+            colour += w * params.head_colour.rgb;
+        }
     }
     if (total <= 0.0) {
         return vec4(0.0);

@@ -2,8 +2,8 @@
 //! default (see the study's method in `accuracy.rs`).
 
 use crate::scene::{
-    CurvatureSource, DerivedPrecision, GradientFilter, GradientSource, Interpolation,
-    OpacityCorrection, Scene,
+    ClassificationLookup, CurvatureSource, DerivedPrecision, GradientFilter, GradientSource,
+    Interpolation, OpacityCorrection, Scene,
 };
 use ash::vk;
 
@@ -66,6 +66,9 @@ pub(super) fn settings() -> Vec<Setting> {
         }),
         s("no empty-space skipping", "empty-space skipping", |x| {
             x.effects.quality.empty_space_skipping = false
+        }),
+        s("exact classification", "classification", |x| {
+            x.effects.quality.classification = ClassificationLookup::Exact
         }),
     ];
     // Long steps in bricks of low opacity bound (issue 17 item 2): (factor, threshold in 1e-4).

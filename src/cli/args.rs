@@ -7,7 +7,8 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 use std::path::PathBuf;
 
 pub use super::scene_args::{
-    GradientArg, ModeArg, PrecisionArg, ProjectionArg, SceneArgs, Switch, WindowsArg,
+    ClassificationArg, GradientArg, ModeArg, PrecisionArg, ProjectionArg, SceneArgs, Switch,
+    WindowsArg,
 };
 
 /// morphray: GPU volume rendering of MRI scans (NIfTI) on Vulkan.

@@ -19,7 +19,8 @@
 //!   and the fallback when there was one.
 
 use super::args::{
-    GradientArg, ModeArg, PrecisionArg, ProjectionArg, RenderArgs, SceneArgs, Switch, WindowsArg,
+    ClassificationArg, GradientArg, ModeArg, PrecisionArg, ProjectionArg, RenderArgs, SceneArgs,
+    Switch, WindowsArg,
 };
 use super::output::{ms, print_line, print_warnings};
 use super::scene_args::Channel;
@@ -146,6 +147,10 @@ pub fn recipe_from_args(args: &SceneArgs) -> Result<SceneRecipe, Error> {
         PrecisionArg::Snorm8 => DerivedPrecision::Snorm8,
         PrecisionArg::F16 => DerivedPrecision::F16,
         PrecisionArg::F32 => DerivedPrecision::F32,
+    };
+    effects.quality.classification = match args.classification {
+        ClassificationArg::Exact => crate::scene::ClassificationLookup::Exact,
+        ClassificationArg::Table => crate::scene::ClassificationLookup::Table,
     };
     let recipe = SceneRecipe {
         windows: match args.windows {

@@ -134,6 +134,7 @@ fn every_quality() -> Vec<Quality> {
                                 opacity_correction,
                                 empty_space_skipping,
                                 long_steps: crate::scene::occupancy::LongSteps::OFF,
+                                classification: crate::scene::ClassificationLookup::Table,
                             });
                         }
                     }

@@ -32,6 +32,7 @@ mod render;
 mod robust;
 pub mod session;
 pub mod slice;
+mod transfer;
 mod twin;
 pub mod upload;
 mod vessels;

@@ -62,6 +62,8 @@ pub struct RenderTarget {
     pub(super) labels: Option<super::labels::AttachedLabels>,
     pub(super) label_colour_buffers: Vec<Option<Arc<Buffer>>>,
     pub(super) label_colours_written: [u64; FRAMES_IN_FLIGHT],
+    // The transfer-function table per frame slot (transfer.rs).
+    pub(super) tables: super::transfer::TableSlots,
     /// Compile in and read the benchmark counters (samples marched / classified) each frame.
     pub count_samples: bool,
     /// Copy each frame back to the host (off for frame-rate measurements: `Frame` is then
@@ -209,6 +211,7 @@ impl Engine {
             labels: None,
             label_colour_buffers: vec![None; FRAMES_IN_FLIGHT],
             label_colours_written: [0; FRAMES_IN_FLIGHT],
+            tables: Default::default(),
             count_samples: false,
             read_back: true,
         })
@@ -443,8 +446,11 @@ impl Engine {
                 .unwrap_or_else(|| self.placeholders.gradient.clone()),
             _ => self.placeholders.gradient.clone(),
         };
+        let transfer_table =
+            self.transfer_table_input(target, scene, frame_slot, variant.classify_table)?;
         let pass = self.raymarch_pass(variant)?;
         let inputs = RaymarchInputs {
+            transfer_table: &transfer_table,
             brain_mask: &brain_mask,
             volume: &prepared.normalized,
             gradient: &gradient,

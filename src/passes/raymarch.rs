@@ -48,6 +48,8 @@ pub struct RaymarchVariant {
     pub long_steps: bool,
     /// Tissues classified inside the brain mask, the head layer outside (classification.glsl).
     pub brain: bool,
+    /// Tissue windows from the transfer-function table (classification.glsl).
+    pub classify_table: bool,
 }
 
 impl RaymarchVariant {
@@ -79,6 +81,7 @@ impl RaymarchVariant {
             ("VESSELS", self.vessels),
             ("LONG_STEPS", self.long_steps),
             ("BRAIN", self.brain),
+            ("CLASSIFY_TABLE", self.classify_table),
         ] {
             text.push_str(&format!(", {name}={}", on(value)));
         }
@@ -132,6 +135,8 @@ pub struct RaymarchInputs<'a> {
     pub label_values: &'a Arc<Buffer>,
     /// The overlay's RGBA8 colour per label, or a placeholder.
     pub label_colours: &'a Arc<Buffer>,
+    /// The transfer-function table (`scene::transfer_table`), or a placeholder.
+    pub transfer_table: &'a Arc<Buffer>,
     /// Clamp-to-edge sampler with the filter the interpolation needs.
     pub sampler: &'a Arc<Sampler>,
 }
@@ -170,6 +175,7 @@ impl RaymarchPass {
                 ("LABELS", SpecValue::Bool(variant.labels)),
                 ("VESSELS", SpecValue::Bool(variant.vessels)),
                 ("BRAIN", SpecValue::Bool(variant.brain)),
+                ("CLASSIFY_TABLE", SpecValue::Bool(variant.classify_table)),
             ],
             cache,
         )?;
@@ -224,6 +230,10 @@ impl RaymarchPass {
                 (
                     "label_colours",
                     Resource::Buffer(inputs.label_colours.clone()),
+                ),
+                (
+                    "transfer_table",
+                    Resource::Buffer(inputs.transfer_table.clone()),
                 ),
             ],
         )?;

@@ -29,9 +29,11 @@ use super::{RenderMode, Scene};
 const MARGIN: f64 = 1e-6;
 
 /// The open interval outside which `window`'s smoothstep weight is exactly 0, widened by
-/// [`MARGIN`].
+/// [`MARGIN`] and by one entry of the transfer-function table: the table interpolates entries
+/// up to 1/4095 away from a sample's value, so with it the weight is 0 only that far outside
+/// the window (`transfer_table`); skipping stays lossless with either classification.
 fn support(window: &super::Window) -> (f64, f64) {
-    let e = window.edge.max(MIN_EDGE);
+    let e = window.edge.max(MIN_EDGE) + super::transfer_table::ENTRY_SPACING;
     (window.lo - e - MARGIN, window.hi + e + MARGIN)
 }
 
@@ -377,12 +379,14 @@ mod tests {
 
     #[test]
     fn the_test_is_conservative_at_the_window_edge() {
-        // The support of [0.2, 0.4] with edge 0.01 starts at 0.19: a brick whose maximum is
-        // exactly there has weight 0 everywhere, but counts as occupied within the margin.
+        // The support of [0.2, 0.4] with edge 0.01 starts at 0.19, and one table entry
+        // (1/4095) below for the classification table: a brick whose maximum is exactly at 0.19
+        // has weight 0 everywhere, but counts as occupied within the widening; one whose maximum
+        // is below 0.19 - 1/4095 = 0.18976 is empty.
         let ranges = BrickRanges {
-            grid: [2, 1, 1],
+            grid: [3, 1, 1],
             side: 8,
-            ranges: vec![(0.0, 0.19), (0.0, 0.1899)],
+            ranges: vec![(0.0, 0.19), (0.0, 0.1898), (0.0, 0.1897)],
         };
         let c = Classification::with_windows([
             Some(Window {
@@ -394,7 +398,7 @@ mod tests {
             None,
             None,
         ]);
-        assert_eq!(ranges.occupancy_bits(&c), vec![0b01]);
+        assert_eq!(ranges.occupancy_bits(&c), vec![0b011]);
     }
 
     #[test]

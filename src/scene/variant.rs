@@ -6,8 +6,8 @@
 //! in a mode is normalized away, so effects that mean the same shader share one pipeline.
 
 use super::{
-    CurvatureMode, Effects, GradientFilter, GradientSource, Interpolation, OpacityCorrection,
-    RenderMode,
+    ClassificationLookup, CurvatureMode, Effects, GradientFilter, GradientSource, Interpolation,
+    OpacityCorrection, RenderMode,
 };
 use crate::passes::raymarch::RaymarchVariant;
 
@@ -56,6 +56,7 @@ impl RaymarchVariant {
             long_steps: dvr && q.empty_space_skipping && q.long_steps.is_on(),
             // Set by the engine where the derived volumes hold a brain mask in use.
             brain: false,
+            classify_table: dvr && q.classification == ClassificationLookup::Table,
         }
     }
 }

@@ -41,6 +41,10 @@
 //! - Non-finite scene or gradient parameters, and a negative `tau`, are rejected with
 //!   [`ReferenceError`] instead of producing NaN.
 //!
+//! Classification table (`Quality::classification = Table`, issue 33 item 1): the tissue and
+//! head windows come from `scene::transfer_table::TransferTable::classify_masked`, the twin of
+//! the shader's table lookup (the same f32 entries, interpolated in f64).
+//!
 //! Crop and clip: the box interval is cut by `scene::clip::intersect_clipped` (the twin of
 //! `clip.glsl`); colour maps are `scene::colormap` (the twin of `colormap.glsl`).
 //!
@@ -76,8 +80,8 @@ use crate::scene::clip::{IndexClip, intersect_clipped};
 use crate::scene::geometry::VolumeGeometry;
 use crate::scene::uniforms::{GradientStats, MAX_STEPS};
 use crate::scene::{
-    Classification, Colormap, CurvatureMode, GradientFilter, GradientSource, Interpolation,
-    OpacityCorrection, RenderMode, Scene,
+    Classification, ClassificationLookup, Colormap, CurvatureMode, GradientFilter, GradientSource,
+    Interpolation, OpacityCorrection, RenderMode, Scene,
 };
 use formulas::{curvature_with, gradient_central_with, gradient_sobel_with};
 use glam::DVec3;
@@ -184,6 +188,8 @@ pub struct ReferenceRaymarch<'a> {
     // The scene's long steps (DVR with skipping only) and, once given, the brick bounds.
     long_step_setting: Option<crate::scene::occupancy::LongSteps>,
     long_steps: Option<ReferenceLongSteps<'a>>,
+    // The transfer-function table when the scene classifies through it (issue 33 item 1).
+    table: Option<crate::scene::transfer_table::TransferTable>,
 }
 
 impl<'a> ReferenceRaymarch<'a> {
@@ -357,6 +363,8 @@ impl<'a> ReferenceRaymarch<'a> {
                 (dvr && q.empty_space_skipping && q.long_steps.is_on()).then_some(q.long_steps)
             },
             long_steps: None,
+            table: (dvr && effects.quality.classification == ClassificationLookup::Table)
+                .then(|| crate::scene::transfer_table::TransferTable::new(&classification)),
         })
     }
 
@@ -562,7 +570,10 @@ impl<'a> ReferenceRaymarch<'a> {
         let brain = self
             .brain_mask
             .map(|mask| mask.at([p.x, p.y, p.z], nearest));
-        let (f, mut colour) = self.classification.classify_masked(value, vessels, brain);
+        let (f, mut colour) = match &self.table {
+            Some(table) => table.classify_masked(&self.classification, value, vessels, brain),
+            None => self.classification.classify_masked(value, vessels, brain),
+        };
         if f <= 0.0 {
             return None;
         }
