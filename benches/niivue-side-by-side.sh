@@ -63,7 +63,28 @@ trap 'kill $HTTP_PID 2>/dev/null; rm -rf "$WORK"' EXIT
 declare -A VOL=([mni152]=$MNI [phantom]=$WORK/phantom.nii.gz)
 [ -f "$REAL/chris_t1.nii.gz" ] && VOL[chris_t1]=$REAL/chris_t1.nii.gz
 [ -f "$REAL/T2w.nii.gz" ] && VOL[T2w]=$REAL/T2w.nii.gz
-for v in "${!VOL[@]}"; do ln -sfn "${VOL[$v]}" "$CACHE/www/$v.nii.gz"; done
+# NiiVue 1.0.0-rc.9 reads only the first member of a multi-member gzip (valid gzip, which
+# morphray's parallel writer makes: the phantom has 25) and then fails with "infinite image";
+# such a file gets a single-member copy (same bytes inflated). Other volumes are linked as they are.
+for v in "${!VOL[@]}"; do
+  python3 - "${VOL[$v]}" "$CACHE/www/$v.nii.gz" <<'PY'
+import gzip, os, sys, zlib
+src, dst = sys.argv[1:3]
+blob, members = open(src, "rb").read(), 0
+rest = blob
+while rest:
+    d = zlib.decompressobj(31)
+    d.decompress(rest)
+    rest, members = d.unused_data, members + 1
+if os.path.lexists(dst):
+    os.remove(dst)
+if members > 1:
+    with gzip.open(dst, "wb", compresslevel=1) as f:
+        f.write(gzip.decompress(blob))
+else:
+    os.symlink(src, dst)
+PY
+done
 sleep 1
 
 niivue() { # VOLNAME SIZE PNG [AZ EL] -> one JSON line on stdout
