@@ -14,7 +14,10 @@ for n in nv:
     if not n.get("ok"):
         continue
     key = (n["name"], n["size"])
-    txt = open(f"{raw}/morphray-{n['name']}-{n['size']}-r{n['round']}.txt").read()
+    try:  # a round cut short leaves NiiVue's line without morphray's file
+        txt = open(f"{raw}/morphray-{n['name']}-{n['size']}-r{n['round']}.txt").read()
+    except FileNotFoundError:
+        continue
     frame = re.search(r"^raymarch: ([\d.]+) ms GPU median", txt, re.M)
     cold = re.search(r"total \(spawn -> fence\)\s+([\d.]+)", txt)
     device = re.search(r"^morphray \S+ on (.+?) \(", txt, re.M)
