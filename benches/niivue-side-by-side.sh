@@ -1,0 +1,96 @@
+#!/usr/bin/env bash
+# morphray and NiiVue side by side on this machine's CPU devices (issue 33 item 4, issue 34 item 4).
+#
+#   benches/niivue-side-by-side.sh MORPHRAY_BINARY [ROUNDS] [OUT_DIR]
+#
+# Installs what it needs, idempotently, outside the repository (~/.cache/morphray/niivue):
+# Debian's chromium (apt-get), @niivue/niivue, playwright-core (drives /usr/bin/chromium; no
+# browser download) and esbuild (bundles NiiVue's ES modules for a plain static page) from npm,
+# versions pinned below. Serves benches/niivue/page.html on 127.0.0.1 (python3 -m http.server).
+#
+# NiiVue: WebGL2 build, 3D render tile alone (sliceType RENDER), its default volume shader and
+# camera (orthographic, azimuth 110, elevation 10), orientation cube, colorbar and 3D crosshair
+# hidden. Chromium runs headless with ANGLE on Mesa llvmpipe (--use-angle=gl-egl; $NV_ANGLE to
+# change: swiftshader works too, vulkan did not initialise WebGL2 here).
+# morphray: `bench` on lavapipe, shading on (its `render` default), step 0.5 (default).
+# Timing rounds alternate NiiVue and morphray for each volume and size.
+#   frame: NiiVue = median of FRAMES redraws over an orbit, each ended by a 1-pixel readPixels;
+#          morphray = `bench --frames FRAMES` raymarch GPU median ms/frame.
+#   first frame, cold: NiiVue = navigation start -> first frame whose centre pixel is not background
+#          (fresh browser, fresh profile, no shader disk cache); browser launch reported apart.
+#          morphray = `bench --trials 1` cold "first pixel" (fresh process, empty pipeline cache,
+#          process start -> first frame's fence).
+# Pictures (500x500, both renderers' defaults): NiiVue canvas screenshot at its default view;
+# morphray render --projection orthographic --azimuth 250 --elevation 10 (morphray's azimuth 270
+# is the patient's left; NiiVue's 110 shows the left hemisphere turned 20 degrees to anterior).
+set -euo pipefail
+MORPHRAY=${1:?usage: $0 MORPHRAY_BINARY [ROUNDS] [OUT_DIR]}
+ROUNDS=${2:-3}
+HERE=$(cd "$(dirname "$0")" && pwd)
+OUT=${3:-$HERE/results/lavapipe-$(date -u +%F)-niivue}
+CACHE=${NIIVUE_CACHE:-$HOME/.cache/morphray/niivue}
+FRAMES=${FRAMES:-6}
+NV_ANGLE=${NV_ANGLE:-gl-egl}
+PORT=${PORT:-8765}
+# Timed VOLUME:SIZE pairs; morphray's cold first pixel (bench --trials 1: three fresh processes)
+# only at COLD_SIZE, to keep a round within a few minutes on 2 shared cores.
+PAIRS=${PAIRS:-mni152:500x500 mni152:960x540 phantom:500x500 phantom:960x540}
+COLD_SIZE=${COLD_SIZE:-500x500}
+NIIVUE_VERSION=1.0.0-rc.9 PLAYWRIGHT_VERSION=1.57.0 ESBUILD_VERSION=0.25.12
+MNI=${MNI:-/work/shared/data/mni152_t1_2009a.nii.gz}
+REAL=${REAL:-/work/shared/data/real}
+PY=${PY:-/tmp/proto/bin/python}   # needs pillow
+
+[ -x "$MORPHRAY" ] || { echo "error: $MORPHRAY is not an executable morphray binary (build with cargo build --release)" >&2; exit 2; }
+command -v chromium >/dev/null || { apt-get update -qq && apt-get install -y -qq chromium; }
+mkdir -p "$CACHE/www" "$OUT/raw"
+if [ "$(node -p "try{require('$CACHE/node_modules/@niivue/niivue/package.json').version}catch(e){''}")" != "$NIIVUE_VERSION" ] \
+   || [ ! -d "$CACHE/node_modules/playwright-core" ] || [ ! -x "$CACHE/node_modules/.bin/esbuild" ]; then
+  [ -f "$CACHE/package.json" ] || echo '{"name":"morphray-niivue-bench","private":true}' > "$CACHE/package.json"
+  (cd "$CACHE" && npm install --no-audit --no-fund "@niivue/niivue@$NIIVUE_VERSION" \
+     "playwright-core@$PLAYWRIGHT_VERSION" "esbuild@$ESBUILD_VERSION")
+fi
+echo "export { default } from '@niivue/niivue/webgl2'" > "$CACHE/entry.mjs"
+(cd "$CACHE" && node_modules/.bin/esbuild entry.mjs --bundle --format=esm --platform=browser \
+   --log-level=error --outfile=www/niivue.bundle.js)
+ln -sfn "$HERE/niivue/page.html" "$CACHE/www/page.html"
+
+WORK=$(mktemp -d)
+(cd "$CACHE/www" && exec python3 -m http.server "$PORT" --bind 127.0.0.1 >"$WORK/http.log" 2>&1) &
+HTTP_PID=$!
+trap 'kill $HTTP_PID 2>/dev/null; rm -rf "$WORK"' EXIT
+"$MORPHRAY" phantom -o "$WORK/phantom.nii.gz" >/dev/null
+declare -A VOL=([mni152]=$MNI [phantom]=$WORK/phantom.nii.gz)
+[ -f "$REAL/chris_t1.nii.gz" ] && VOL[chris_t1]=$REAL/chris_t1.nii.gz
+[ -f "$REAL/T2w.nii.gz" ] && VOL[T2w]=$REAL/T2w.nii.gz
+for v in "${!VOL[@]}"; do ln -sfn "${VOL[$v]}" "$CACHE/www/$v.nii.gz"; done
+sleep 1
+
+niivue() { # VOLNAME SIZE PNG [AZ EL] -> one JSON line on stdout
+  node "$HERE/niivue/driver.mjs" "$CACHE" "http://127.0.0.1:$PORT" "$1.nii.gz" "$2" "$FRAMES" \
+    "$NV_ANGLE" "$3" "${@:4}" 2>>"$OUT/raw/niivue-console.log"
+}
+echo "machine: $(uname -n), $(nproc) cores, $(date -u +%FT%TZ); chromium $(chromium --version | tail -1)" | tee "$OUT/raw/machine.txt"
+: > "$OUT/raw/niivue.jsonl"
+for r in $(seq 1 "$ROUNDS"); do
+  for pair in $PAIRS; do
+      v=${pair%%:*} s=${pair#*:}
+      trials=0; [ "$s" = "$COLD_SIZE" ] && trials=1
+      echo "round $r: $v $s" >&2
+      niivue "$v" "$s" "$WORK/nv.png" | sed "s/^{/{\"round\":$r,\"name\":\"$v\",/" | tee -a "$OUT/raw/niivue.jsonl" | cut -c1-160
+      "$MORPHRAY" bench "${VOL[$v]}" --size "$s" --frames "$FRAMES" --repeat 1 --trials $trials \
+        --shading on > "$OUT/raw/morphray-$v-$s-r$r.txt" 2>&1
+      grep -E "^raymarch:|total \(spawn" "$OUT/raw/morphray-$v-$s-r$r.txt" | cut -c1-100
+  done
+done
+
+for v in mni152 phantom chris_t1 T2w; do
+  [ -n "${VOL[$v]:-}" ] || continue
+  echo "pictures: $v" >&2
+  niivue "$v" 500x500 "$WORK/$v-niivue.png" > "$OUT/raw/niivue-picture-$v.json"
+  "$MORPHRAY" render "${VOL[$v]}" -o "$WORK/$v-morphray.png" --size 500x500 \
+    --projection orthographic --azimuth 250 --elevation 10 >/dev/null
+  "$PY" "$HERE/niivue/sheet.py" "$WORK/$v-niivue.png" "$WORK/$v-morphray.png" "$OUT/sheet-$v.png" \
+    "NiiVue $NIIVUE_VERSION (WebGL2, llvmpipe)" "morphray (Vulkan, lavapipe)"
+done
+"$PY" "$HERE/niivue/report.py" "$OUT/raw" | tee "$OUT/table.md"
