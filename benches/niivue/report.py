@@ -37,8 +37,9 @@ for (name, size), r in sorted(rows.items()):
     dev = re.sub(r"^ANGLE \([^,]*, ([^(,]+).*", r"\1", r["nvdev"]).strip()
     print(f"| {name} | {size} | NiiVue 1.0.0-rc.9 (defaults) | WebGL2 -> ANGLE -> {dev} | "
           f"{med(r['nv']):.0f} | {med(r['nvc']) / 1000:.2f} ({med(r['nvl']) / 1000:.2f} with browser launch) | 1 | {len(r['nv'])} |")
+    mc = f"{med(r['mc']) / 1000:.2f}" if r["mc"] else "-"
+    rc = f"{med(r['rc']):.2f}x" if r["rc"] else "-"
     print(f"| {name} | {size} | morphray (step 0.5, shading on) | Vulkan -> {r['mdev']} | "
-          f"{med(r['m']):.0f} | {f'{med(r[\"mc\"]) / 1000:.2f}' if r['mc'] else '-'} | "
-          f"{med(r['rf']):.2f}x; {f'{med(r[\"rc\"]):.2f}x' if r['rc'] else '-'} | {len(r['m'])} |")
+          f"{med(r['m']):.0f} | {mc} | {med(r['rf']):.2f}x; {rc} | {len(r['m'])} |")
 print()
 print("NiiVue renderer string:", ", ".join(sorted({r["nvdev"] for r in rows.values()})))
