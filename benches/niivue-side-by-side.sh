@@ -31,7 +31,7 @@ OUT=${3:-$HERE/results/lavapipe-$(date -u +%F)-niivue}
 CACHE=${NIIVUE_CACHE:-$HOME/.cache/morphray/niivue}
 FRAMES=${FRAMES:-6}
 NV_ANGLE=${NV_ANGLE:-gl-egl}
-PORT=${PORT:-8765}
+PORT=${PORT:-$(python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')}
 # Timed VOLUME:SIZE pairs; morphray's cold first pixel (bench --trials 1: three fresh processes)
 # only at COLD_SIZE, to keep a round within a few minutes on 2 shared cores.
 PAIRS=${PAIRS:-mni152:500x500 mni152:960x540 phantom:500x500 phantom:960x540}
@@ -43,27 +43,30 @@ PY=${PY:-/tmp/proto/bin/python}   # needs pillow
 
 [ -x "$MORPHRAY" ] || { echo "error: $MORPHRAY is not an executable morphray binary (build with cargo build --release)" >&2; exit 2; }
 command -v chromium >/dev/null || { apt-get update -qq && apt-get install -y -qq chromium; }
-mkdir -p "$CACHE/www" "$OUT/raw"
+mkdir -p "$CACHE" "$OUT/raw"
 if [ "$(node -p "try{require('$CACHE/node_modules/@niivue/niivue/package.json').version}catch(e){''}")" != "$NIIVUE_VERSION" ] \
    || [ ! -d "$CACHE/node_modules/playwright-core" ] || [ ! -x "$CACHE/node_modules/.bin/esbuild" ]; then
   [ -f "$CACHE/package.json" ] || echo '{"name":"morphray-niivue-bench","private":true}' > "$CACHE/package.json"
   (cd "$CACHE" && npm install --no-audit --no-fund "@niivue/niivue@$NIIVUE_VERSION" \
      "playwright-core@$PLAYWRIGHT_VERSION" "esbuild@$ESBUILD_VERSION")
 fi
-echo "export { default } from '@niivue/niivue/webgl2'" > "$CACHE/entry.mjs"
-(cd "$CACHE" && node_modules/.bin/esbuild entry.mjs --bundle --format=esm --platform=browser \
-   --log-level=error --outfile=www/niivue.bundle.js)
-ln -sfn "$HERE/niivue/page.html" "$CACHE/www/page.html"
-
+# Everything served lives in this run's own folder, so two runs (or two worktrees) never share a
+# served file, a port or a phantom.
 WORK=$(mktemp -d)
-(cd "$CACHE/www" && exec python3 -m http.server "$PORT" --bind 127.0.0.1 >"$WORK/http.log" 2>&1) &
+WWW=$WORK/www
+mkdir -p "$WWW"
+echo "export { default } from '@niivue/niivue/webgl2'" > "$WORK/entry.mjs"
+NODE_PATH="$CACHE/node_modules" "$CACHE/node_modules/.bin/esbuild" "$WORK/entry.mjs" --bundle \
+   --format=esm --platform=browser --log-level=error --outfile="$WWW/niivue.bundle.js"
+ln -sfn "$HERE/niivue/page.html" "$WWW/page.html"
+(cd "$WWW" && exec python3 -m http.server "$PORT" --bind 127.0.0.1 >"$WORK/http.log" 2>&1) &
 HTTP_PID=$!
 trap 'kill $HTTP_PID 2>/dev/null; rm -rf "$WORK"' EXIT
 "$MORPHRAY" phantom -o "$WORK/phantom.nii.gz" >/dev/null
 declare -A VOL=([mni152]=$MNI [phantom]=$WORK/phantom.nii.gz)
 [ -f "$REAL/chris_t1.nii.gz" ] && VOL[chris_t1]=$REAL/chris_t1.nii.gz
 [ -f "$REAL/T2w.nii.gz" ] && VOL[T2w]=$REAL/T2w.nii.gz
-for v in "${!VOL[@]}"; do ln -sfn "${VOL[$v]}" "$CACHE/www/$v.nii.gz"; done
+for v in "${!VOL[@]}"; do ln -sfn "${VOL[$v]}" "$WWW/$v.nii.gz"; done
 sleep 1
 
 niivue() { # VOLNAME SIZE PNG [AZ EL] -> one JSON line on stdout
