@@ -63,6 +63,15 @@ ln -sfn "$HERE/niivue/page.html" "$WWW/page.html"
 HTTP_PID=$!
 trap 'kill $HTTP_PID 2>/dev/null; rm -rf "$WORK"' EXIT
 "$MORPHRAY" phantom -o "$WORK/phantom.nii.gz" >/dev/null
+# morphray writes scl_slope = NaN ("no scaling", as nibabel does); NiiVue 1.0.0-rc.9 multiplies
+# by it and rejects the all-NaN result ("infinite image"). Both renderers get the same copy with
+# slope 1, intercept 0 (the same voxel values).
+python3 - "$WORK/phantom.nii.gz" <<'PYEOF'
+import gzip, struct, sys
+b = bytearray(gzip.open(sys.argv[1]).read())
+b[112:120] = struct.pack("<ff", 1.0, 0.0)
+gzip.open(sys.argv[1], "wb", compresslevel=1).write(bytes(b))
+PYEOF
 declare -A VOL=([mni152]=$MNI [phantom]=$WORK/phantom.nii.gz)
 [ -f "$REAL/chris_t1.nii.gz" ] && VOL[chris_t1]=$REAL/chris_t1.nii.gz
 [ -f "$REAL/T2w.nii.gz" ] && VOL[T2w]=$REAL/T2w.nii.gz
@@ -74,7 +83,8 @@ niivue() { # VOLNAME SIZE PNG [AZ EL] -> one JSON line on stdout
     "$NV_ANGLE" "$3" "${@:4}" 2>>"$OUT/raw/niivue-console.log"
 }
 echo "machine: $(uname -n), $(nproc) cores, $(date -u +%FT%TZ); chromium $(chromium --version | tail -1)" | tee "$OUT/raw/machine.txt"
-: > "$OUT/raw/niivue.jsonl"
+# APPEND=1 adds rounds to an earlier run's raw output (ROUNDS=0: only the pictures and the table).
+[ "${APPEND:-0}" = 1 ] || : > "$OUT/raw/niivue.jsonl"
 for r in $(seq 1 "$ROUNDS"); do
   for pair in $PAIRS; do
       v=${pair%%:*} s=${pair#*:}
@@ -87,10 +97,11 @@ for r in $(seq 1 "$ROUNDS"); do
   done
 done
 
-for v in mni152 phantom chris_t1 T2w; do
+for v in ${PICTURES:-mni152 phantom chris_t1 T2w}; do
   [ -n "${VOL[$v]:-}" ] || continue
   echo "pictures: $v" >&2
   niivue "$v" 500x500 "$WORK/$v-niivue.png" > "$OUT/raw/niivue-picture-$v.json"
+  [ -f "$WORK/$v-niivue.png" ] || { echo "NiiVue could not show $v: $(cut -c1-200 "$OUT/raw/niivue-picture-$v.json")" >&2; continue; }
   "$MORPHRAY" render "${VOL[$v]}" -o "$WORK/$v-morphray.png" --size 500x500 \
     --projection orthographic --azimuth 250 --elevation 10 >/dev/null
   "$PY" "$HERE/niivue/sheet.py" "$WORK/$v-niivue.png" "$WORK/$v-morphray.png" "$OUT/sheet-$v.png" \
