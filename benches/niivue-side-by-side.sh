@@ -85,7 +85,8 @@ niivue() { # VOLNAME SIZE PNG [AZ EL] -> one JSON line on stdout
 echo "machine: $(uname -n), $(nproc) cores, $(date -u +%FT%TZ); chromium $(chromium --version | tail -1)" | tee "$OUT/raw/machine.txt"
 # APPEND=1 adds rounds to an earlier run's raw output (ROUNDS=0: only the pictures and the table).
 [ "${APPEND:-0}" = 1 ] || : > "$OUT/raw/niivue.jsonl"
-for r in $(seq 1 "$ROUNDS"); do
+FIRST_ROUND=${FIRST_ROUND:-1}   # with APPEND=1: number the added rounds after the earlier ones
+for r in $(seq "$FIRST_ROUND" $((FIRST_ROUND + ROUNDS - 1))); do
   for pair in $PAIRS; do
       v=${pair%%:*} s=${pair#*:}
       trials=0; [ "$s" = "$COLD_SIZE" ] && trials=1
@@ -97,7 +98,7 @@ for r in $(seq 1 "$ROUNDS"); do
   done
 done
 
-for v in ${PICTURES:-mni152 phantom chris_t1 T2w}; do
+for v in ${PICTURES-mni152 phantom chris_t1 T2w}; do
   [ -n "${VOL[$v]:-}" ] || continue
   echo "pictures: $v" >&2
   niivue "$v" 500x500 "$WORK/$v-niivue.png" > "$OUT/raw/niivue-picture-$v.json"
