@@ -31,7 +31,7 @@ OUT=${3:-$HERE/results/lavapipe-$(date -u +%F)-niivue}
 CACHE=${NIIVUE_CACHE:-$HOME/.cache/morphray/niivue}
 FRAMES=${FRAMES:-6}
 NV_ANGLE=${NV_ANGLE:-gl-egl}
-PORT=${PORT:-8765}
+PORT=${PORT:-$(python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')}
 # Timed VOLUME:SIZE pairs; morphray's cold first pixel (bench --trials 1: three fresh processes)
 # only at COLD_SIZE, to keep a round within a few minutes on 2 shared cores.
 PAIRS=${PAIRS:-mni152:500x500 mni152:960x540 phantom:500x500 phantom:960x540}
@@ -43,48 +43,39 @@ PY=${PY:-/tmp/proto/bin/python}   # needs pillow
 
 [ -x "$MORPHRAY" ] || { echo "error: $MORPHRAY is not an executable morphray binary (build with cargo build --release)" >&2; exit 2; }
 command -v chromium >/dev/null || { apt-get update -qq && apt-get install -y -qq chromium; }
-mkdir -p "$CACHE/www" "$OUT/raw"
+mkdir -p "$CACHE" "$OUT/raw"
 if [ "$(node -p "try{require('$CACHE/node_modules/@niivue/niivue/package.json').version}catch(e){''}")" != "$NIIVUE_VERSION" ] \
    || [ ! -d "$CACHE/node_modules/playwright-core" ] || [ ! -x "$CACHE/node_modules/.bin/esbuild" ]; then
   [ -f "$CACHE/package.json" ] || echo '{"name":"morphray-niivue-bench","private":true}' > "$CACHE/package.json"
   (cd "$CACHE" && npm install --no-audit --no-fund "@niivue/niivue@$NIIVUE_VERSION" \
      "playwright-core@$PLAYWRIGHT_VERSION" "esbuild@$ESBUILD_VERSION")
 fi
-echo "export { default } from '@niivue/niivue/webgl2'" > "$CACHE/entry.mjs"
-(cd "$CACHE" && node_modules/.bin/esbuild entry.mjs --bundle --format=esm --platform=browser \
-   --log-level=error --outfile=www/niivue.bundle.js)
-ln -sfn "$HERE/niivue/page.html" "$CACHE/www/page.html"
-
+# Everything served lives in this run's own folder, so two runs (or two worktrees) never share a
+# served file, a port or a phantom.
 WORK=$(mktemp -d)
-(cd "$CACHE/www" && exec python3 -m http.server "$PORT" --bind 127.0.0.1 >"$WORK/http.log" 2>&1) &
+WWW=$WORK/www
+mkdir -p "$WWW"
+echo "export { default } from '@niivue/niivue/webgl2'" > "$WORK/entry.mjs"
+NODE_PATH="$CACHE/node_modules" "$CACHE/node_modules/.bin/esbuild" "$WORK/entry.mjs" --bundle \
+   --format=esm --platform=browser --log-level=error --outfile="$WWW/niivue.bundle.js"
+ln -sfn "$HERE/niivue/page.html" "$WWW/page.html"
+(cd "$WWW" && exec python3 -m http.server "$PORT" --bind 127.0.0.1 >"$WORK/http.log" 2>&1) &
 HTTP_PID=$!
 trap 'kill $HTTP_PID 2>/dev/null; rm -rf "$WORK"' EXIT
 "$MORPHRAY" phantom -o "$WORK/phantom.nii.gz" >/dev/null
+# morphray writes scl_slope = NaN ("no scaling", as nibabel does); NiiVue 1.0.0-rc.9 multiplies
+# by it and rejects the all-NaN result ("infinite image"). Both renderers get the same copy with
+# slope 1, intercept 0 (the same voxel values).
+python3 - "$WORK/phantom.nii.gz" <<'PYEOF'
+import gzip, struct, sys
+b = bytearray(gzip.open(sys.argv[1]).read())
+b[112:120] = struct.pack("<ff", 1.0, 0.0)
+gzip.open(sys.argv[1], "wb", compresslevel=1).write(bytes(b))
+PYEOF
 declare -A VOL=([mni152]=$MNI [phantom]=$WORK/phantom.nii.gz)
 [ -f "$REAL/chris_t1.nii.gz" ] && VOL[chris_t1]=$REAL/chris_t1.nii.gz
 [ -f "$REAL/T2w.nii.gz" ] && VOL[T2w]=$REAL/T2w.nii.gz
-# NiiVue 1.0.0-rc.9 reads only the first member of a multi-member gzip (valid gzip, which
-# morphray's parallel writer makes: the phantom has 25) and then fails with "infinite image";
-# such a file gets a single-member copy (same bytes inflated). Other volumes are linked as they are.
-for v in "${!VOL[@]}"; do
-  python3 - "${VOL[$v]}" "$CACHE/www/$v.nii.gz" <<'PY'
-import gzip, os, sys, zlib
-src, dst = sys.argv[1:3]
-blob, members = open(src, "rb").read(), 0
-rest = blob
-while rest:
-    d = zlib.decompressobj(31)
-    d.decompress(rest)
-    rest, members = d.unused_data, members + 1
-if os.path.lexists(dst):
-    os.remove(dst)
-if members > 1:
-    with gzip.open(dst, "wb", compresslevel=1) as f:
-        f.write(gzip.decompress(blob))
-else:
-    os.symlink(src, dst)
-PY
-done
+for v in "${!VOL[@]}"; do ln -sfn "${VOL[$v]}" "$WWW/$v.nii.gz"; done
 sleep 1
 
 niivue() { # VOLNAME SIZE PNG [AZ EL] -> one JSON line on stdout
@@ -92,8 +83,10 @@ niivue() { # VOLNAME SIZE PNG [AZ EL] -> one JSON line on stdout
     "$NV_ANGLE" "$3" "${@:4}" 2>>"$OUT/raw/niivue-console.log"
 }
 echo "machine: $(uname -n), $(nproc) cores, $(date -u +%FT%TZ); chromium $(chromium --version | tail -1)" | tee "$OUT/raw/machine.txt"
-: > "$OUT/raw/niivue.jsonl"
-for r in $(seq 1 "$ROUNDS"); do
+# APPEND=1 adds rounds to an earlier run's raw output (ROUNDS=0: only the pictures and the table).
+[ "${APPEND:-0}" = 1 ] || : > "$OUT/raw/niivue.jsonl"
+FIRST_ROUND=${FIRST_ROUND:-1}   # with APPEND=1: number the added rounds after the earlier ones
+for r in $(seq "$FIRST_ROUND" $((FIRST_ROUND + ROUNDS - 1))); do
   for pair in $PAIRS; do
       v=${pair%%:*} s=${pair#*:}
       trials=0; [ "$s" = "$COLD_SIZE" ] && trials=1
@@ -105,10 +98,11 @@ for r in $(seq 1 "$ROUNDS"); do
   done
 done
 
-for v in mni152 phantom chris_t1 T2w; do
+for v in ${PICTURES-mni152 phantom chris_t1 T2w}; do
   [ -n "${VOL[$v]:-}" ] || continue
   echo "pictures: $v" >&2
   niivue "$v" 500x500 "$WORK/$v-niivue.png" > "$OUT/raw/niivue-picture-$v.json"
+  [ -f "$WORK/$v-niivue.png" ] || { echo "NiiVue could not show $v: $(cut -c1-200 "$OUT/raw/niivue-picture-$v.json")" >&2; continue; }
   "$MORPHRAY" render "${VOL[$v]}" -o "$WORK/$v-morphray.png" --size 500x500 \
     --projection orthographic --azimuth 250 --elevation 10 >/dev/null
   "$PY" "$HERE/niivue/sheet.py" "$WORK/$v-niivue.png" "$WORK/$v-morphray.png" "$OUT/sheet-$v.png" \

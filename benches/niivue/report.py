@@ -14,10 +14,7 @@ for n in nv:
     if not n.get("ok"):
         continue
     key = (n["name"], n["size"])
-    try:  # a round cut short leaves NiiVue's line without morphray's file
-        txt = open(f"{raw}/morphray-{n['name']}-{n['size']}-r{n['round']}.txt").read()
-    except FileNotFoundError:
-        continue
+    txt = open(f"{raw}/morphray-{n['name']}-{n['size']}-r{n['round']}.txt").read()
     frame = re.search(r"^raymarch: ([\d.]+) ms GPU median", txt, re.M)
     cold = re.search(r"total \(spawn -> fence\)\s+([\d.]+)", txt)
     device = re.search(r"^morphray \S+ on (.+?) \(", txt, re.M)
@@ -38,11 +35,11 @@ print("| volume | size | renderer | API -> device | frame ms (median) | first fr
 print("|---|---|---|---|---|---|---|---|")
 for (name, size), r in sorted(rows.items()):
     dev = re.sub(r"^ANGLE \([^,]*, ([^(,]+).*", r"\1", r["nvdev"]).strip()
-    print(f"| {name} | {size} | NiiVue 1.0.0-rc.9 (defaults) | WebGL2 -> ANGLE (GL ES) -> Mesa {dev} | "
+    print(f"| {name} | {size} | NiiVue 1.0.0-rc.9 (defaults) | WebGL2 -> ANGLE -> {dev} | "
           f"{med(r['nv']):.0f} | {med(r['nvc']) / 1000:.2f} ({med(r['nvl']) / 1000:.2f} with browser launch) | 1 | {len(r['nv'])} |")
     mc = f"{med(r['mc']) / 1000:.2f}" if r["mc"] else "-"
     rc = f"{med(r['rc']):.2f}x" if r["rc"] else "-"
-    print(f"| {name} | {size} | morphray (step 0.5, shading on) | Vulkan -> lavapipe ({r['mdev']}) | "
+    print(f"| {name} | {size} | morphray (step 0.5, shading on) | Vulkan -> {r['mdev']} | "
           f"{med(r['m']):.0f} | {mc} | {med(r['rf']):.2f}x; {rc} | {len(r['m'])} |")
 print()
 print("NiiVue renderer string:", ", ".join(sorted({r["nvdev"] for r in rows.values()})))
