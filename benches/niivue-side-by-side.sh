@@ -63,9 +63,9 @@ ln -sfn "$HERE/niivue/page.html" "$WWW/page.html"
 HTTP_PID=$!
 trap 'kill $HTTP_PID 2>/dev/null; rm -rf "$WORK"' EXIT
 "$MORPHRAY" phantom -o "$WORK/phantom.nii.gz" >/dev/null
-# morphray writes scl_slope = NaN ("no scaling", as nibabel does); NiiVue 1.0.0-rc.9 multiplies
-# by it and rejects the all-NaN result ("infinite image"). Both renderers get the same copy with
-# slope 1, intercept 0 (the same voxel values).
+# morphray writes .nii.gz as several 1 MiB gzip members (parallel inflation); NiiVue 1.0.0-rc.9
+# inflates only the first member and rejects the truncated image ("infinite image"). Both
+# renderers get the same single-member copy (same header, slope 1 and intercept 0, and voxels).
 python3 - "$WORK/phantom.nii.gz" <<'PYEOF'
 import gzip, struct, sys
 b = bytearray(gzip.open(sys.argv[1]).read())
