@@ -181,7 +181,7 @@ pub struct SceneArgs {
     /// 4096-entry transfer-function table (at most 1.1e-4 of a window's weight at a 0.01 edge;
     /// the accuracy study finds no difference at its precision); `exact` evaluates every window
     /// per sample, as the paper's eq. 4 is written.
-    #[arg(long, value_enum, default_value_t = ClassificationArg::Table)]
+    #[arg(long, value_enum, default_value_t = ClassificationArg::Table, hide_short_help = true)]
     pub classification: ClassificationArg,
     /// Background colour as #RRGGBB or R,G,B in 0..255.
     #[arg(long, default_value = "#000000", value_parser = parse_colour)]

@@ -80,6 +80,7 @@ class Volume:
         shading: Union[bool, Literal["on", "off"]] = ...,
         gradient: Literal["precomputed", "on-the-fly"] = ...,
         derived_precision: Literal["8bit", "f16", "f32"] = ...,
+        classification: Literal["table", "exact"] = ...,
         background: Colour = ...,
         no_jitter: bool = ...,
         jitter: bool = ...,

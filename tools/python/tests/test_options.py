@@ -30,6 +30,7 @@ EXAMPLES = {
     "shading": False,
     "gradient": "on-the-fly",
     "derived_precision": "f16",
+    "classification": "exact",
     "background": (10, 20, 30),
     "no_jitter": True,
     "window": {"wm": (0.7, 0.9)},
