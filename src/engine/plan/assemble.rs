@@ -393,7 +393,7 @@ fn empty_space_skipping(ctx: &PlanContext) -> PassDeclaration {
 }
 
 /// The raymarch and its render target (image, host copy, uniforms per frame in flight, sample
-/// counters).
+/// counters), and the transfer-function tables of a table-classified variant.
 fn raymarch(ctx: &PlanContext) -> PassDeclaration {
     let [w, h] = ctx.input.image.map(|s| s.max(1));
     let pixels = w as f64 * h as f64;
@@ -415,6 +415,15 @@ fn raymarch(ctx: &PlanContext) -> PassDeclaration {
     // Half the pixels' rays cross the volume, at step 0.5.
     let samples = pixels * diagonal / 0.5 * 0.5;
     let variant = RaymarchVariant::of_layout(&ctx.effects, false, ctx.bricked);
+    if variant.classify_table {
+        // The transfer-function table, one per frame in flight (engine/transfer.rs).
+        allocations.extend((0..FRAMES_IN_FLIGHT).map(|_| {
+            Declared::held(crate::gpu::BufferDesc::host_storage(
+                "transfer-function table",
+                crate::scene::transfer_table::TABLE_BYTES,
+            ))
+        }));
+    }
     let (per_marched, per_classified) = variant.fetches();
     let cost = cost::raymarch(
         pixels,
