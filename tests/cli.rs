@@ -606,12 +606,18 @@ fn plan_json_is_minimal_for_each_scene() {
     assert!(holds(&dvr, "gradient magnitude") && !holds(&mip, "gradient magnitude"));
     assert!(dvr["degradations"].as_array().unwrap().is_empty());
     // What the engine then held equals the plan (the ledger after set-up has no frame yet,
-    // so the per-frame occupancy bits are the only planned allocations missing).
+    // so the per-frame occupancy bits and transfer-function tables are the only planned
+    // allocations missing).
+    assert!(holds(&dvr, "transfer-function table") && !holds(&mip, "transfer-function table"));
     let planned: u64 = dvr["allocations"]
         .as_array()
         .unwrap()
         .iter()
-        .filter(|a| a["transient"] == false && a["name"] != "occupancy bits")
+        .filter(|a| {
+            a["transient"] == false
+                && a["name"] != "occupancy bits"
+                && a["name"] != "transfer-function table"
+        })
         .map(|a| a["bytes"].as_u64().unwrap())
         .sum();
     assert_eq!(dvr["held_bytes"].as_u64().unwrap(), planned);
