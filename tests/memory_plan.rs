@@ -5,6 +5,14 @@
 
 mod common;
 
+/// One engine at a time in this binary: its tests create and drop whole engines with budgets
+/// on lavapipe, and a run of .ci/run under load once died of SIGSEGV with them in parallel
+/// (not reproduced in 14 further runs); serial they cost about a second more.
+fn serial() -> std::sync::MutexGuard<'static, ()> {
+    static GPU: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    GPU.lock().unwrap_or_else(|p| p.into_inner())
+}
+
 use ash::vk;
 use morphray::engine::plan::Layout;
 use morphray::engine::{Engine, EngineConfig, OpenError, OpenedVolume};
@@ -84,6 +92,7 @@ fn held(engine: &Engine) -> Vec<(String, u64)> {
 
 #[test]
 fn the_ledger_holds_exactly_the_planned_allocations() {
+    let _one_at_a_time = serial();
     let volume = generate(&PhantomSpec::cube(40)).unwrap().volume;
     type SceneEdit = Box<dyn Fn(&mut SceneRecipe)>;
     let cases: Vec<(&str, SceneEdit)> = vec![
@@ -131,6 +140,7 @@ fn the_ledger_holds_exactly_the_planned_allocations() {
 
 #[test]
 fn scene_changes_run_and_hold_only_what_they_must() {
+    let _one_at_a_time = serial();
     let volume = generate(&PhantomSpec::cube(40)).unwrap().volume;
     let mut engine = common::engine();
     // f16 derived volumes: one derivative dispatch per change (8-bit storage runs two, the
@@ -242,6 +252,7 @@ fn compare(a: &[u8], b: &[u8]) -> (f64, u8) {
 
 #[test]
 fn a_volume_four_times_over_the_budget_renders_bricked_like_the_whole_volume() {
+    let _one_at_a_time = serial();
     let volume = padded_phantom(56, 144);
     let volume_bytes = 2 * volume.voxel_count() as u64;
     // A quarter of the volume, plus the two transfer-function tables every DVR plan holds
@@ -308,6 +319,7 @@ fn a_volume_four_times_over_the_budget_renders_bricked_like_the_whole_volume() {
 
 #[test]
 fn stored_derivatives_of_a_bricked_volume_render_like_the_whole_volume() {
+    let _one_at_a_time = serial();
     // Forced bricking keeps every effect: |g|, k and normals are computed per atlas slot from
     // the halo, which must reproduce the whole volume's central differences at brick borders.
     let volume = padded_phantom(56, 100);
@@ -366,6 +378,7 @@ fn stored_derivatives_of_a_bricked_volume_render_like_the_whole_volume() {
 
 #[test]
 fn an_impossible_budget_is_a_typed_error() {
+    let _one_at_a_time = serial();
     let volume = generate(&PhantomSpec::cube(48)).unwrap().volume;
     let mut engine = engine_with_budget(Some(64 << 10));
     let result = engine.open_volume(&volume, IMAGE, &scene_with(|_| {}));
@@ -385,6 +398,7 @@ fn an_impossible_budget_is_a_typed_error() {
 
 #[test]
 fn dropping_the_engine_frees_every_allocation_and_vulkan_object() {
+    let _one_at_a_time = serial();
     let volume = generate(&PhantomSpec::cube(40)).unwrap().volume;
     let mut engine = common::engine();
     let ledger = engine.device().ledger().clone();
