@@ -10,6 +10,9 @@
 //!   and the volumes fit any device this runs on (the MNI152 template is 8.7 M voxels).
 //! - The table prints physical values with one decimal: the template's range is 0-255 and the
 //!   perturbations keep magnitudes between about -500 and 11000.
+//! - The tissue fit's means (issue 28) are scored against the same truths as the peaks, in a
+//!   second table: a fitted mean is what the windows follow when the fit is sound, so it must
+//!   land in the bulk of its tissue just as a peak must. A fit that was not made is a miss.
 
 use super::perturb::Perturbed;
 use super::perturb_score::{Score, Totals, Truth, Truths, score, truths};
@@ -32,6 +35,10 @@ pub struct Row {
     pub norm_peaks: [Option<f64>; 3],
     /// Scores (physical peaks, truths, inside).
     pub score: Score,
+    /// Scores of the tissue fit's means (physical units), against the same truths.
+    pub fit_score: Score,
+    /// Whether the fit was sound (its windows used) and its goodness, when a fit was made.
+    pub fit_sound: Option<(bool, f64)>,
     /// Every significant mode the analysis found, with its role (why a tissue is missing).
     pub modes: Vec<ModeInfo>,
     /// The 256-bin histogram of I_norm the analysis saw.
@@ -47,6 +54,8 @@ pub struct ModeTotals {
     pub totals: Totals,
     /// Whether the issue's target holds.
     pub target_met: bool,
+    /// Counts of the fitted means.
+    pub fit_totals: Totals,
 }
 
 /// The whole study.
@@ -77,12 +86,17 @@ pub fn run_study(
             ..base.clone()
         })?;
         let mut scores = Vec::new();
+        let mut fit_scores = Vec::new();
         for (p, t) in volumes.iter().zip(&all_truths) {
             let prepared = engine.prepare(&p.volume)?;
             let report = engine.analyze(&prepared);
             let peaks = [report.peaks.csf, report.peaks.gm, report.peaks.wm];
             let s = score(peaks.map(|p| p.map(|p: Peak| p.raw)), t);
             scores.push(s);
+            let fit = report.fit.as_ref();
+            let fit_means = fit.map(|f| [f.csf, f.gm, f.wm].map(|c| Some(c.mean_raw)));
+            let fit_score = score(fit_means.unwrap_or([None; 3]), t);
+            fit_scores.push(fit_score);
             rows.push(Row {
                 volume: p.kind.name().to_string(),
                 mode,
@@ -90,6 +104,8 @@ pub fn run_study(
                 imax: report.imax,
                 norm_peaks: peaks.map(|p| p.map(|p| p.norm)),
                 score: s,
+                fit_score,
+                fit_sound: fit.map(|f| (f.sound, f.goodness)),
                 modes: report.modes.clone(),
                 histogram: prepared.histogram.to_vec(),
             });
@@ -99,6 +115,7 @@ pub fn run_study(
             mode,
             totals: t,
             target_met: t.target_met(),
+            fit_totals: Totals::of(&fit_scores),
         });
     }
     Ok(StudyReport {
@@ -117,15 +134,43 @@ fn cell(peak: Option<f64>, truth: Option<Truth>, inside: bool) -> String {
     format!("{peak} | {truth} | {mark}")
 }
 
-/// The study as a markdown table (one row per volume and mode) followed by the totals.
+/// The study as two markdown tables (the peaks, then the tissue fit's means; one row per volume
+/// and mode) followed by the totals.
 pub fn markdown(report: &StudyReport) -> String {
-    let mut out = String::new();
-    out.push_str(
-        "| volume | mode | CSF peak | CSF truth (p10-p90) | in | GM peak | GM truth | in | WM peak | WM truth | in |\n",
+    let mut out = table(report, "peak", |r| &r.score);
+    out.push('\n');
+    out.push_str(&table(report, "fitted mean", |r| &r.fit_score));
+    out.push('\n');
+    for t in &report.totals {
+        let n = t.totals.volumes;
+        out.push_str(&format!(
+            "- {}: peaks CSF {}/{n}, GM {}/{n}, WM {}/{n} inside; target (GM and WM on all, CSF on all but one) {}\n",
+            t.mode.name(),
+            t.totals.csf,
+            t.totals.gm,
+            t.totals.wm,
+            if t.target_met { "met" } else { "NOT met" },
+        ));
+        let f = t.fit_totals;
+        out.push_str(&format!(
+            "- {}: fitted means CSF {}/{n}, GM {}/{n}, WM {}/{n} inside\n",
+            t.mode.name(),
+            f.csf,
+            f.gm,
+            f.wm,
+        ));
+    }
+    out
+}
+
+/// One table of `what` (a peak or a fitted mean) per volume and mode, scored by `pick`.
+fn table(report: &StudyReport, what: &str, pick: fn(&Row) -> &Score) -> String {
+    let mut out = format!(
+        "| volume | mode | CSF {what} | CSF truth (p10-p90) | in | GM {what} | GM truth | in | WM {what} | WM truth | in |\n"
     );
     out.push_str("|---|---|---:|---:|:-:|---:|---:|:-:|---:|---:|:-:|\n");
     for r in &report.rows {
-        let s = &r.score;
+        let s = pick(r);
         out.push_str(&format!(
             "| {} | {} | {} | {} | {} |\n",
             r.volume,
@@ -133,18 +178,6 @@ pub fn markdown(report: &StudyReport) -> String {
             cell(s.csf.peak, s.csf.truth, s.csf.inside),
             cell(s.gm.peak, s.gm.truth, s.gm.inside),
             cell(s.wm.peak, s.wm.truth, s.wm.inside),
-        ));
-    }
-    out.push('\n');
-    for t in &report.totals {
-        let n = t.totals.volumes;
-        out.push_str(&format!(
-            "- {}: CSF {}/{n}, GM {}/{n}, WM {}/{n} inside; target (GM and WM on all, CSF on all but one) {}\n",
-            t.mode.name(),
-            t.totals.csf,
-            t.totals.gm,
-            t.totals.wm,
-            if t.target_met { "met" } else { "NOT met" },
         ));
     }
     out
@@ -186,6 +219,8 @@ mod tests {
                 imax: 1.0,
                 norm_peaks: [None, Some(0.5), Some(0.6)],
                 score,
+                fit_score: score,
+                fit_sound: None,
                 modes: Vec::new(),
                 histogram: Vec::new(),
             }],
@@ -193,6 +228,7 @@ mod tests {
                 mode: NormalizeMode::MinMax,
                 totals: Totals::of(&[score]),
                 target_met: Totals::of(&[score]).target_met(),
+                fit_totals: Totals::of(&[score]),
             }],
         };
         let md = markdown(&report);
@@ -202,7 +238,12 @@ mod tests {
             ),
             "{md}"
         );
-        assert!(md.contains("CSF 0/1, GM 1/1, WM 1/1 inside"), "{md}");
+        assert!(md.contains("peaks CSF 0/1, GM 1/1, WM 1/1 inside"), "{md}");
+        assert!(
+            md.contains("fitted means CSF 0/1, GM 1/1, WM 1/1 inside"),
+            "{md}"
+        );
+        assert!(md.contains("| CSF fitted mean |"), "{md}");
         assert!(md.contains("met"), "{md}");
     }
 }
