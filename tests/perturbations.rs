@@ -189,3 +189,97 @@ fn peaks_survive_the_perturbations_on_the_gpu_path() {
         );
     }
 }
+
+/// A skull-stripped brain: a ball of WM inside a GM shell with a small CSF ventricle, exact 0
+/// outside, and the ball's outer layer (every voxel touching the outside) a dark partial-volume
+/// value, as thick slices through a stripped brain make it (the MNI152 study's `thick_lps`).
+/// Deterministic noise of +-6 keeps the modes realistic.
+fn masked_brain_with_a_dark_edge() -> Volume {
+    let n = 40usize;
+    let c = (n as f64 - 1.0) / 2.0;
+    let r = |i: usize, j: usize, k: usize| {
+        let d = [i, j, k].map(|x| x as f64 - c);
+        (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
+    };
+    let inside = |i: usize, j: usize, k: usize| r(i, j, k) < 17.0;
+    let mut values = vec![0.0f32; n * n * n];
+    for k in 1..n - 1 {
+        for j in 1..n - 1 {
+            for i in 1..n - 1 {
+                if !inside(i, j, k) {
+                    continue;
+                }
+                let edge = !(inside(i - 1, j, k)
+                    && inside(i + 1, j, k)
+                    && inside(i, j - 1, k)
+                    && inside(i, j + 1, k)
+                    && inside(i, j, k - 1)
+                    && inside(i, j, k + 1));
+                let d = r(i, j, k);
+                let tissue = if edge {
+                    40.0
+                } else if d < 4.0 {
+                    75.0
+                } else if d < 10.0 {
+                    200.0
+                } else {
+                    150.0
+                };
+                let at = i + n * (j + n * k);
+                let noise = ((at.wrapping_mul(2654435761) >> 7) % 13) as f32 - 6.0;
+                values[at] = tissue + noise;
+            }
+        }
+    }
+    let mut affine = [[0.0; 4]; 4];
+    (0..4).for_each(|i| affine[i][i] = 1.0);
+    Volume::from_voxels(
+        "masked_T1w.nii",
+        [n; 3],
+        morphray::volume::Samples::from_f32(&values),
+        affine,
+        morphray::volume::LinearMap::IDENTITY,
+    )
+    .unwrap()
+}
+
+#[test]
+fn a_masked_volumes_edge_is_not_taken_for_csf() {
+    let volume = masked_brain_with_a_dark_edge();
+    if let Ok(path) = std::env::var("MORPHRAY_WRITE_MASKED_BRAIN") {
+        morphray::volume::nifti::write_new_nifti1(&volume, std::path::Path::new(&path), false)
+            .unwrap();
+    }
+    let mut engine = morphray::engine::Engine::new(EngineConfig {
+        device: DeviceConfig {
+            validation: Validation::Required,
+            ..Default::default()
+        },
+        ..Default::default()
+    })
+    .unwrap_or_else(|e| panic!("this test needs a Vulkan device with the validation layer: {e}"));
+    let mut prepared = engine.prepare(&volume).unwrap();
+    let before = engine.analyze(&prepared);
+    prepared.leave_out_mask_edge(&volume);
+    let after = engine.analyze(&prepared);
+    let csf = |r: &morphray::analysis::TissueReport| r.peaks.csf.map(|p| p.raw);
+    // The edge layer (about 3000 voxels at 40) outnumbers the ventricle (about 250 at 75): with
+    // it the darkest mode is the edge, without it the ventricle.
+    assert!(
+        csf(&before).is_some_and(|p| p < 55.0),
+        "with the edge: {:?} {:?}",
+        csf(&before),
+        before.modes
+    );
+    assert!(
+        csf(&after).is_some_and(|p| (65.0..85.0).contains(&p)),
+        "without the edge: {:?} {:?}",
+        csf(&after),
+        after.modes
+    );
+    assert!(prepared.mask_edge_voxels > 2000, "{}", prepared.mask_edge_voxels);
+    let gm = after.peaks.gm.map(|p| p.raw);
+    let wm = after.peaks.wm.map(|p| p.raw);
+    assert!(gm.is_some_and(|p| (140.0..160.0).contains(&p)), "{gm:?}");
+    assert!(wm.is_some_and(|p| (190.0..210.0).contains(&p)), "{wm:?}");
+}

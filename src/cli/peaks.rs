@@ -44,6 +44,8 @@ struct PeaksReport<'a> {
     contrast: &'a ContrastReport,
     /// The foreground window shown when no tissue class was found (in `windows.wm`).
     fallback: Option<&'a crate::analysis::Fallback>,
+    /// Voxels on a mask's edge left out of the tissue analysis (engine/mask_edge.rs).
+    mask_edge_voxels: u64,
     /// The look by modality a render would use (`scene::preset`; `--preset` names one).
     preset: String,
     /// The tissue mixture fitted by EM (means, SDs, weights, goodness), beside the Table-1 row.
@@ -170,6 +172,7 @@ pub fn run(args: &PeaksArgs, global: &super::GlobalOptions) -> Result<(), Error>
         modality: &r.modality,
         contrast: &r.contrast,
         fallback: r.fallback.as_ref(),
+        mask_edge_voxels: opened.twin.prepared.mask_edge_voxels,
         preset: crate::scene::SceneRecipe {
             preset: super::preset_arg::PresetArg::preset(args.preset),
             ..crate::scene::SceneRecipe::default()
@@ -208,6 +211,13 @@ pub fn run(args: &PeaksArgs, global: &super::GlobalOptions) -> Result<(), Error>
         _ => print_line("Imin -  Imax -  (no finite voxel)"),
     }
     print_line(&normalization_line(r));
+    if report.mask_edge_voxels > 0 {
+        print_line(&format!(
+            "histogram: a masked volume (its minimum fills much of it): the {} voxels on the \
+             mask's edge, tissue averaged with the outside, are left out of the tissue analysis",
+            report.mask_edge_voxels
+        ));
+    }
     print_line(&format!("modality {}", report.modality.summary()));
     print_line(&format!("contrast {}", report.contrast.summary()));
     print_line(&format!("preset: {}", report.preset));

@@ -47,6 +47,10 @@ pub struct HostPrepared {
     pub range: crate::analysis::RangeChoice,
     /// 256-bin histogram of the quantized I_norm over finite voxels.
     pub histogram: [u32; BINS],
+    /// `histogram` less a mask's edge (`super::mask_edge`), what the tissue analysis reads.
+    pub tissue_histogram: [u32; BINS],
+    /// Voxels left out of `tissue_histogram`.
+    pub mask_edge_voxels: u64,
     /// Voxels in the volume.
     pub voxel_count: u64,
     /// Finite voxels.
@@ -64,6 +68,28 @@ pub struct HostPrepared {
 }
 
 impl HostPrepared {
+    /// Leaves a mask's edge out of `tissue_histogram` when `volume` (what this was prepared
+    /// from) is masked (`super::mask_edge`; the caller decides that the modality wants it). Each
+    /// edge voxel binned from its stored texel, as `histogram` was.
+    pub fn leave_out_mask_edge(&mut self, volume: &Volume) {
+        let unit = self.unit();
+        let Some((stored_min, _)) = self.stored_range else {
+            return;
+        };
+        if self.normalization.constant || !super::mask_edge::may_be_masked(&self.histogram) {
+            return;
+        }
+        let texels = &self.texels;
+        let bin = |i: usize| {
+            let t = texels.get(i).copied().unwrap_or(0);
+            reference::histogram::bin_of(f32::from(t) / unit)
+        };
+        if let Some(edge) = super::mask_edge::mask_edge(volume, stored_min, bin) {
+            self.tissue_histogram = super::mask_edge::without_edge(&self.histogram, &edge);
+            self.mask_edge_voxels = edge.voxels;
+        }
+    }
+
     fn unit(&self) -> f32 {
         if self.format == vk::Format::R8_UNORM {
             255.0
@@ -213,6 +239,8 @@ impl Engine {
             normalization,
             range,
             histogram,
+            tissue_histogram: histogram,
+            mask_edge_voxels: 0,
             voxel_count: n as u64,
             finite_voxels,
             linear_part: volume.orientation.linear_part(),
@@ -409,6 +437,8 @@ impl Engine {
             normalization: host.normalization,
             range: host.range,
             histogram: host.histogram,
+            tissue_histogram: host.tissue_histogram,
+            mask_edge_voxels: host.mask_edge_voxels,
             voxel_count: host.voxel_count,
             finite_voxels: host.finite_voxels,
             linear_part: host.linear_part,

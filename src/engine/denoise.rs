@@ -88,6 +88,8 @@ impl Engine {
             normalization: prepared.normalization,
             range: prepared.range,
             histogram: prepared.histogram,
+            tissue_histogram: prepared.tissue_histogram,
+            mask_edge_voxels: prepared.mask_edge_voxels,
             voxel_count: prepared.voxel_count,
             finite_voxels: prepared.finite_voxels,
             linear_part: prepared.linear_part,

@@ -21,6 +21,7 @@ mod derive;
 pub mod kernels;
 mod labels;
 mod maps;
+pub mod mask_edge;
 mod occupancy;
 mod open;
 mod pipelines;

@@ -142,8 +142,11 @@ impl Engine {
                 timings.denoise_ms = ms(before_denoise);
                 let before_peaks = Instant::now();
                 let identity = self.identify(volume);
-                let report = self.analyze_identified(&prepared, &identity);
                 let mut prepared = prepared;
+                if super::mask_edge::wanted_for(&identity) {
+                    prepared.leave_out_mask_edge(volume);
+                }
+                let report = self.analyze_identified(&prepared, &identity);
                 prepared.identity = identity;
                 let scene = recipe.scene_for(&report);
                 timings.peaks_ms = ms(before_peaks);
@@ -159,9 +162,14 @@ impl Engine {
                     self.plan(effects, volume, image, 0.0)?;
                 }
                 let before_host = Instant::now();
-                let host = self.prepare_on_host(volume, vk::Format::R16_UNORM)?;
+                let mut host = self.prepare_on_host(volume, vk::Format::R16_UNORM)?;
                 let before_peaks = Instant::now();
-                let report = self.analyze_host(&host, &self.identify(volume));
+                let identity = self.identify(volume);
+                let edge_out = super::mask_edge::wanted_for(&identity);
+                if edge_out {
+                    host.leave_out_mask_edge(volume);
+                }
+                let report = self.analyze_host(&host, &identity);
                 let scene = recipe.scene_for(&report);
                 timings.peaks_ms = ms(before_peaks);
                 let fraction = host
@@ -171,7 +179,11 @@ impl Engine {
                 let plan = self.plan(effects, volume, image, fraction)?;
                 timings.plan_ms += ms(before_plan);
                 let host = if plan.normalized_format == vk::Format::R8_UNORM {
-                    self.prepare_on_host(volume, vk::Format::R8_UNORM)?
+                    let mut host = self.prepare_on_host(volume, vk::Format::R8_UNORM)?;
+                    if edge_out {
+                        host.leave_out_mask_edge(volume);
+                    }
+                    host
                 } else {
                     host
                 };
@@ -255,7 +267,7 @@ impl Engine {
         identity: &Identity,
     ) -> TissueReport {
         self.analyze_histogram(
-            &prepared.histogram,
+            &prepared.tissue_histogram,
             &prepared.normalization,
             (prepared.range, identity),
             prepared.voxel_count,
@@ -265,7 +277,7 @@ impl Engine {
 
     fn analyze_host(&self, host: &HostPrepared, identity: &Identity) -> TissueReport {
         self.analyze_histogram(
-            &host.histogram,
+            &host.tissue_histogram,
             &host.normalization,
             (host.range, identity),
             host.voxel_count,

@@ -76,6 +76,11 @@ pub struct PreparedVolume {
     pub range: crate::analysis::RangeChoice,
     /// 256-bin histogram of I_norm over finite voxels.
     pub histogram: [u32; BINS],
+    /// The histogram the tissue analysis reads: `histogram` less a mask's edge when the volume
+    /// is a masked structural MR scan (`super::mask_edge`), `histogram` otherwise.
+    pub tissue_histogram: [u32; BINS],
+    /// Voxels left out of `tissue_histogram` (0 when the volume is not masked).
+    pub mask_edge_voxels: u64,
     /// Voxels in the volume.
     pub voxel_count: u64,
     /// Finite voxels (= sum of the histogram).
@@ -289,6 +294,10 @@ impl Engine {
             normalization,
             range,
             histogram,
+            // The mask's edge is left out once the modality is known
+            // (`Engine::leave_out_mask_edge`).
+            tissue_histogram: histogram,
+            mask_edge_voxels: 0,
             voxel_count,
             finite_voxels,
             linear_part: volume.orientation.linear_part(),

@@ -88,7 +88,9 @@ pub fn run_study(
         let mut scores = Vec::new();
         let mut fit_scores = Vec::new();
         for (p, t) in volumes.iter().zip(&all_truths) {
-            let prepared = engine.prepare(&p.volume)?;
+            let mut prepared = engine.prepare(&p.volume)?;
+            // As `Engine::open_planned` does for a structural MR scan.
+            prepared.leave_out_mask_edge(&p.volume);
             let report = engine.analyze(&prepared);
             let peaks = [report.peaks.csf, report.peaks.gm, report.peaks.wm];
             let s = score(peaks.map(|p| p.map(|p: Peak| p.raw)), t);
