@@ -337,7 +337,11 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
     }
     let chosen = recipe_from_args(&scene_args)?.preset_for(&opened.report);
     let preset = chosen.label(&opened.report);
-    print_line(&format!("preset: {preset} ({})", chosen.summary()));
+    let why = chosen
+        .why(&opened.report)
+        .filter(|_| scene_args.preset.is_none())
+        .map_or(String::new(), |why| format!(": {why}"));
+    print_line(&format!("preset: {preset} ({}){why}", chosen.summary()));
     if !classified {
         // What the projection's grey levels span (issue 32 item 5): the robust range of a
         // projection ends at the 99.99th percentile, so the brightest structures stay graded.
