@@ -219,11 +219,10 @@ impl Engine {
         let start = Instant::now();
         let mut input = self.plan_input(volume, options.image, 1.0);
         input.denoise = options.recipe.denoise;
-        let plan = crate::engine::plan::plan(
-            options.recipe.effects,
-            &input,
-            &super::DeviceImageSizes(self.device()),
-        );
+        // The preset's vessel channel is planned too (`SceneRecipe::effects_for`).
+        let effects = options.recipe.effects_for(&self.identify(volume));
+        let plan =
+            crate::engine::plan::plan(effects, &input, &super::DeviceImageSizes(self.device()));
         let plan_ms = ms(start);
         let mut ahead_ms = 0.0;
         if options.first_frame {

@@ -33,7 +33,7 @@
 //!   have fittable classes, and the foreground is what the scan shows.
 
 use super::classification::{Classification, MANUAL_EDGE, TissueClass, Window};
-use crate::analysis::{Modality, SequenceKind, TissueReport};
+use crate::analysis::{Identity, Modality, SequenceKind, TissueReport};
 
 /// One look of the table.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
@@ -159,14 +159,34 @@ impl Preset {
 
     /// The preset for what the analysis decided the volume is (module doc).
     pub fn auto(report: &TissueReport) -> Preset {
-        let kind = report.contrast.kind;
+        let contrast = &report.contrast;
+        Preset::auto_for(
+            report.modality.modality,
+            contrast.kind,
+            contrast.post_contrast,
+        )
+    }
+
+    /// [`Preset::auto`] before the histogram analysis: the choice rests on the identity alone
+    /// (modality, sequence kind, agent), which is what lets the memory plan count the vessel
+    /// channel the preset turns on.
+    pub fn auto_identified(identity: &Identity) -> Preset {
+        Preset::auto_for(
+            identity.modality.modality,
+            identity.kind,
+            identity.post_contrast,
+        )
+    }
+
+    /// The rule of the module doc.
+    fn auto_for(modality: Modality, kind: Option<SequenceKind>, post_contrast: bool) -> Preset {
         if kind == Some(SequenceKind::Angio) {
             Preset::Angio
-        } else if report.modality.modality == Modality::Ct {
+        } else if modality == Modality::Ct {
             Preset::Ct
         } else if matches!(kind, Some(SequenceKind::Bold | SequenceKind::Asl)) {
             Preset::Epi
-        } else if report.contrast.post_contrast {
+        } else if post_contrast {
             Preset::PostContrast
         } else {
             Preset::Mr
