@@ -30,7 +30,8 @@
 //!   partial-volume edge still fall inside, which the vesselness then outweighs).
 //! - EPI / BOLD / ASL: one foreground window (the background threshold up, open above) in the
 //!   white-matter slot, translucent, the other tissues hidden: low-resolution series rarely
-//!   have fittable classes, and the foreground is what the scan shows.
+//!   have fittable classes, and the foreground is what the scan shows. A 4-D series is read
+//!   as the mean of its frames for it (`engine::session`, unless a frame is named).
 
 use super::classification::{Classification, MANUAL_EDGE, TissueClass, Window};
 use crate::analysis::{Identity, Modality, SequenceKind, TissueReport};
@@ -71,7 +72,7 @@ pub const PRESETS: [(Preset, &str); 5] = [
     ),
     (
         Preset::Epi,
-        "EPI, BOLD, ASL: one translucent foreground window on the loaded frame",
+        "EPI, BOLD, ASL: one translucent foreground window on the mean frame of a 4-D series",
     ),
 ];
 
