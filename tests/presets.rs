@@ -192,6 +192,54 @@ fn a_ct_angiogram_picks_angio_with_its_hounsfield_band_and_says_why() {
     assert!(Picture::read(&ct_png).find(None, bright).len() > 200);
 }
 
+/// The tube phantom as a CT angiogram in Hounsfield units: brain 40 HU, contrast-filled
+/// lumen 350 HU (the partial-volume ramp between), a slab of air (-1000 HU) beside the tubes.
+fn tubes_in_hu(path: &Path) {
+    let mut volume = morphray::volume::vessel_phantom::tubes().volume;
+    let [nx, ny, _] = volume.dims;
+    let hu: Vec<i16> = volume
+        .samples
+        .to_f64_vec()
+        .iter()
+        .enumerate()
+        .map(|(i, v)| {
+            let y = i / nx % ny;
+            if y >= ny - 2 {
+                -1000
+            } else {
+                (40.0 + v * 310.0).round() as i16
+            }
+        })
+        .collect();
+    volume.samples = morphray::volume::Samples::from_i16(&hu);
+    write_nifti1(&volume, path, false).unwrap();
+}
+
+#[test]
+fn a_ct_angiogram_in_hounsfield_units_shows_its_vessels_red() {
+    let dir = folder("cta-tubes");
+    let nii = dir.join("tubes_angio.nii");
+    tubes_in_hu(&nii);
+    let png = dir.join("angio.png");
+    let out = ok(&["render", s(&nii), "-o", s(&png), "--size", "96x96"]);
+    assert!(
+        out.contains("preset: angio (CT: vessels 150..600 HU)"),
+        "{out}"
+    );
+    // Saturated red: the lumen band and the vessel channel (bone's ivory mixes in green).
+    let saturated = |p: [u8; 3]| p[0] > 60 && 3 * u16::from(p[1]) < u16::from(p[0]);
+    let red = Picture::read(&png).find(None, saturated).len();
+    // The plain CT look draws the 300 HU and up lumen as bone: pink, not red.
+    let ct_png = dir.join("ct.png");
+    let args = ["render", s(&nii), "-o", s(&ct_png), "--size", "96x96"];
+    ok(&[&args[..], &["--preset", "ct"]].concat());
+    let ct_red = Picture::read(&ct_png).find(None, saturated).len();
+    assert!(
+        red > 500 && red > 2 * ct_red,
+        "angio {red} red, ct {ct_red}"
+    );
+}
+
 #[test]
 fn a_contrast_agent_on_a_ct_makes_an_angiogram_and_a_plain_ct_stays_ct() {
     let dir = folder("agent");
