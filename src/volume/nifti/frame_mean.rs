@@ -81,3 +81,42 @@ pub(crate) fn mean_frame(f: &Frames) -> Result<(Samples, LinearMap, Vec<String>)
     let mean: Vec<f32> = sum.iter().map(|s| (s / n) as f32).collect();
     Ok((Samples::from_f32(&mean), LinearMap::IDENTITY, warnings))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_mean_is_taken_in_physical_units_over_every_frame() {
+        // Three frames of 2x1x1 big-endian int16 behind 4 padding bytes, scaled by 0.5 + 10.
+        let frames: [[i16; 2]; 3] = [[2, -7], [4, 100], [9, 3]];
+        let mut data = vec![0xee; 4];
+        for f in frames {
+            for v in f {
+                data.extend_from_slice(&v.to_be_bytes());
+            }
+        }
+        let f = Frames {
+            data: &data,
+            offset: 4,
+            frame_bytes: 4,
+            frames: 3,
+            datatype: Datatype::Int16,
+            order: ByteOrder::BigEndian,
+            scaling: (0.5, 10.0),
+        };
+        let (samples, map, _) = mean_frame(&f).unwrap();
+        assert_eq!(map, LinearMap::IDENTITY);
+        let want = [(2 + 4 + 9) as f64, (-7 + 100 + 3) as f64].map(|s| 0.5 * s / 3.0 + 10.0);
+        for (i, w) in want.iter().enumerate() {
+            assert!(
+                (samples.get(i) - w).abs() < 1e-5,
+                "{} vs {w}",
+                samples.get(i)
+            );
+        }
+        // Frames past the bytes are an error, not a panic.
+        let short = Frames { frames: 4, ..f };
+        assert!(mean_frame(&short).is_err());
+    }
+}
