@@ -1,7 +1,8 @@
 //! The pass plan against what the engine really does (issue 7): the memory ledger holds exactly
 //! the plan's allocations; scene changes run and hold only what they must; a volume far over a
 //! small budget renders by bricking and matches the whole render; an impossible budget is a
-//! typed error; dropping the engine frees every allocation and Vulkan object.
+//! typed error; the vessel channel an angiogram's preset turns on is in the plan, within the
+//! budget; dropping the engine frees every allocation and Vulkan object.
 
 mod common;
 
@@ -374,6 +375,81 @@ fn stored_derivatives_of_a_bricked_volume_render_like_the_whole_volume() {
     assert!(psnr >= 60.0 && max <= 6, "PSNR {psnr:.1} dB, max {max}");
     common::assert_no_validation_errors(&bricking);
     common::assert_no_validation_errors(&whole_engine);
+}
+
+/// The vesselness allocations (response and scratch) among `list`.
+fn vesselness(list: &[(String, u64)]) -> Vec<(String, u64)> {
+    list.iter()
+        .filter(|(n, _)| n.starts_with("vesselness"))
+        .cloned()
+        .collect()
+}
+
+/// The planned allocations held after the open (the transient ones are gone), sorted.
+fn planned(opened: &OpenedVolume) -> Vec<(String, u64)> {
+    let mut planned: Vec<(String, u64)> = opened
+        .plan
+        .allocations
+        .iter()
+        .filter(|a| !a.transient)
+        .map(|a| (a.name.clone(), a.bytes))
+        .collect();
+    planned.sort();
+    planned
+}
+
+#[test]
+fn the_angio_presets_vessel_channel_is_planned_and_fits_the_budget() {
+    let _one_at_a_time = serial();
+    // A BIDS `_angio` name: the automatic preset is `angio`, which draws the vessel channel.
+    let mut volume = morphray::volume::vessel_phantom::tubes().volume;
+    volume.facts.bids_suffix = Some("angio".into());
+    let recipe = scene_with(|_| {});
+    assert!(
+        !recipe.effects.vessels,
+        "the recipe itself asks for no vessels"
+    );
+    let (without, with) = {
+        let engine = engine_with_budget(None);
+        let vessels = morphray::scene::Effects {
+            vessels: true,
+            ..recipe.effects
+        };
+        let plan = |e| engine.plan(e, &volume, IMAGE, 1.0).unwrap();
+        (plan(recipe.effects), plan(vessels))
+    };
+    assert!(with.peak_bytes > without.peak_bytes);
+    // Unlimited: the vesselness volume is planned and held, exactly as planned.
+    let mut engine = engine_with_budget(None);
+    let opened = engine.open_volume(&volume, IMAGE, &recipe).unwrap();
+    assert!(opened.scene.effects.vessels && opened.plan.effects.vessels);
+    // (Render-time allocations come with the first frame: only the open's are compared.)
+    let planned_vesselness = vesselness(&planned(&opened));
+    assert!(!planned_vesselness.is_empty());
+    assert_eq!(vesselness(&held(&engine)), planned_vesselness, "unlimited");
+    drop(opened);
+    drop(engine);
+    // A budget that holds the scene without the vessel channel but not with it: the plan
+    // degrades it off (and says so) instead of allocating it past the budget afterwards.
+    let mut engine = engine_with_budget(Some(without.peak_bytes));
+    let opened = engine.open_volume(&volume, IMAGE, &recipe).unwrap();
+    let held_now = held(&engine);
+    assert_eq!(vesselness(&held_now), [], "budget {}", without.peak_bytes);
+    assert_eq!(vesselness(&planned(&opened)), []);
+    let bytes: u64 = held_now.iter().map(|(_, b)| b).sum();
+    assert!(bytes <= without.peak_bytes, "{bytes} held: {held_now:?}");
+    assert!(!opened.scene.effects.vessels);
+    assert!(
+        opened
+            .plan
+            .degradations
+            .iter()
+            .any(|d| d.what.starts_with("vessel channel off")),
+        "{:?}",
+        opened.plan.degradations
+    );
+    assert!(opened.plan.peak_bytes <= without.peak_bytes);
+    common::assert_no_validation_errors(&engine);
 }
 
 #[test]

@@ -1146,7 +1146,10 @@ fn cases() -> Vec<Case> {
     t.push(Case {
         name: "4-D: frame 2 selected",
         bytes: frames.bytes(),
-        opts: LoadOptions { frame: 2 },
+        opts: LoadOptions {
+            frame: 2,
+            mean: false,
+        },
         expect: Expect::Loads(Box::new(|l| {
             assert_eq!(stored(l), [200.0, 201.0, 202.0, 203.0]);
             assert_eq!(l.header.frame_loaded, 2);
@@ -1156,7 +1159,10 @@ fn cases() -> Vec<Case> {
     t.push(Case {
         name: "4-D big-endian frame 1",
         bytes: frames.clone().big().bytes(),
-        opts: LoadOptions { frame: 1 },
+        opts: LoadOptions {
+            frame: 1,
+            mean: false,
+        },
         expect: Expect::Loads(Box::new(|l| {
             assert_eq!(stored(l), [100.0, 101.0, 102.0, 103.0])
         })),
@@ -1164,7 +1170,10 @@ fn cases() -> Vec<Case> {
     t.push(Case {
         name: "4-D: frame out of range",
         bytes: frames.bytes(),
-        opts: LoadOptions { frame: 3 },
+        opts: LoadOptions {
+            frame: 3,
+            mean: false,
+        },
         expect: Expect::Fails(Box::new(|e| {
             assert!(
                 matches!(

@@ -1,7 +1,9 @@
 //! Presets by modality through the command line (issue 28 item 3): the head phantom as a CT
 //! renders its skull with the automatic `ct` preset; a TOF-like tube phantom named as a BIDS
-//! `_angio` picks `angio` and shows its vessels; `--preset list`; an unknown name is a one-line
-//! error. `render` and `peaks` need a Vulkan device (lavapipe here).
+//! `_angio` picks `angio` and shows its vessels; a CT angiogram (BIDS `_angio` with Hounsfield
+//! values, a sidecar's ContrastBolusAgent on a CT) picks `angio` with its Hounsfield vessel band
+//! and says why; `--preset list`; an unknown name is a one-line error. `render` and `peaks` need
+//! a Vulkan device (lavapipe here).
 
 #[path = "common/pictures.rs"]
 #[allow(dead_code)]
@@ -123,6 +125,146 @@ fn a_bids_angio_tube_phantom_picks_the_angio_preset_and_shows_vessels() {
     assert!(out.contains("preset: angio"), "{out}");
     let red = Picture::read(&png).find(None, pictures::dominant(0)).len();
     assert!(red > 100, "only {red} red vessel pixels");
+}
+
+/// The head phantom as a CT in Hounsfield units, written as `name` in `dir`.
+fn head_ct(dir: &Path, name: &str) -> PathBuf {
+    let nii = dir.join(name);
+    ok(&[
+        "phantom",
+        "--head",
+        "--contrast",
+        "ct",
+        "--dims",
+        "48x48x48",
+        "-o",
+        s(&nii),
+    ]);
+    nii
+}
+
+/// Pixels whose red outweighs green and blue together (the angio band and the vessel channel).
+fn red(p: [u8; 3]) -> bool {
+    p[0] > 60 && u16::from(p[0]) > u16::from(p[1]) + u16::from(p[2])
+}
+
+#[test]
+fn a_ct_angiogram_picks_angio_with_its_hounsfield_band_and_says_why() {
+    let dir = folder("cta");
+    // BIDS `_angio` names no modality; the Hounsfield values make it a CT angiogram.
+    let nii = head_ct(&dir, "sub-01_angio.nii");
+    let peaks = ok(&["peaks", s(&nii), "--json"]);
+    let peaks: serde_json::Value = serde_json::from_str(&peaks).unwrap();
+    assert_eq!(peaks["modality"]["modality"], "ct", "{peaks}");
+    assert_eq!(peaks["contrast"]["kind"], "angio", "{peaks}");
+    assert_eq!(
+        peaks["preset"], "angio (CT: vessels 150..600 HU)",
+        "{peaks}"
+    );
+    let png = dir.join("cta.png");
+    let out = ok(&["render", s(&nii), "-o", s(&png), "--size", "96x96"]);
+    assert!(
+        out.contains("preset: angio (CT: vessels 150..600 HU)")
+            && out.contains("a CT angiogram: BIDS suffix _angio"),
+        "{out}"
+    );
+    // Bone (1200 HU) is hidden: no ivory; the lumen band (which holds the skull's
+    // partial-volume edge and diploe, 300 HU) is red. The plain CT look shows ivory bone.
+    let cta = Picture::read(&png);
+    let ivory = cta.find(None, bright).len();
+    let reds = cta.find(Some([40, 40, 16, 16]), red).len();
+    assert!(ivory == 0 && reds > 200, "ivory {ivory}, red centre {reds}");
+    let ct_png = dir.join("ct.png");
+    let out = ok(&[
+        "render",
+        s(&nii),
+        "-o",
+        s(&ct_png),
+        "--size",
+        "96x96",
+        "--preset",
+        "ct",
+    ]);
+    assert!(
+        out.contains("preset: ct (") && !out.contains("a CT angiogram"),
+        "{out}"
+    );
+    assert!(Picture::read(&ct_png).find(None, bright).len() > 200);
+}
+
+/// The tube phantom as a CT angiogram in Hounsfield units: brain 40 HU, contrast-filled
+/// lumen 350 HU (the partial-volume ramp between), a slab of air (-1000 HU) beside the tubes.
+fn tubes_in_hu(path: &Path) {
+    let mut volume = morphray::volume::vessel_phantom::tubes().volume;
+    let [nx, ny, _] = volume.dims;
+    let hu: Vec<i16> = volume
+        .samples
+        .to_f64_vec()
+        .iter()
+        .enumerate()
+        .map(|(i, v)| {
+            let y = i / nx % ny;
+            if y >= ny - 2 {
+                -1000
+            } else {
+                (40.0 + v * 310.0).round() as i16
+            }
+        })
+        .collect();
+    volume.samples = morphray::volume::Samples::from_i16(&hu);
+    write_nifti1(&volume, path, false).unwrap();
+}
+
+#[test]
+fn a_ct_angiogram_in_hounsfield_units_shows_its_vessels_red() {
+    let dir = folder("cta-tubes");
+    let nii = dir.join("tubes_angio.nii");
+    tubes_in_hu(&nii);
+    let png = dir.join("angio.png");
+    let out = ok(&["render", s(&nii), "-o", s(&png), "--size", "96x96"]);
+    assert!(
+        out.contains("preset: angio (CT: vessels 150..600 HU)"),
+        "{out}"
+    );
+    // Saturated red: the lumen band and the vessel channel (bone's ivory mixes in green).
+    let saturated = |p: [u8; 3]| p[0] > 60 && 3 * u16::from(p[1]) < u16::from(p[0]);
+    let red = Picture::read(&png).find(None, saturated).len();
+    // The plain CT look draws the 300 HU and up lumen as bone: pink, not red.
+    let ct_png = dir.join("ct.png");
+    let args = ["render", s(&nii), "-o", s(&ct_png), "--size", "96x96"];
+    ok(&[&args[..], &["--preset", "ct"]].concat());
+    let ct_red = Picture::read(&ct_png).find(None, saturated).len();
+    assert!(
+        red > 500 && red > 2 * ct_red,
+        "angio {red} red, ct {ct_red}"
+    );
+}
+
+#[test]
+fn a_contrast_agent_on_a_ct_makes_an_angiogram_and_a_plain_ct_stays_ct() {
+    let dir = folder("agent");
+    let nii = head_ct(&dir, "head.nii");
+    let preset = |nii: &Path| {
+        let peaks = ok(&["peaks", s(nii), "--json"]);
+        let peaks: serde_json::Value = serde_json::from_str(&peaks).unwrap();
+        peaks["preset"].as_str().unwrap_or("").to_string()
+    };
+    assert_eq!(preset(&nii), "ct");
+    std::fs::write(
+        dir.join("head.json"),
+        r#"{"Modality": "CT", "ContrastBolusAgent": "IOPAMIDOL"}"#,
+    )
+    .unwrap();
+    assert_eq!(preset(&nii), "angio (CT: vessels 150..600 HU)");
+    let text = ok(&["peaks", s(&nii)]);
+    assert!(
+        text.contains("a CT angiogram: ContrastBolusAgent 'IOPAMIDOL' on a CT"),
+        "{text}"
+    );
+    // `--preset ct` by hand wins over the automatic choice.
+    let by_hand = ok(&["peaks", s(&nii), "--json", "--preset", "ct"]);
+    let by_hand: serde_json::Value = serde_json::from_str(&by_hand).unwrap();
+    assert_eq!(by_hand["preset"], "ct", "{by_hand}");
 }
 
 #[test]

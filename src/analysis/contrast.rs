@@ -227,6 +227,10 @@ pub struct ContrastReport {
     pub kind: Option<SequenceKind>,
     /// A contrast agent was given (DICOM ContrastBolusAgent, BIDS `ce-`, words such as Gd).
     pub post_contrast: bool,
+    /// Why the kind is what it is, when a rule beyond the contrast's own reason decided it (a
+    /// CT angiogram: the word, suffix or agent that says so).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub kind_reason: Option<String>,
 }
 
 impl ContrastReport {
@@ -238,6 +242,7 @@ impl ContrastReport {
             reason,
             kind: None,
             post_contrast: false,
+            kind_reason: None,
         }
     }
 
@@ -255,7 +260,11 @@ impl ContrastReport {
 
     /// One line for people: `T2 (histogram): ...`.
     pub fn summary(&self) -> String {
-        format!("{} ({}): {}", self.label(), self.basis.name(), self.reason)
+        let line = format!("{} ({}): {}", self.label(), self.basis.name(), self.reason);
+        match &self.kind_reason {
+            Some(why) => format!("{line}; {why}"),
+            None => line,
+        }
     }
 }
 

@@ -271,6 +271,8 @@ pub struct Identity {
     pub contrast: Option<ContrastReport>,
     /// The sequence family the metadata names (also when the histogram decides the contrast).
     pub kind: Option<SequenceKind>,
+    /// Why a CT is an angiogram (`kind` is then `Angio`): the fact that says so.
+    pub ct_angiography: Option<String>,
     /// Whether the metadata names a contrast agent.
     pub post_contrast: bool,
 }
@@ -299,7 +301,14 @@ pub fn identify(
 ) -> Identity {
     let modality = decide_modality(facts, values, modality);
     let named = rules::named_contrast(facts);
-    let kind = named.as_ref().and_then(|n| n.kind);
+    let ct_angiography = (modality.modality == Modality::Ct)
+        .then(|| rules::ct_angiography(facts))
+        .flatten();
+    let kind = if ct_angiography.is_some() {
+        Some(SequenceKind::Angio)
+    } else {
+        named.as_ref().and_then(|n| n.kind)
+    };
     let post_contrast = rules::post_contrast(facts);
     let contrast = if let Some(given) = contrast.given() {
         Some(ContrastReport::new(
@@ -309,7 +318,7 @@ pub fn identify(
         ))
     } else if modality.modality == Modality::Ct {
         let basis = modality.basis;
-        Some(ContrastReport::new(
+        let mut report = ContrastReport::new(
             Contrast::Ct,
             basis,
             format!(
@@ -317,7 +326,11 @@ pub fn identify(
                 basis.name(),
                 Contrast::Ct.order()
             ),
-        ))
+        );
+        report.kind_reason = ct_angiography
+            .as_ref()
+            .map(|why| format!("a CT angiogram: {why}"));
+        Some(report)
     } else if modality.modality == Modality::Mr {
         named.and_then(|n| {
             n.contrast
@@ -330,6 +343,7 @@ pub fn identify(
         modality,
         contrast,
         kind,
+        ct_angiography,
         post_contrast,
     }
 }
@@ -360,11 +374,22 @@ fn decide_modality(
         ),
         _ => reason,
     };
+    let hu = values.filter(|v| v.looks_ct());
+    if let Some(v) = hu.filter(|_| rules::mr_only_by_angiography(facts)) {
+        return report(
+            Modality::Ct,
+            Basis::Values,
+            format!(
+                "Hounsfield units ({}), and the name says angiography: a CT angiogram",
+                v.describe()
+            ),
+        );
+    }
     if let Some(m) = rules::metadata_modality(facts) {
         let reason = not_hu(m.0, m.1);
         return report(m.0, Basis::Metadata, reason);
     }
-    if let Some(v) = values.filter(|v| v.looks_ct()) {
+    if let Some(v) = hu {
         return report(
             Modality::Ct,
             Basis::Values,
@@ -398,6 +423,76 @@ mod tests {
         // The same CT shifted to 0..4095 (a stored value without its rescale): not HU.
         let shifted = ValueSummary::of((0..1000).map(|i| if i % 2 == 0 { 24.0 } else { 1060.0 }));
         assert!(!shifted.looks_ct());
+    }
+
+    #[test]
+    fn a_ct_named_or_given_contrast_as_an_angiogram_is_angio_and_a_plain_ct_is_not() {
+        let hu = ValueSummary::of((0..1000).map(|i| match i % 10 {
+            0..=3 => -1000.0,
+            4..=8 => 40.0,
+            _ => 1200.0,
+        }));
+        let id = |facts: ScanFacts| {
+            identify(
+                &facts,
+                Some(&hu),
+                ModalityChoice::Auto,
+                ContrastChoice::Auto,
+            )
+        };
+        let named = |file: &str| ScanFacts {
+            file_name: Some(file.into()),
+            ..Default::default()
+        };
+        let plain = id(named("head_ct"));
+        assert_eq!(plain.modality.modality, Modality::Ct);
+        assert_eq!((plain.kind, plain.ct_angiography), (None, None));
+        for (facts, why) in [
+            (named("head_CTA"), "names CTA"),
+            (named("CT_AVM"), "names AVM (a vascular lesion"),
+            (
+                ScanFacts {
+                    modality: Some("CT".into()),
+                    contrast_agent: Some("Omnipaque".into()),
+                    ..Default::default()
+                },
+                "ContrastBolusAgent 'Omnipaque' on a CT",
+            ),
+            (
+                ScanFacts {
+                    bids_suffix: Some("angio".into()),
+                    ..Default::default()
+                },
+                "BIDS suffix _angio",
+            ),
+        ] {
+            let got = id(facts);
+            assert_eq!(got.modality.modality, Modality::Ct, "{got:?}");
+            assert_eq!(got.kind, Some(SequenceKind::Angio), "{got:?}");
+            let reason = got.contrast.and_then(|c| c.kind_reason).unwrap_or_default();
+            assert!(reason.contains(why), "{reason}");
+        }
+        // An MR angiogram stays MR: magnitudes are not Hounsfield units.
+        let mr = ValueSummary::of((0..1000).map(|i| f64::from(i % 700)));
+        let facts = ScanFacts {
+            bids_suffix: Some("angio".into()),
+            ..Default::default()
+        };
+        let tof = identify(
+            &facts,
+            Some(&mr),
+            ModalityChoice::Auto,
+            ContrastChoice::Auto,
+        );
+        assert_eq!(tof.modality.modality, Modality::Mr);
+        assert_eq!(tof.ct_angiography, None);
+        // "no" as the agent is no agent.
+        let none = id(ScanFacts {
+            modality: Some("CT".into()),
+            contrast_agent: Some("None".into()),
+            ..Default::default()
+        });
+        assert_eq!(none.kind, None);
     }
 
     #[test]

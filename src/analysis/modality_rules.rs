@@ -94,6 +94,10 @@ const ANGIO: &[&str] = &[
     "MRANGIO",
     "CEMRA",
 ];
+/// Vascular lesions whose CT study is an angiogram (a CT named after an AVM is a CTA).
+const VASCULAR: &[&str] = &["AVM", "ANEURYSM", "AVF"];
+/// Angiography words that name no modality (a CT or an MR angiogram).
+const NEUTRAL_ANGIO: &[&str] = &["ANGIO", "ANGIOGRAPHY"];
 const BOLD: &[&str] = &["BOLD", "FMRI", "RESTING", "REST"];
 const ASL: &[&str] = &["ASL", "PCASL", "PASL", "CASL", "M0SCAN"];
 const DWI: &[&str] = &["DWI", "DTI", "DIFFUSION", "TRACEW", "ADC"];
@@ -360,6 +364,78 @@ pub fn metadata_modality(facts: &ScanFacts) -> Option<(Modality, String)> {
     let file = facts.file_name.as_deref()?;
     let (m, w) = words(file).modality?;
     Some((m, format!("the file name {} names {w}", quoted(file))))
+}
+
+/// Why a CT is an angiogram, when its metadata says so (module doc of `modality`): the BIDS
+/// suffix `_angio`, angiography or vascular-lesion words (CTA, angio, AVM, aneurysm) in
+/// SeriesDescription, ProtocolName, `descrip` or the file name, or a contrast agent
+/// (ContrastBolusAgent, BIDS `ce-`): on a CT the agent is iodine, given to fill the vessels.
+pub fn ct_angiography(facts: &ScanFacts) -> Option<String> {
+    if let Some(s) = facts.bids_suffix.as_deref()
+        && s.eq_ignore_ascii_case("angio")
+    {
+        return Some(format!("BIDS suffix _{s}"));
+    }
+    let texts = facts.texts();
+    let named = texts
+        .iter()
+        .copied()
+        .chain(facts.file_name.as_deref().map(|f| ("the file name", f)));
+    for (name, text) in named {
+        let upper = text.to_ascii_uppercase();
+        let word = upper
+            .split(|c: char| !c.is_ascii_alphanumeric())
+            .find(|t| ANGIO.contains(t) || VASCULAR.contains(t) || *t == "CTANGIO");
+        if let Some(w) = word {
+            let what = if VASCULAR.contains(&w) {
+                " (a vascular lesion: its CT is an angiogram)"
+            } else {
+                ""
+            };
+            return Some(format!("{name} {} names {w}{what}", quoted(text)));
+        }
+    }
+    let agent = |v: &Option<String>| {
+        v.as_deref()
+            .map(str::trim)
+            .filter(|a| {
+                !a.is_empty()
+                    && !["none", "no", "pre", "n/a", "0"].contains(&a.to_ascii_lowercase().as_str())
+            })
+            .map(str::to_string)
+    };
+    if let Some(a) = agent(&facts.contrast_agent) {
+        return Some(format!("ContrastBolusAgent {} on a CT", quoted(&a)));
+    }
+    agent(&facts.bids_ce).map(|a| format!("BIDS ce-{a} (a contrast agent) on a CT"))
+}
+
+/// Whether the metadata's MR comes only from a word or suffix that names angiography without
+/// a modality (`_angio`, `angio`): Hounsfield values then make the scan a CT angiogram.
+pub fn mr_only_by_angiography(facts: &ScanFacts) -> bool {
+    if facts
+        .modality
+        .as_deref()
+        .is_some_and(|t| !t.trim().is_empty())
+    {
+        return false;
+    }
+    let (tr, te, ti) = facts.times();
+    if tr.is_some() || te.is_some() || ti.is_some() {
+        return false;
+    }
+    if let Some(s) = facts.bids_suffix.as_deref()
+        && is_known_suffix(s)
+    {
+        return s.eq_ignore_ascii_case("angio");
+    }
+    let speaking = facts
+        .texts()
+        .into_iter()
+        .map(|(_, t)| t)
+        .chain(facts.file_name.as_deref())
+        .find_map(|t| words(t).modality);
+    matches!(speaking, Some((Modality::Mr, w)) if NEUTRAL_ANGIO.contains(&w.as_str()))
 }
 
 /// Whether the metadata names a contrast agent.

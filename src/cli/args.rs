@@ -316,9 +316,12 @@ pub struct PeaksArgs {
     /// Print JSON instead of text.
     #[arg(long)]
     pub json: bool,
-    /// Frame of a 4-D file to analyse (0-based).
-    #[arg(long, default_value_t = 0)]
-    pub frame: usize,
+    /// Frame of a 4-D file to analyse (0-based)
+    ///
+    /// Default: frame 0, or the mean of all frames when the preset is epi (a BOLD or ASL
+    /// series).
+    #[arg(long)]
+    pub frame: Option<usize>,
     /// Look by modality to report (mr, ct, angio, post-contrast, epi; `list` names them).
     #[arg(long, value_name = "NAME", value_parser = super::preset_arg::parse_preset)]
     pub preset: Option<super::preset_arg::PresetArg>,
@@ -346,9 +349,12 @@ pub struct RenderArgs {
     /// Turntable movie (src/cli/movie.rs).
     #[command(flatten)]
     pub movie: super::movie::MovieArgs,
-    /// Frame of a 4-D file to render (0-based).
-    #[arg(long, default_value_t = 0)]
-    pub frame: usize,
+    /// Frame of a 4-D file to render (0-based)
+    ///
+    /// Default: frame 0, or the mean of all frames when the preset is epi (a BOLD or ASL
+    /// series: its foreground on the mean frame).
+    #[arg(long)]
+    pub frame: Option<usize>,
     /// Scene.
     #[command(flatten)]
     pub scene: SceneArgs,

@@ -118,13 +118,16 @@ fn fit_lines(fit: Option<&crate::analysis::Fit>) -> Vec<String> {
 /// Runs the command.
 pub fn run(args: &PeaksArgs, global: &super::GlobalOptions) -> Result<(), Error> {
     let validation = global.validation;
-    let opened = session::open(
+    // The preset named decides whether a 4-D series is read as its mean frame.
+    let recipe = crate::scene::SceneRecipe {
+        preset: super::preset_arg::PresetArg::preset(args.preset),
+        ..crate::scene::SceneRecipe::default()
+    };
+    let opened = session::open_recipe(
         args.file.as_slice(),
         args.frame,
-        false,
         global.engine_config(),
-        None,
-        false,
+        recipe,
     )?;
     print_warnings(&opened.source.volume.warnings);
     let r = &opened.report;
@@ -221,6 +224,9 @@ pub fn run(args: &PeaksArgs, global: &super::GlobalOptions) -> Result<(), Error>
     print_line(&format!("modality {}", report.modality.summary()));
     print_line(&format!("contrast {}", report.contrast.summary()));
     print_line(&format!("preset: {}", report.preset));
+    if let Some(n) = opened.source.header.as_ref().and_then(|h| h.mean_of_frames) {
+        print_line(&super::render::epi_mean_line(n));
+    }
     if let Some(fallback) = report.fallback {
         print_line(&format!("fallback {}", fallback.reason));
     }

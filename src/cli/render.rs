@@ -234,6 +234,11 @@ pub fn contrast_note(report: &TissueReport, windows: WindowsArg) -> Option<Strin
     }
 }
 
+/// The line that says a 4-D series is shown as its mean frame.
+pub fn epi_mean_line(frames: usize) -> String {
+    format!("epi: mean of {frames} frames (`--frame N` shows one frame)")
+}
+
 /// Why `rgba8`, a frame of `scene`, shows only the background, and what to try; None when it
 /// shows something. `constant`: the volume has one value (its normalization says so).
 pub fn empty_note(scene: &Scene, constant: bool, rgba8: &[u8]) -> Option<String> {
@@ -307,7 +312,7 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
         shading: Some(args.scene.shading.unwrap_or(Switch::On)),
         ..args.scene.clone()
     };
-    let mut opened = session::open(
+    let mut opened = session::open_frame(
         args.file.as_slice(),
         args.frame,
         true,
@@ -337,7 +342,15 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
     }
     let chosen = recipe_from_args(&scene_args)?.preset_for(&opened.report);
     let preset = chosen.label(&opened.report);
-    print_line(&format!("preset: {preset} ({})", chosen.summary()));
+    let why = chosen
+        .why(&opened.report)
+        .filter(|_| scene_args.preset.is_none())
+        .map_or(String::new(), |why| format!(": {why}"));
+    print_line(&format!("preset: {preset} ({}){why}", chosen.summary()));
+    let mean_of_frames = opened.source.header.as_ref().and_then(|h| h.mean_of_frames);
+    if let Some(n) = mean_of_frames {
+        print_line(&epi_mean_line(n));
+    }
     if !classified {
         // What the projection's grey levels span (issue 32 item 5): the robust range of a
         // projection ends at the 99.99th percentile, so the brightest structures stay graded.
@@ -402,7 +415,10 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
         let parameters = serde_json::json!({
             "engine": format!("morphray {}", env!("CARGO_PKG_VERSION")),
             "input": opened.source.label,
-            "frame_of_4d_file": args.frame,
+            "frame_of_4d_file": mean_of_frames.map_or_else(
+                || serde_json::json!(args.frame.unwrap_or(0)),
+                |n| serde_json::json!(format!("mean of {n} frames")),
+            ),
             "arguments": scene_args,
             "turntable_index": args.turntable.map(|_| index),
             "scene": scene,

@@ -131,9 +131,10 @@ pub struct SceneArgs {
     pub tissues: Vec<String>,
     /// Look by modality: mr, ct, angio, post-contrast, epi; `list` names them
     ///
-    /// Default: chosen from what the volume is (CT: bone and vessels in Hounsfield units; MR
-    /// angiogram: bright band and vesselness; BOLD/ASL: foreground; contrast agent: enhancing
-    /// band; else mr). The render names it on its `preset:` line. --tissues, --window,
+    /// Default: chosen from what the volume is (angiogram, MR or CT (CTA, angio, AVM in its
+    /// name or description, or a contrast agent on a CT): bright band and vesselness, on a CT
+    /// in Hounsfield units the 150..600 HU lumen; other CT: bone and vessels in Hounsfield
+    /// units; BOLD/ASL: foreground; contrast agent: enhancing band; else mr). The render names it on its `preset:` line. --tissues, --window,
     /// --opacity and --color still apply on top.
     #[arg(long, value_name = "NAME", value_parser = super::preset_arg::parse_preset)]
     pub preset: Option<super::preset_arg::PresetArg>,

@@ -46,6 +46,55 @@ pub fn engine_config(
     }
 }
 
+/// [`open`] with the frame of a 4-D file given (`Some`) or not: without one, a 4-D file whose
+/// preset is `epi` is opened as the mean of its frames (`EngineConfig::epi_mean_frame`), any
+/// other as its frame 0.
+pub fn open_frame(
+    files: &[PathBuf],
+    frame: Option<usize>,
+    want_hash: bool,
+    config: EngineConfig,
+    scene_args: Option<&SceneArgs>,
+    first_frame: bool,
+) -> Result<Opened, Error> {
+    let config = EngineConfig {
+        epi_mean_frame: frame.is_none(),
+        ..config
+    };
+    open(
+        files,
+        frame.unwrap_or(0),
+        want_hash,
+        config,
+        scene_args,
+        first_frame,
+    )
+}
+
+/// [`open_frame`] for an analysis only (no hash, the 1024x1024 default size, no frame to
+/// render) with `recipe`, whose preset may be named.
+pub fn open_recipe(
+    files: &[PathBuf],
+    frame: Option<usize>,
+    config: EngineConfig,
+    recipe: SceneRecipe,
+) -> Result<Opened, Error> {
+    let config = EngineConfig {
+        epi_mean_frame: frame.is_none(),
+        ..config
+    };
+    let options = OpenOptions {
+        read: super::source::read_options(frame.unwrap_or(0), false),
+        image: [1024, 1024],
+        recipe,
+        first_frame: false,
+    };
+    let opened = Session::open(&VolumeSource::from_paths(files), config, &options)?;
+    note_rejected_cache(&opened.engine);
+    note_degradations(&opened.plan);
+    Ok(opened)
+}
+
 /// Opens `files` (none: the phantom; several: one DICOM input) through the library with the scene `scene_args` describe (the
 /// default scene when None), at the image size they give; prints the plan's degradations and a
 /// rejected pipeline cache as notes. `first_frame`: a frame will be rendered, so its pipelines

@@ -90,6 +90,10 @@ pub struct EngineConfig {
     pub normalize: crate::analysis::NormalizeMode,
     /// Histogram analysis parameters (peaks, tissue assignment, windows).
     pub analysis: crate::analysis::AnalysisParams,
+    /// Open a 4-D NIfTI whose preset is `epi` (BOLD, ASL) as the mean of its frames instead of
+    /// the frame asked for (the command line's default when no `--frame` is given; off by
+    /// default, so a caller that picks a frame gets that frame).
+    pub epi_mean_frame: bool,
 }
 
 impl Default for EngineConfig {
@@ -102,6 +106,7 @@ impl Default for EngineConfig {
             pipeline_cache: PipelineCacheConfig::InMemory,
             normalize: crate::analysis::NormalizeMode::default(),
             analysis: crate::analysis::AnalysisParams::default(),
+            epi_mean_frame: false,
         }
     }
 }

@@ -15,6 +15,11 @@
 //!   scene's windows decide which bricks are resident), which is a change of the scene's needs,
 //!   not a second guess. [`Engine::open_planned`] takes a plan made earlier (the library's open
 //!   path plans before the file is read, to start the right pipelines).
+//! - The vessel channel an automatic preset turns on (angiography) is part of the effects
+//!   planned: the preset rests on the identity (modality, sequence kind), known before the
+//!   analysis (`SceneRecipe::effects_for`), so the vesselness volume is counted against the
+//!   budget, or degraded off by the plan with its line, never allocated past the plan. A plan
+//!   made by a caller without it is made again with it.
 
 use super::Engine;
 use super::bricked::HostPrepared;
@@ -131,7 +136,8 @@ impl Engine {
         let start = Instant::now();
         let pipelines_before = self.pipeline_times.caller_ms;
         let mut timings = OpenTimings::default();
-        let effects = recipe.effects;
+        let effects = recipe.effects_for(&self.identify(volume));
+        let first = self.with_preset_vessels(first, (effects, recipe.denoise), volume, image);
         let (prepared, report, mut scene, plan) = match first {
             Ok(plan) if plan.layout == Layout::Whole => {
                 self.set_normalized_format(plan.normalized_format)?;
@@ -198,13 +204,8 @@ impl Engine {
                 (prepared, report, scene, plan)
             }
         };
+        // The plan counted the preset's vessel channel (or degraded it off, and says so).
         scene.effects = plan.effects;
-        // A preset that draws the vessel channel (angiography) decides it only after the
-        // analysis, so the plan made before it did not count it: whole volumes take it (the
-        // vesselness is one more volume), a bricked plan keeps its own choice.
-        if plan.layout == Layout::Whole && recipe.vessels_for(&report) {
-            scene.effects.vessels = true;
-        }
         let mut twin = Twin::new(prepared);
         let before_derivatives = Instant::now();
         let derivative_pipelines_before = self.pipeline_times.caller_ms;
@@ -230,6 +231,37 @@ impl Engine {
             plan,
             timings,
         })
+    }
+}
+
+impl Engine {
+    /// `first` again with `effects` when the caller planned without the vessel channel the
+    /// preset turns on (a plan that degraded it off to fit keeps that choice): the vesselness
+    /// volume and its scratch are then in the plan, never allocated past it.
+    fn with_preset_vessels(
+        &self,
+        first: Result<Plan, DoesNotFit>,
+        (effects, denoise): (crate::scene::Effects, crate::passes::denoise::Denoise),
+        volume: &Volume,
+        image: [u32; 2],
+    ) -> Result<Plan, DoesNotFit> {
+        let missing = |plan: &Plan| {
+            effects.vessels
+                && !plan.effects.vessels
+                && !plan
+                    .degradations
+                    .iter()
+                    .any(|d| d.accuracy_setting == "vessels off")
+        };
+        match first {
+            Ok(plan) if missing(&plan) => {
+                let mut input = self.plan_input(volume, image, 1.0);
+                input.denoise = denoise;
+                let sizes = super::DeviceImageSizes(self.device());
+                crate::engine::plan::plan(effects, &input, &sizes)
+            }
+            first => first,
+        }
     }
 }
 

@@ -13,6 +13,10 @@
 //!   the planned (possibly degraded) effects and of the analysis passes start from it, and the
 //!   volume is prepared with that same plan ([`Engine::open_planned`]). Only a bricked volume is
 //!   planned again, with its occupancy, when the scene's windows are known.
+//! - A 4-D BOLD / ASL series whose preset is `epi` is read again as the mean of its frames
+//!   (one frame at a time, `volume::nifti::frame_mean`) when the caller allows it
+//!   (`EngineConfig::epi_mean_frame`): the preset's foreground window is meant for the mean
+//!   frame, and which preset applies is only known once the file has said what it is.
 //! - The library prints nothing: notes (a rejected pipeline cache, the plan's degradations) are
 //!   in what it returns, and each client says them its way (stderr, the viewer's status bar).
 //! - The pipeline cache is saved by the clients after their first frame (never on the way to
@@ -23,7 +27,7 @@ use super::{Engine, EngineConfig, PipelineTimes, Twin};
 use crate::analysis::TissueReport;
 use crate::engine::plan::{Layout, Plan};
 use crate::gpu::{Device, DeviceTimings, GpuError};
-use crate::scene::{RecipeError, Scene, SceneRecipe};
+use crate::scene::{Preset, RecipeError, Scene, SceneRecipe};
 use crate::volume::source::{
     self, InputError, LoadTimings, ReadOptions, SourceVolume, VolumeSource,
 };
@@ -161,6 +165,7 @@ impl Session {
         // A bad file is the more useful message when both fail.
         let read = read?;
         let (mut engine, engine_ms) = engine?;
+        let read = engine.epi_mean_frame(source, read, options)?;
         let device_parts = engine.device().creation_timings();
         let prepare_start = Instant::now();
         let opened = engine.open_with(&read.volume, options)?;
@@ -204,8 +209,33 @@ impl Engine {
     ) -> Result<(SourceVolume, OpenedVolume), SessionError> {
         options.recipe.check()?;
         let read = source::read(source, &options.read)?;
+        let read = self.epi_mean_frame(source, read, options)?;
         let opened = self.open_with(&read.volume, options)?;
         Ok((read, opened))
+    }
+
+    /// `read` again as the mean of its frames when the engine is configured for it
+    /// (`EngineConfig::epi_mean_frame`), the file has several frames and the scene's preset
+    /// (named, or the automatic choice from what the file says it is) is `epi`; `read`
+    /// otherwise. The header's `mean_of_frames` says which it is.
+    fn epi_mean_frame(
+        &self,
+        source: &VolumeSource,
+        read: SourceVolume,
+        options: &OpenOptions,
+    ) -> Result<SourceVolume, SessionError> {
+        let frames = read.header.as_ref().map_or(1, |h| h.frames);
+        if !self.config.epi_mean_frame || frames < 2 {
+            return Ok(read);
+        }
+        let preset = options
+            .recipe
+            .preset
+            .unwrap_or_else(|| Preset::auto_identified(&self.identify(&read.volume)));
+        if preset != Preset::Epi {
+            return Ok(read);
+        }
+        Ok(source::read_mean_of_frames(source, &options.read)?.unwrap_or(read))
     }
 
     /// Opens a volume already in memory the library's way: plans once for
@@ -219,11 +249,10 @@ impl Engine {
         let start = Instant::now();
         let mut input = self.plan_input(volume, options.image, 1.0);
         input.denoise = options.recipe.denoise;
-        let plan = crate::engine::plan::plan(
-            options.recipe.effects,
-            &input,
-            &super::DeviceImageSizes(self.device()),
-        );
+        // The preset's vessel channel is planned too (`SceneRecipe::effects_for`).
+        let effects = options.recipe.effects_for(&self.identify(volume));
+        let plan =
+            crate::engine::plan::plan(effects, &input, &super::DeviceImageSizes(self.device()));
         let plan_ms = ms(start);
         let mut ahead_ms = 0.0;
         if options.first_frame {

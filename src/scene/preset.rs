@@ -7,11 +7,12 @@
 //!   opacities, visibility) and may ask for the vessel channel; the user's `--tissues`,
 //!   `--window`, `--opacity` and `--color` still apply after it, so a preset is a default,
 //!   never a lock.
-//! - Automatic choice, first that applies: a CT is `ct` (a CT angiogram too: its contrast-filled
-//!   vessels have their own Hounsfield window there, beside bone); an MR angiogram (BIDS
-//!   `_angio`, TOF words) is `angio`; BOLD and ASL series are `epi`; a contrast agent in the
-//!   metadata is `post-contrast`; everything else is `mr` (the T1/T2/PD/FLAIR default,
-//!   unchanged).
+//! - Automatic choice, first that applies: an angiogram is `angio`: an MR angiogram (BIDS
+//!   `_angio`, TOF words) and a CT angiogram (a CT whose metadata names CTA, angio or a
+//!   vascular lesion such as an AVM, or a contrast agent: `analysis::modality`); any other CT
+//!   is `ct`; BOLD and ASL series are `epi`; a contrast agent in an MR's metadata is
+//!   `post-contrast`; everything else is `mr` (the T1/T2/PD/FLAIR default, unchanged). The
+//!   reason for an automatic `angio` on a CT is printed with the preset ([`Preset::why`]).
 //! - CT windows are in Hounsfield units, mapped to I_norm through the report's range
 //!   (`raw = imin + norm (imax - imin)`): skin and fat -200..0 HU, soft tissue 0..80 HU (both
 //!   hidden by default), contrast-filled vessels 150..300 HU (red), bone 300 HU and up (ivory),
@@ -23,13 +24,17 @@
 //!   fallback from the histogram that the preset's name records (`ct (values not HU)`).
 //! - Angiography shows the bright band above the brightest tissue (the pathology slot, or the
 //!   top 40 % of the foreground when the analysis found none) and the vessel channel (the
-//!   multi-scale vesselness), with the brain tissues hidden.
+//!   multi-scale vesselness), with the brain tissues hidden. On a CT in Hounsfield units the
+//!   band is the contrast-filled lumen, 150..600 HU (iodinated arterial blood is 200-500 HU;
+//!   600 keeps most cortical bone, 1000 HU and up, out of it; thin bone and the skull's
+//!   partial-volume edge still fall inside, which the vesselness then outweighs).
 //! - EPI / BOLD / ASL: one foreground window (the background threshold up, open above) in the
 //!   white-matter slot, translucent, the other tissues hidden: low-resolution series rarely
-//!   have fittable classes, and the foreground is what the scan shows.
+//!   have fittable classes, and the foreground is what the scan shows. A 4-D series is read
+//!   as the mean of its frames for it (`engine::session`, unless a frame is named).
 
 use super::classification::{Classification, MANUAL_EDGE, TissueClass, Window};
-use crate::analysis::{Modality, SequenceKind, TissueReport};
+use crate::analysis::{Identity, Modality, SequenceKind, TissueReport};
 
 /// One look of the table.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
@@ -39,7 +44,7 @@ pub enum Preset {
     Mr,
     /// CT in Hounsfield units: bone and contrast-filled vessels.
     Ct,
-    /// Angiography (TOF MRA, CTA by hand): the bright band and the vesselness.
+    /// Angiography (TOF MRA, CTA): the bright band and the vesselness.
     Angio,
     /// Post-contrast T1: the tissues plus the enhancing band above WM.
     PostContrast,
@@ -67,7 +72,7 @@ pub const PRESETS: [(Preset, &str); 5] = [
     ),
     (
         Preset::Epi,
-        "EPI, BOLD, ASL: one translucent foreground window on the loaded frame",
+        "EPI, BOLD, ASL: one translucent foreground window on the mean frame of a 4-D series",
     ),
 ];
 
@@ -99,6 +104,9 @@ const CT_BANDS: [(TissueClass, f64, f64, bool, [f32; 3], f32); 4] = [
         0.9,
     ),
 ];
+
+/// The contrast-filled lumen of a CT angiogram in Hounsfield units (module doc).
+pub const CTA_VESSELS_HU: (f64, f64) = (150.0, 600.0);
 
 /// The same bands as fractions of the foreground range, for a CT not in Hounsfield units.
 const CT_FRACTIONS: [(f64, f64); 4] = [(0.0, 0.15), (0.15, 0.45), (0.45, 0.75), (0.75, 2.0)];
@@ -152,14 +160,34 @@ impl Preset {
 
     /// The preset for what the analysis decided the volume is (module doc).
     pub fn auto(report: &TissueReport) -> Preset {
-        let kind = report.contrast.kind;
-        if report.modality.modality == Modality::Ct {
-            Preset::Ct
-        } else if kind == Some(SequenceKind::Angio) {
+        let contrast = &report.contrast;
+        Preset::auto_for(
+            report.modality.modality,
+            contrast.kind,
+            contrast.post_contrast,
+        )
+    }
+
+    /// [`Preset::auto`] before the histogram analysis: the choice rests on the identity alone
+    /// (modality, sequence kind, agent), which is what lets the memory plan count the vessel
+    /// channel the preset turns on.
+    pub fn auto_identified(identity: &Identity) -> Preset {
+        Preset::auto_for(
+            identity.modality.modality,
+            identity.kind,
+            identity.post_contrast,
+        )
+    }
+
+    /// The rule of the module doc.
+    fn auto_for(modality: Modality, kind: Option<SequenceKind>, post_contrast: bool) -> Preset {
+        if kind == Some(SequenceKind::Angio) {
             Preset::Angio
+        } else if modality == Modality::Ct {
+            Preset::Ct
         } else if matches!(kind, Some(SequenceKind::Bold | SequenceKind::Asl)) {
             Preset::Epi
-        } else if report.contrast.post_contrast {
+        } else if post_contrast {
             Preset::PostContrast
         } else {
             Preset::Mr
@@ -174,14 +202,32 @@ impl Preset {
     /// How the preset is named in outputs: its name, and for a CT whose values are not
     /// Hounsfield units, that its windows came from the histogram.
     pub fn label(self, report: &TissueReport) -> String {
-        if self == Preset::Ct && !values_are_hu(report) {
-            format!(
+        let ct = report.modality.modality == Modality::Ct;
+        match self {
+            Preset::Ct if !values_are_hu(report) => format!(
                 "{} (values not HU: bands from the foreground range)",
                 self.name()
-            )
-        } else {
-            self.name().to_string()
+            ),
+            Preset::Angio if ct && values_are_hu(report) => format!(
+                "{} (CT: vessels {:.0}..{:.0} HU)",
+                self.name(),
+                CTA_VESSELS_HU.0,
+                CTA_VESSELS_HU.1
+            ),
+            Preset::Angio if ct => format!(
+                "{} (CT, values not HU: vessels from the bright band)",
+                self.name()
+            ),
+            _ => self.name().to_string(),
         }
+    }
+
+    /// Why the automatic choice took this preset, when the modality and contrast lines do not
+    /// say it already: a CT that is an angiogram names the fact (module doc).
+    pub fn why(self, report: &TissueReport) -> Option<String> {
+        (self == Preset::Angio && report.modality.modality == Modality::Ct)
+            .then(|| report.contrast.kind_reason.clone())
+            .flatten()
     }
 
     /// Rewrites the classification the analysis made (module doc).
@@ -198,9 +244,14 @@ impl Preset {
             Preset::Ct => apply_ct(classification, report),
             Preset::Angio => {
                 let band = classification.style(TissueClass::Pathology).window;
+                // A CT in Hounsfield units has a known lumen band; otherwise the bright band.
+                let band = cta_band(report)
+                    .filter(|_| report.modality.modality == Modality::Ct)
+                    .or(band)
+                    .unwrap_or_else(|| top_band(report, 0.6));
                 classification.show_only(&[TissueClass::Pathology]);
                 let style = classification.style_mut(TissueClass::Pathology);
-                style.window = band.or_else(|| Some(top_band(report, 0.6)));
+                style.window = Some(band);
             }
             Preset::Epi => {
                 classification.show_only(&[TissueClass::Wm]);
@@ -215,6 +266,22 @@ impl Preset {
 /// Whether the report's range looks like Hounsfield units (air below -500, bone above 300).
 pub fn values_are_hu(report: &TissueReport) -> bool {
     report.imin < -500.0 && report.imax > 300.0
+}
+
+/// The contrast-filled lumen in I_norm, when the values are Hounsfield units (module doc).
+fn cta_band(report: &TissueReport) -> Option<Window> {
+    let span = report.imax - report.imin;
+    if !(values_are_hu(report) && span.is_finite() && span > 0.0) {
+        return None;
+    }
+    let lo = ((CTA_VESSELS_HU.0 - report.imin) / span).max(0.0);
+    let hi = (CTA_VESSELS_HU.1 - report.imin) / span;
+    let hi = if hi >= 1.0 { 1.0 + MANUAL_EDGE } else { hi };
+    (lo < hi && lo < 1.0).then_some(Window {
+        lo,
+        hi,
+        edge: MANUAL_EDGE,
+    })
 }
 
 /// A window from `lo` (I_norm) open above.

@@ -16,7 +16,7 @@
 use super::classification::{HeadRecipe, HeadStyle};
 use super::preset::Preset;
 use super::{Camera, Classification, Clip, Colormap, Effects, Scene, TissueClass, VesselStyle};
-use crate::analysis::TissueReport;
+use crate::analysis::{Identity, TissueReport};
 
 /// Which tissue windows a scene starts from.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -185,10 +185,27 @@ impl SceneRecipe {
     /// Whether the scene should draw the vessel channel: asked for, or the preset wants it (in
     /// DVR; a hand-made classification keeps the effects as given).
     pub fn vessels_for(&self, report: &TissueReport) -> bool {
+        self.vessels_with(self.preset_for(report))
+    }
+
+    /// The effects to plan for a volume of this `identity`: the recipe's, with the vessel
+    /// channel when the preset the analysis will choose draws it (the preset rests on the
+    /// identity alone, so the plan made before the analysis counts the vesselness volume).
+    pub fn effects_for(&self, identity: &Identity) -> Effects {
+        let preset = self
+            .preset
+            .unwrap_or_else(|| Preset::auto_identified(identity));
+        Effects {
+            vessels: self.vessels_with(preset),
+            ..self.effects
+        }
+    }
+
+    fn vessels_with(&self, preset: Preset) -> bool {
         self.effects.vessels
             || (self.classification.is_none()
                 && self.effects.mode == super::RenderMode::Dvr
-                && self.preset_for(report).wants_vessels())
+                && preset.wants_vessels())
     }
 
     fn classification_for(&self, report: &TissueReport) -> Classification {

@@ -31,6 +31,7 @@ mod convert;
 pub mod datatype;
 mod error;
 pub mod extensions;
+mod frame_mean;
 pub mod gzip;
 pub mod gzip_parallel;
 pub mod header;
@@ -57,6 +58,8 @@ use header::Decoded;
 pub struct LoadOptions {
     /// Which frame of a 4-D (or higher) file to load, from 0.
     pub frame: usize,
+    /// Load the mean over all frames instead (a 4-D file only; `frame` is then ignored).
+    pub mean: bool,
 }
 
 /// A loaded frame and what the header said.
@@ -87,6 +90,9 @@ pub struct HeaderSummary {
     pub frames: usize,
     /// Which frame was loaded.
     pub frame_loaded: usize,
+    /// The number of frames averaged, when the mean over the frames was loaded instead.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mean_of_frames: Option<usize>,
     /// `vox_offset` as read.
     pub vox_offset: f64,
     /// Byte position the voxels were actually read from (after the minimum-offset rule).
@@ -246,7 +252,8 @@ fn build(
             frames: lay.frames,
         });
     }
-    if lay.frames > 1 {
+    let mean = opts.mean && lay.frames > 1;
+    if lay.frames > 1 && !mean {
         warnings.push(format!(
             "{}-D file with {} frames: showing frame {}",
             lay.dims.len(),
@@ -300,6 +307,7 @@ fn build(
         dims: lay.dims.clone(),
         frames: lay.frames,
         frame_loaded: opts.frame,
+        mean_of_frames: mean.then_some(lay.frames),
         vox_offset: h.vox_offset,
         data_offset: lay.offset,
         scl_slope: h.scl_slope,
@@ -313,34 +321,34 @@ fn build(
         gzip_members,
     };
 
-    // In range because frame < frames and offset + frames * frame_bytes <= data.len() (layout);
-    // checked anyway so that no arithmetic on header values can overflow.
-    let start = opts
-        .frame
-        .checked_mul(lay.frame_bytes)
-        .and_then(|skip| skip.checked_add(lay.offset))
-        .ok_or(NiftiError::FrameOutOfRange {
-            frame: opts.frame,
+    let (samples, to_physical, converted) = if mean {
+        frame_mean::mean_frame(&frame_mean::Frames {
+            data: &data,
+            offset: lay.offset,
+            frame_bytes: lay.frame_bytes,
             frames: lay.frames,
-        })?;
-    let converted = convert::convert_frame(
-        data,
-        start,
-        lay.frame_bytes,
-        datatype,
-        decoded.byte_order,
-        slope,
-        inter,
-    )?;
-    warnings.extend(converted.warnings);
+            datatype,
+            order: decoded.byte_order,
+            scaling: (slope, inter),
+        })?
+    } else {
+        one_frame(
+            data,
+            &lay,
+            opts.frame,
+            (datatype, decoded.byte_order),
+            (slope, inter),
+        )?
+    };
+    warnings.extend(converted);
 
     let volume = Volume {
         name: name.to_string(),
         dims: lay.dims3,
         spacing_mm: geometry.spacing_mm,
         orientation: geometry.orientation,
-        samples: converted.samples,
-        to_physical: converted.to_physical,
+        samples,
+        to_physical,
         warnings,
         facts: crate::volume::facts::from_descrip(&summary.description),
     };
@@ -348,6 +356,35 @@ fn build(
         volume,
         header: summary,
     })
+}
+
+/// Frame `frame` of the file's bytes, converted (the single copy of its voxels).
+fn one_frame(
+    data: Vec<u8>,
+    lay: &layout::Layout,
+    frame: usize,
+    (datatype, order): (Datatype, ByteOrder),
+    (slope, inter): (f64, f64),
+) -> Result<
+    (
+        crate::volume::Samples,
+        crate::volume::LinearMap,
+        Vec<String>,
+    ),
+    NiftiError,
+> {
+    // In range because frame < frames and offset + frames * frame_bytes <= data.len() (layout);
+    // checked anyway so that no arithmetic on header values can overflow.
+    let start = frame
+        .checked_mul(lay.frame_bytes)
+        .and_then(|skip| skip.checked_add(lay.offset))
+        .ok_or(NiftiError::FrameOutOfRange {
+            frame,
+            frames: lay.frames,
+        })?;
+    let converted =
+        convert::convert_frame(data, start, lay.frame_bytes, datatype, order, slope, inter)?;
+    Ok((converted.samples, converted.to_physical, converted.warnings))
 }
 
 /// `pixdim[0..=3]` for the orientation: the size of an axis beyond `dim[0]` (for example

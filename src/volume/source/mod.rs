@@ -228,6 +228,21 @@ pub fn read(source: &VolumeSource, options: &ReadOptions) -> Result<SourceVolume
     }
 }
 
+/// `source` read as the mean over the frames of its 4-D NIfTI file (`options.frame` is
+/// ignored; `nifti::frame_mean`), or None when it is no single NIfTI file (DICOM series and the
+/// phantom have one frame here).
+pub fn read_mean_of_frames(
+    source: &VolumeSource,
+    options: &ReadOptions,
+) -> Result<Option<SourceVolume>, InputError> {
+    match source {
+        VolumeSource::File(path) if nifti::NiftiReader.claims(path) => {
+            nifti::read_nifti(path, options, true).map(Some)
+        }
+        _ => Ok(None),
+    }
+}
+
 /// Several paths as one input: DICOM only (see [`VolumeSource::Files`]).
 fn read_several(paths: &[PathBuf], options: &ReadOptions) -> Result<SourceVolume, InputError> {
     check_several(paths)?;

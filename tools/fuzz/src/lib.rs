@@ -261,9 +261,11 @@ pub fn run_input_path(dir: &std::path::Path, data: &[u8]) -> Result<LoadedNifti,
     }
     let frame = usize::from(data.first().copied().unwrap_or(0) >> 7);
     let mut seen = None;
-    let result = load_file_timed(&dir.join(load), &LoadOptions { frame }, &mut |b| {
-        seen = Some(b.len())
-    });
+    let result = load_file_timed(
+        &dir.join(load),
+        &LoadOptions { frame, mean: false },
+        &mut |b| seen = Some(b.len()),
+    );
     match &result {
         Ok((loaded, times)) => {
             check_loaded(loaded);
