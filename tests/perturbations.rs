@@ -277,7 +277,11 @@ fn a_masked_volumes_edge_is_not_taken_for_csf() {
         csf(&after),
         after.modes
     );
-    assert!(prepared.mask_edge_voxels > 2000, "{}", prepared.mask_edge_voxels);
+    assert!(
+        prepared.mask_edge_voxels > 2000,
+        "{}",
+        prepared.mask_edge_voxels
+    );
     let gm = after.peaks.gm.map(|p| p.raw);
     let wm = after.peaks.wm.map(|p| p.raw);
     assert!(gm.is_some_and(|p| (140.0..160.0).contains(&p)), "{gm:?}");

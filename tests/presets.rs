@@ -65,6 +65,11 @@ fn the_head_phantom_as_ct_shows_its_skull_with_the_automatic_ct_preset() {
     let png = dir.join("ct.png");
     let out = ok(&["render", s(&nii), "-o", s(&png), "--size", "96x96"]);
     assert!(out.contains("preset: ct (CT in Hounsfield units"), "{out}");
+    // Brain extraction is for MR heads: the CT's line says it did not run, and why.
+    assert!(
+        out.contains("brain: not extracted: brain extraction is for structural MR heads"),
+        "{out}"
+    );
     let ct = Picture::read(&png);
     // The skull encloses the head: the middle of the picture is bone seen from the front.
     let centre = ct.find(Some([40, 40, 16, 16]), bright).len();
@@ -123,6 +128,7 @@ fn a_bids_angio_tube_phantom_picks_the_angio_preset_and_shows_vessels() {
     let png = dir.join("angio.png");
     let out = ok(&["render", s(&nii), "-o", s(&png), "--size", "96x96"]);
     assert!(out.contains("preset: angio"), "{out}");
+    assert!(out.contains("brain: not extracted"), "{out}");
     let red = Picture::read(&png).find(None, pictures::dominant(0)).len();
     assert!(red > 100, "only {red} red vessel pixels");
 }

@@ -42,7 +42,9 @@ pub fn decision_text(shown: &BrainShown, switch: BrainSwitch) -> String {
     };
     let size = format!("{:.0} cm^3", report.brain_cm3);
     match (report.decision, shown.in_use) {
-        (BrainDecision::NotFound, _) => report.decision.describe().to_string(),
+        (BrainDecision::NotFound | BrainDecision::NotAHeadScan, _) => {
+            report.decision.describe().to_string()
+        }
         (_, true) if report.decision == BrainDecision::Head => {
             format!("{} ({size})", report.decision.describe())
         }

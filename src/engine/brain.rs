@@ -158,8 +158,12 @@ impl Engine {
             .analyze_identified(prepared, identity)
             .contrast
             .contrast;
-        let band = crate::analysis::brain_band::band_for(&prepared.histogram, contrast)
-            .filter(|_| !not_a_head_scan);
+        if not_a_head_scan {
+            let mut none = BrainMask::none(&BrainParams::default(), Vec::new());
+            none.report = BrainReport::not_a_head_scan();
+            return Ok(none);
+        }
+        let band = crate::analysis::brain_band::band_for(&prepared.histogram, contrast);
         let Some((lo, hi)) = band else {
             return Ok(BrainMask::none(&BrainParams::default(), Vec::new()));
         };

@@ -36,6 +36,8 @@ pub enum BrainDecision {
     SkullStripped,
     /// No brain-like component (or one of implausible size): left alone.
     NotFound,
+    /// Not run: the scan is not a structural MR head (a CT, PET, an angiogram, an EPI series).
+    NotAHeadScan,
 }
 
 impl BrainDecision {
@@ -45,6 +47,10 @@ impl BrainDecision {
             BrainDecision::Head => "head: the brain is extracted, the rest is the head layer",
             BrainDecision::SkullStripped => "already skull-stripped: left alone",
             BrainDecision::NotFound => "no brain-like region found: left alone",
+            BrainDecision::NotAHeadScan => {
+                "not extracted: brain extraction is for structural MR heads (not CT, PET, \
+                 angiography or EPI series)"
+            }
         }
     }
 }
@@ -72,6 +78,9 @@ impl BrainReport {
     /// The one line the commands print: the decision, the brain's volume, the band's share
     /// outside it, the band, and the second try when it ran.
     pub fn summary(&self) -> String {
+        if self.decision == BrainDecision::NotAHeadScan {
+            return format!("brain: {}", self.decision.describe());
+        }
         let cut = if self.bridge_cut {
             "; a bridge into the scalp was cut"
         } else {
@@ -85,6 +94,14 @@ impl BrainReport {
             self.params.lo,
             self.params.hi.min(1.0),
         )
+    }
+
+    /// Not run: the scan is not a structural MR head.
+    pub fn not_a_head_scan() -> Self {
+        BrainReport {
+            decision: BrainDecision::NotAHeadScan,
+            ..BrainReport::not_found(&BrainParams::default(), Duration::ZERO)
+        }
     }
 
     /// No component at all.

@@ -359,7 +359,8 @@ class Volume:
                                    vessel_scales=scales)
 
     def brain_report(self) -> dict:
-        """What brain extraction decided: {"decision": "head" | "skull_stripped" | "not_found",
+        """What brain extraction decided: {"decision": "head" | "skull_stripped" | "not_found"
+        | "not_a_head_scan",
         "describe": the same in words, "masks_with_auto": whether brain="auto" masks this
         volume, "brain_cm3", "outside_fraction" (tissue-band cells outside the brain), "params"
         (band, radii in mm), "host_ms", "total_ms"}. The report of the mask the volume holds,
