@@ -87,6 +87,11 @@ enum Job {
         prepared: Arc<PreparedVolume>,
         outputs: DerivativeOutputs,
     },
+    /// What the next volumes are taken to be (the viewer's modality and contrast menus).
+    Identity {
+        contrast: crate::analysis::ContrastChoice,
+        modality: crate::analysis::ModalityChoice,
+    },
 }
 
 /// What the thread reports.
@@ -203,6 +208,19 @@ impl Loader {
         }
     }
 
+    /// Takes the volumes queued after this call as `modality` and `contrast` (`auto`: what
+    /// the file says), as `--modality` and `--contrast` do; jobs run in order, so the next load
+    /// sees it.
+    pub fn set_identity(
+        &self,
+        contrast: crate::analysis::ContrastChoice,
+        modality: crate::analysis::ModalityChoice,
+    ) {
+        if let Some(jobs) = &self.jobs {
+            let _ = jobs.send(Job::Identity { contrast, modality });
+        }
+    }
+
     /// Queues computing `outputs` of `prepared`.
     pub fn derive(&self, id: u64, prepared: Arc<PreparedVolume>, outputs: DerivativeOutputs) {
         if let Some(jobs) = &self.jobs {
@@ -273,6 +291,16 @@ impl Worker {
                     prepared,
                     outputs,
                 } => self.derive(id, &prepared, outputs),
+                Job::Identity { contrast, modality } => {
+                    // Kept in the configuration too: an engine made after a device loss
+                    // starts from it.
+                    self.config.analysis.contrast = contrast;
+                    self.config.analysis.modality = modality;
+                    let normalize = self.config.normalize;
+                    if let Some(engine) = self.engine.as_mut() {
+                        engine.set_identity(normalize, contrast, modality);
+                    }
+                }
             }
         }
     }

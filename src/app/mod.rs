@@ -43,6 +43,7 @@ pub mod file_panel;
 pub mod frame_log;
 pub mod histogram;
 pub mod histogram_fit;
+pub mod identity_panel;
 pub mod loader;
 pub mod readout;
 pub mod script;

@@ -127,6 +127,9 @@ pub enum Action {
     SliceWindow(f64, f64),
     /// Show or hide one label of the overlay.
     Label(u16, bool),
+    /// What the volume is taken to be: `modality NAME`, `contrast NAME`, `preset NAME` (the
+    /// look by modality; each also `auto`). Opens the volume again.
+    Identity(super::identity_panel::IdentityStep),
 }
 
 /// An action with where it came from.
@@ -312,7 +315,21 @@ fn parse_line(line: &str) -> Result<Action, String> {
             Some("adaptive") => Action::Preset(Preset::Adaptive),
             Some("paper") => Action::Preset(Preset::Paper),
             Some("reset") => Action::Preset(Preset::Reset),
-            other => return Err(format!("expected adaptive, paper or reset, got {other:?}")),
+            // The look by modality (`--preset`): `preset auto|mr|ct|angio|...`.
+            other => match super::identity_panel::parse_step("preset", other) {
+                Some(Ok(step)) => Action::Identity(step),
+                _ => {
+                    return Err(format!(
+                        "expected adaptive, paper or reset (windows), or auto or {} (the look \
+                         by modality), got {other:?}",
+                        crate::scene::Preset::names()
+                    ));
+                }
+            },
+        },
+        "modality" | "contrast" => match super::identity_panel::parse_step(&verb, next()) {
+            Some(step) => Action::Identity(step?),
+            None => return Err(format!("unknown step `{verb}`")),
         },
         "orbit" => Action::Orbit(
             number(next(), "degrees of azimuth")?,

@@ -43,6 +43,8 @@ pub enum Request {
     Frame(usize),
     /// Save the 3D view alone, rendered at this size (width, height), as PNG.
     SaveView(PathBuf, [u32; 2]),
+    /// Open the volume on screen again taken as this modality, contrast and preset.
+    Identity(super::identity_panel::IdentityChoice),
 }
 
 /// Which window presets the tissue windows follow.
@@ -78,6 +80,8 @@ pub struct Controls {
     pub slices: super::slices_panel::SliceControls,
     /// What brain extraction decided for the volume on screen (`brain_panel.rs`).
     pub brain: super::brain_panel::BrainShown,
+    /// The modality, contrast and preset menus (`identity_panel.rs`).
+    pub identity: super::identity_panel::IdentityChoice,
 }
 
 impl Controls {
@@ -94,6 +98,7 @@ impl Controls {
             dragging: false,
             slices: Default::default(),
             brain: Default::default(),
+            identity: Default::default(),
         }
     }
 
@@ -234,6 +239,7 @@ pub fn empty_view_message(scene: &Scene, constant_volume: bool) -> Option<String
 pub fn draw(ui: &mut Ui, controls: &mut Controls, shown: &Shown) -> Outcome {
     let mut requests = Vec::new();
     let mut histogram_rect = None;
+    let identity_before = controls.identity;
     let ctx = ui.ctx().clone();
 
     egui::Panel::bottom("status")
@@ -270,6 +276,9 @@ pub fn draw(ui: &mut Ui, controls: &mut Controls, shown: &Shown) -> Outcome {
 
     // The file dialog floats over everything; then files dropped onto the window.
     controls.files.after_panels(&ctx, &mut requests);
+    if controls.identity != identity_before {
+        requests.push(Request::Identity(controls.identity));
+    }
     Outcome {
         view,
         histogram: histogram_rect,
@@ -295,9 +304,12 @@ fn tissue_panel(ui: &mut Ui, controls: &mut Controls) -> Option<Rect> {
             vec2(ui.available_width(), histogram::Layout::height()),
         ));
         ui.label(
-            RichText::new("I_norm 0 -> 1, counts on a log scale; drag a band or its edges")
-                .small()
-                .weak(),
+            RichText::new(format!(
+                "{}, counts on a log scale; drag a band or its edges",
+                axis_text(controls.report.as_ref())
+            ))
+            .small()
+            .weak(),
         );
     } else {
         ui.label(RichText::new("Histogram appears when a volume is loaded").weak());
@@ -318,9 +330,9 @@ fn tissue_panel(ui: &mut Ui, controls: &mut Controls) -> Option<Rect> {
             ui.add(egui::Slider::new(&mut style.opacity, 0.0..=1.0).show_value(false))
                 .on_hover_text("Opacity per millimetre of ray");
             match style.window {
-                Some(w) => {
-                    ui.label(RichText::new(format!("{:.2}-{:.2}", w.lo, w.hi.min(1.0))).small())
-                }
+                Some(w) => ui
+                    .label(RichText::new(window_text(w, controls.report.as_ref())).small())
+                    .on_hover_text(format!("I_norm {:.3}-{:.3}", w.lo, w.hi.min(1.0))),
                 None => ui.label(RichText::new("not found").small().weak()),
             };
             ui.end_row();
@@ -357,7 +369,38 @@ fn tissue_panel(ui: &mut Ui, controls: &mut Controls) -> Option<Rect> {
         }
     });
     contrast_label(ui, controls);
+    super::identity_panel::identity_rows(ui, &mut controls.identity, controls.report.as_ref());
     rect
+}
+
+/// The scanner's units of `report`'s volume: `HU` for a CT in Hounsfield units, none otherwise.
+fn units(report: &TissueReport) -> &'static str {
+    if crate::scene::preset::values_are_hu(report) {
+        " HU"
+    } else {
+        ""
+    }
+}
+
+/// The histogram's axis in the scanner's units (I_norm 0..1 maps `imin..imax`).
+fn axis_text(report: Option<&TissueReport>) -> String {
+    match report {
+        Some(r) if r.imax > r.imin => {
+            format!("{:.0} -> {:.0}{}", r.imin, r.imax, units(r))
+        }
+        _ => "I_norm 0 -> 1".to_string(),
+    }
+}
+
+/// A tissue window in the scanner's units (the table's column; I_norm on hover).
+fn window_text(w: crate::scene::Window, report: Option<&TissueReport>) -> String {
+    match report {
+        Some(r) if r.imax > r.imin => {
+            let raw = |v: f64| r.imin + v.min(1.0) * (r.imax - r.imin);
+            format!("{:.0}-{:.0}{}", raw(w.lo), raw(w.hi), units(r))
+        }
+        _ => format!("{:.2}-{:.2}", w.lo, w.hi.min(1.0)),
+    }
 }
 
 /// The contrast the tissues were labelled for, its reason on hover, and a warning when the

@@ -7,6 +7,7 @@
 pub mod bids;
 pub mod mni152;
 pub mod pictures;
+pub mod viewer;
 pub mod volumes;
 
 use morphray::engine::{Engine, EngineConfig};

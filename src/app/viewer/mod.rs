@@ -280,6 +280,12 @@ impl Viewer {
         let empty = crate::analysis::analyze(&[0; 256], 0.0, 0.0, 0, 0);
         let scene = config.recipe.scene_for(&empty);
         let mut controls = Controls::new(scene);
+        // The menus start from the command line's --modality, --contrast and --preset.
+        controls.identity = crate::app::identity_panel::IdentityChoice {
+            modality: config.engine.analysis.modality,
+            contrast: config.engine.analysis.contrast,
+            preset: config.recipe.preset,
+        };
         controls.slices.layout = config.layout;
         controls.windows = match config.recipe.windows {
             WindowSet::Adaptive => ui::WindowSource::Adaptive,
@@ -567,6 +573,7 @@ impl Viewer {
                 Request::Screenshot(path) => self.screenshot_requests.push(path),
                 Request::SaveView(path, size) => self.save_view(&path, size),
                 Request::Frame(index) => self.open_frame(index, None),
+                Request::Identity(choice) => self.reidentify(choice, None),
             }
         }
         self.request_derived();

@@ -42,7 +42,11 @@ impl Viewer {
         }
         self.render_blocked = None;
         self.status.file = loaded.label.clone();
-        self.status.identity = Some(crate::app::status::identity_text(&loaded.report));
+        let identity = crate::app::status::identity_text(&loaded.report);
+        let preset = self.config.recipe.preset_for(&loaded.report).name();
+        self.log
+            .say(&format!("identity: {identity}  |  preset {preset}"));
+        self.status.identity = Some(format!("{identity}  |  preset {preset}"));
         self.controls.files.series = loaded.series.clone();
         self.controls.files.frame = loaded.frame;
         self.status.dims = prepared.dims;
@@ -223,6 +227,31 @@ impl Viewer {
         let source = current.loaded.source.clone();
         let series = shown_series(&current.loaded);
         self.frame = index;
+        self.open(source, series, label_for_log);
+    }
+
+    /// Takes the volume on screen (and those opened after it) as `choice` says (the modality,
+    /// contrast and preset menus, the script's steps) and opens it again, as the command line's
+    /// flags would have opened it (`app::identity_panel`).
+    pub(super) fn reidentify(
+        &mut self,
+        choice: crate::app::identity_panel::IdentityChoice,
+        label_for_log: Option<String>,
+    ) {
+        self.controls.identity = choice;
+        self.config.recipe.preset = choice.preset;
+        self.loader.set_identity(choice.contrast, choice.modality);
+        let Some(current) = &self.current else {
+            return;
+        };
+        let source = current.loaded.source.clone();
+        let series = shown_series(&current.loaded);
+        self.log.say(&format!(
+            "modality {:?}, contrast {:?}, preset {}: opening the volume again",
+            choice.modality,
+            choice.contrast,
+            choice.preset.map_or("auto", |p| p.name())
+        ));
         self.open(source, series, label_for_log);
     }
 

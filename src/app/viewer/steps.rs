@@ -161,6 +161,11 @@ impl Viewer {
                 self.open_frame(*index, Some(step.text.clone()));
                 watch = false;
             }
+            Action::Identity(change) => {
+                let choice = c.identity.with(*change);
+                self.reidentify(choice, Some(step.text.clone()));
+                watch = false;
+            }
             Action::SaveView(path, size) => {
                 self.save_view(path, *size);
                 watch = false;

@@ -1,0 +1,35 @@
+//! `morphray view --offscreen` as the viewer tests run it: a script, validation required, the
+//! log returned. Fails (never skips) without a Vulkan device or with a validation error.
+
+use std::path::Path;
+use std::process::Command;
+
+/// Runs `morphray view --offscreen VOLUME --layout 3d --size SIZE --frames 2 --script` with
+/// `script` (written into `dir`) and returns the log (stdout).
+pub fn offscreen(volume: &Path, dir: &Path, size: &str, script: &str) -> String {
+    let script_path = dir.join("script.txt");
+    std::fs::write(&script_path, format!("{script}\n")).unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_morphray"))
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .args(["view", "--layout", "3d", "--offscreen"])
+        .arg(volume)
+        .args(["--size", size, "--frames", "2", "--script"])
+        .arg(&script_path)
+        .env("MORPHRAY_VALIDATION", "required")
+        .output()
+        .expect("morphray runs");
+    let log = String::from_utf8_lossy(&o.stdout).into_owned();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !stderr.contains("no Vulkan") && !stderr.contains("found no device"),
+        "this test needs a Vulkan device (Debian: apt-get install mesa-vulkan-drivers \
+         libvulkan1 vulkan-validationlayers): {stderr}"
+    );
+    assert!(
+        o.status.success() && log.contains("validation layer: 0 error(s)"),
+        "exit {:?}\nstdout:\n{log}\nstderr:\n{stderr}",
+        o.status.code()
+    );
+    log
+}
