@@ -75,7 +75,11 @@ fn help_explains_every_command() {
 
 #[test]
 fn bad_arguments_exit_with_usage_status() {
-    assert_eq!(morphray(&["render"]).status.code(), Some(2), "missing -o");
+    assert_eq!(
+        morphray(&["render", "--mode", "sideways"]).status.code(),
+        Some(2),
+        "an unknown mode"
+    );
     assert_eq!(
         morphray(&["render", "-o", "x.png", "--size", "12"])
             .status

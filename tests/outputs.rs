@@ -300,6 +300,66 @@ fn loader_warnings_reach_stderr_json_and_the_png_provenance() {
 }
 
 #[test]
+fn derive_prints_the_loaders_warnings_too() {
+    let dir = scratch("derive-warnings");
+    let input = repaired_file(&dir);
+    let out = dir.join("maps");
+    let o = morphray(&["derive", s(&input), "-o", s(&out), "--maps", "normalized"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains(&format!("morphray: warning: {REPAIR}")),
+        "{}",
+        stderr(&o)
+    );
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+#[test]
+fn render_without_o_writes_the_inputs_name_and_replaces_it_only_with_force() {
+    let dir = scratch("default-output");
+    let input = dir.join("sub-01_T1w.nii.gz");
+    phantom(&input);
+    let run = |extra: &[&str]| {
+        let mut args = vec!["render", s(&input), "--size", "8x8", "--mode", "mip"];
+        args.extend(extra);
+        Command::new(BIN)
+            .args(&args)
+            .current_dir(&dir)
+            .env("MORPHRAY_VALIDATION", "required")
+            .output()
+            .expect("the morphray binary runs")
+    };
+    let o = run(&[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let png = dir.join("sub-01_T1w.png");
+    assert!(
+        String::from_utf8_lossy(&o.stdout).contains("wrote sub-01_T1w.png"),
+        "{}",
+        String::from_utf8_lossy(&o.stdout)
+    );
+    let first = std::fs::metadata(&png).unwrap().modified().unwrap();
+    // Again: the default name exists, so it is refused in one line naming --force.
+    let o = run(&[]);
+    assert_refused(&o, "sub-01_T1w.png exists");
+    assert!(stderr(&o).contains("--force"), "{}", stderr(&o));
+    assert_eq!(std::fs::metadata(&png).unwrap().modified().unwrap(), first);
+    std::thread::sleep(std::time::Duration::from_millis(20));
+    let o = run(&["--force"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(std::fs::metadata(&png).unwrap().modified().unwrap() > first);
+    // Without an input the phantom's picture is phantom.png.
+    let o = Command::new(BIN)
+        .args(["render", "--size", "8x8", "--mode", "mip"])
+        .current_dir(&dir)
+        .env("MORPHRAY_VALIDATION", "required")
+        .output()
+        .expect("the morphray binary runs");
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(dir.join("phantom.png").exists());
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+#[test]
 fn a_clean_file_has_an_empty_warnings_chunk_and_list() {
     let dir = scratch("clean");
     let input = dir.join("clean.nii");

@@ -336,9 +336,17 @@ pub struct RenderArgs {
     /// digital phantom (256x256x192, 1 mm). DICOM series are listed by `morphray info`.
     #[arg(value_name = "FILE", help_heading = "Input")]
     pub file: Vec<PathBuf>,
-    /// Output PNG (with --turntable N: frames are written as NAME-000.png, NAME-001.png, ...).
+    /// Output PNG [default: the input's name with .png, here]
+    ///
+    /// With --turntable N: frames are written as NAME-000.png, NAME-001.png, .... Without -o:
+    /// the input's name with .png in the current directory (`scan.nii.gz` -> `scan.png`;
+    /// `phantom.png` without an input), never over an existing file unless --force is given.
     #[arg(short, long, value_name = "PNG")]
-    pub output: PathBuf,
+    pub output: Option<PathBuf>,
+    /// Replace the default output (`<input>.png`) when it exists already; a file named with
+    /// -o is always replaced.
+    #[arg(long, hide_short_help = true)]
+    pub force: bool,
     /// Render N frames (1 to 10000) of a full orbit, azimuth advancing 360/N degrees a frame
     ///
     /// Every frame's file name is checked before the render starts.

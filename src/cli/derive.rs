@@ -14,7 +14,7 @@
 //! - `<name>` is the input's file name without `.nii`/`.nii.gz`/`.hdr`/`.img` (DICOM: the folder's
 //!   name); `phantom` without a file.
 
-use super::output::print_line;
+use super::output::{print_line, print_warnings};
 use super::session;
 use crate::engine::MapRequest;
 use crate::error::Error;
@@ -73,7 +73,7 @@ pub fn base_name(file: Option<&Path>) -> String {
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| "volume".into());
     let lower = name.to_ascii_lowercase();
-    for ext in [".nii.gz", ".nii", ".hdr", ".img"] {
+    for ext in [".nii.gz", ".nii", ".hdr", ".img", ".dcm"] {
         if lower.ends_with(ext) && name.len() > ext.len() {
             return name[..name.len() - ext.len()].to_string();
         }
@@ -114,6 +114,8 @@ pub fn run(args: &DeriveArgs, global: &super::GlobalOptions) -> Result<(), Error
         None,
         false,
     )?;
+    // As every command does: maps of a repaired file must not look like a clean one's.
+    print_warnings(&opened.source.volume.warnings);
     let prepared = opened.twin.prepared.clone();
     let maps = opened.engine.derived_maps(&prepared, &request)?;
     let source = &opened.source.volume;

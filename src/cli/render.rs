@@ -286,22 +286,48 @@ fn frame_path(output: &Path, index: u32) -> PathBuf {
     output.with_file_name(name)
 }
 
+/// Where the picture goes: `-o`, or the input's name with `.png` in the current directory
+/// (`scan.nii.gz` -> `scan.png`, a DICOM folder's name, `phantom.png` without an input). The
+/// default never replaces a file without `--force`: it was not named, so it may be another
+/// scan's picture.
+fn output_path(args: &RenderArgs) -> Result<PathBuf, Error> {
+    if let Some(path) = &args.output {
+        return Ok(path.clone());
+    }
+    let stem = super::derive::base_name(args.file.first().map(PathBuf::as_path));
+    let path = PathBuf::from(format!("{stem}.png"));
+    let taken = if args.turntable.is_some() {
+        frame_path(&path, 0).exists()
+    } else {
+        path.exists()
+    };
+    if taken && !args.force {
+        return Err(Error::Usage(format!(
+            "{} exists (the default output, <input>.png): pass --force to replace it, or -o \
+             to name another file",
+            path.display()
+        )));
+    }
+    Ok(path)
+}
+
 /// Runs the command.
 pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error> {
     let validation = global.validation;
+    let output = output_path(args)?;
     // 1..=10000 frames (clap checks): the paths below are held, and checked, all at once.
     let frames = args.turntable.unwrap_or(1);
     let paths: Vec<PathBuf> = match args.turntable {
-        Some(_) => (0..frames).map(|i| frame_path(&args.output, i)).collect(),
-        None => vec![args.output.clone()],
+        Some(_) => (0..frames).map(|i| frame_path(&output, i)).collect(),
+        None => vec![output.clone()],
     };
     let mut inputs: Vec<&Path> = args.file.iter().map(|p| p.as_path()).collect();
     inputs.extend(args.overlay.inputs());
     // The label map and its table before any GPU work: a bad one fails at once.
     let overlay = args.overlay.load()?;
     // A turntable's -o names no file of its own, but `-o orbit.jpg` would still be a mistake.
-    if args.turntable.is_some() && !OutputKind::Png.accepts(&args.output) {
-        check_output(&args.output, OutputKind::Png, &inputs, false)?;
+    if args.turntable.is_some() && !OutputKind::Png.accepts(&output) {
+        check_output(&output, OutputKind::Png, &inputs, false)?;
     }
     for path in &paths {
         check_output(path, OutputKind::Png, &inputs, false)?;
@@ -312,6 +338,15 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
         shading: Some(args.scene.shading.unwrap_or(Switch::On)),
         ..args.scene.clone()
     };
+    // On a terminal the spinner shows from the start: reading, extraction and the derived
+    // volumes of a large scan take seconds before the first frame.
+    let mut progress = super::progress::Progress::new(u64::from(frames), "frames");
+    progress.message(&format!(
+        "opening {} (read, prepare, analyse, derived volumes)",
+        args.file
+            .first()
+            .map_or("the phantom".to_string(), |p| p.display().to_string())
+    ));
     let mut opened = session::open_frame(
         args.file.as_slice(),
         args.frame,
@@ -387,7 +422,6 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
     let command = std::env::args().collect::<Vec<_>>().join(" ");
     let mut said_empty = false;
     let mut movie = super::movie::Movie::default();
-    let mut progress = super::progress::Progress::new(u64::from(frames), "frames");
     progress.message(&format!("rendering {width}x{height}"));
     for (index, path) in (0..frames).zip(&paths) {
         let mut scene = base;
