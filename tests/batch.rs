@@ -161,7 +161,12 @@ fn participant_and_group_levels_write_derivatives_skip_the_broken_scan_and_resum
     );
     let html = std::fs::read_to_string(out.join("group/morphray_report.html")).unwrap();
     assert_eq!(html.matches("<svg").count(), 3);
-    assert!(html.contains("src=\"../sub-02/anat/sub-02_desc-lateral_T1w.png\""));
+    // The thumbnails are inside the report (data: URIs), named by their files.
+    assert!(
+        html.contains("alt=\"sub-02_desc-lateral_T1w.png\""),
+        "{html}"
+    );
+    assert_eq!(html.matches("src=\"data:image/png;base64,").count(), 6);
     assert!(html.contains("2 scans, 1 failed"));
     assert!(html.contains("sub-03/anat/sub-03_T1w.nii.gz"));
     std::fs::remove_dir_all(&out).unwrap();
@@ -332,4 +337,109 @@ fn help_documents_the_exit_status() {
         said.contains("3 when it ran but some scans failed") && said.contains("--allow-failures"),
         "{said}"
     );
+}
+
+/// A dataset of three scans for the report's quality column: a T1w phantom, the same phantom
+/// named T2w (the BIDS suffix decides the contrast) and a constant T1w volume (nothing to show).
+fn quality_dataset(root: &Path) {
+    use morphray::volume::nifti::write_nifti1;
+    use morphray::volume::phantom::{PhantomSpec, generate};
+    let _ = std::fs::remove_dir_all(root);
+    std::fs::create_dir_all(root).unwrap();
+    std::fs::write(
+        root.join("dataset_description.json"),
+        r#"{"Name": "quality", "BIDSVersion": "1.10.0"}"#,
+    )
+    .unwrap();
+    let phantom = generate(&PhantomSpec::cube(24)).unwrap().volume;
+    let mut constant = phantom.clone();
+    constant.samples = morphray::volume::Samples::from_f32(&vec![100.0; 24 * 24 * 24]);
+    for (sub, suffix, volume) in [
+        ("01", "T1w", &phantom),
+        ("02", "T2w", &phantom),
+        ("03", "T1w", &constant),
+    ] {
+        let anat = root.join(format!("sub-{sub}/anat"));
+        std::fs::create_dir_all(&anat).unwrap();
+        let path = anat.join(format!("sub-{sub}_{suffix}.nii.gz"));
+        write_nifti1(volume, &path, true).unwrap();
+    }
+}
+
+#[test]
+fn the_report_flags_quality_embeds_its_pictures_and_takes_the_contrast_from_the_bids_suffix() {
+    let bids = temp("quality-bids");
+    let out = temp("quality-out");
+    let _ = std::fs::remove_dir_all(&out);
+    quality_dataset(&bids);
+    let run = morphray(
+        &[
+            "batch",
+            s(&bids),
+            s(&out),
+            "participant",
+            "--thumbnail-size",
+            "32",
+        ],
+        &[],
+    );
+    assert!(run.status.success(), "{}", text(&run));
+    let group = morphray(&["batch", s(&bids), s(&out), "group"], &[]);
+    assert!(group.status.success(), "{}", text(&group));
+    let tsv = std::fs::read_to_string(out.join("group/morphray_table1.tsv")).unwrap();
+    let header: Vec<&str> = tsv.lines().next().unwrap().split('\t').collect();
+    let column = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let row = |sub: &str| -> Vec<String> {
+        let line = tsv
+            .lines()
+            .find(|l| l.contains(&format!("sub-{sub}_")))
+            .unwrap();
+        line.split('\t').map(str::to_string).collect()
+    };
+    let (contrast, basis, qc) = (column("contrast"), column("contrast_basis"), column("qc"));
+    assert_eq!(row("02")[contrast], "t2", "{tsv}");
+    assert_eq!(row("02")[basis], "metadata", "{tsv}");
+    assert_eq!(row("01")[contrast], "t1", "{tsv}");
+    assert!(row("03")[qc].contains("blank picture"), "{tsv}");
+    assert!(!row("01")[qc].contains("blank picture"), "{tsv}");
+    // One self-contained file: every thumbnail inside it, no link to a file beside it.
+    let html = std::fs::read_to_string(out.join("group/morphray_report.html")).unwrap();
+    assert_eq!(
+        html.matches("src=\"data:image/png;base64,iVBOR").count(),
+        9,
+        "3 scans x 3 views"
+    );
+    assert!(!html.contains("src=\"../"), "no relative links");
+    assert!(
+        html.contains("class=\"flagged\""),
+        "the blank scan's row is marked"
+    );
+    // The default thumbnails ran brain extraction (its decision is recorded); `head` did not.
+    let summary = |out: &Path| -> serde_json::Value {
+        let p = out.join("sub-01/anat/sub-01_desc-peaks_T1w.json");
+        serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+    };
+    assert!(summary(&out)["brain"].is_string(), "{}", summary(&out));
+    let heads = temp("quality-heads");
+    let _ = std::fs::remove_dir_all(&heads);
+    let run = morphray(
+        &[
+            "batch",
+            s(&bids),
+            s(&heads),
+            "participant",
+            "--thumbnail-size",
+            "32",
+            "--participant-label",
+            "01",
+            "--thumbnails",
+            "head",
+        ],
+        &[],
+    );
+    assert!(run.status.success(), "{}", text(&run));
+    assert!(summary(&heads)["brain"].is_null(), "{}", summary(&heads));
+    for dir in [bids, out, heads] {
+        let _ = std::fs::remove_dir_all(dir);
+    }
 }

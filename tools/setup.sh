@@ -1,20 +1,43 @@
 #!/usr/bin/env bash
-# Installs what morphray needs on Debian 12 / Ubuntu, idempotently:
-#   - a Vulkan loader and a Vulkan driver (lavapipe, Mesa's CPU device, when there is no GPU);
-#   - the Khronos validation layers (tests run with them as an oracle);
-#   - glslangValidator (build.rs compiles the GLSL shaders with it) and spirv-val (tests);
-#   - xvfb and xauth (the viewer's scripted test runs under a virtual X server), and the X11
-#     client libraries winit opens at run time (libX11-xcb, libXcursor, libXrandr, libXi,
-#     libxkbcommon-x11); runtime packages only, no -dev packages are needed to build;
+# Installs what morphray needs on Debian 12 / Ubuntu, idempotently, by need.
+#
+# `tools/setup.sh` (to build and run morphray; a minute or less):
+#   - a Vulkan loader and a Vulkan driver (libvulkan1, mesa-vulkan-drivers: lavapipe, Mesa's CPU
+#     device, when there is no GPU; a GPU's own driver is used when installed);
+#   - glslangValidator (glslang-tools: build.rs compiles the GLSL shaders with it);
+#   - the X11 client libraries winit opens at run time for the viewer (libx11-xcb1,
+#     libxcursor1, libxrandr2, libxi6, libxkbcommon-x11-0); runtime packages only, no -dev
+#     packages are needed to build.
+# `tools/setup.sh --dev` (to run the tests: `cargo test`), the above and:
+#   - the Khronos validation layers (vulkan-validationlayers: tests run with them as an
+#     oracle), vulkan-tools (vulkaninfo), spirv-tools (spirv-val in tests);
+#   - xvfb and xauth (the viewer's scripted tests run under a virtual X server);
 #   - python3-venv, then the tests' Python environment (tools/pyenv.sh: a cached venv);
 #   - the stub Tiger Lake (tools/gen12/setup.sh: Intel's ANV and Mesa's no-op DRM shim built
 #     from Debian's Mesa source, about 8 minutes on 2 cores the first time, cached under
 #     ~/.cache/morphray/gen12), for tests/gen12.rs and `morphray kernels` on Gen12.
-# Rust itself is expected to be installed (rustup); this script does not touch it.
+# Rust itself is expected to be installed (rustup, 1.95 or newer); this script does not touch it.
 set -euo pipefail
 
-packages=(mesa-vulkan-drivers libvulkan1 vulkan-validationlayers vulkan-tools glslang-tools spirv-tools xvfb xauth
-          libx11-xcb1 libxcursor1 libxrandr2 libxi6 libxkbcommon-x11-0 python3-venv)
+dev=0
+case "${1:-}" in
+    "") ;;
+    --dev) dev=1 ;;
+    -h|--help)
+        sed -n '2,19p' "$0" | sed 's/^# \{0,1\}//'
+        exit 0
+        ;;
+    *)
+        echo "setup: unknown option '$1' (use --dev for the tests' tools, or nothing)" >&2
+        exit 2
+        ;;
+esac
+
+packages=(mesa-vulkan-drivers libvulkan1 glslang-tools
+          libx11-xcb1 libxcursor1 libxrandr2 libxi6 libxkbcommon-x11-0)
+if [ "$dev" -eq 1 ]; then
+    packages+=(vulkan-validationlayers vulkan-tools spirv-tools xvfb xauth python3-venv)
+fi
 missing=()
 for p in "${packages[@]}"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
@@ -34,6 +57,10 @@ install_missing() {
     $sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 }
 install_missing
-"$(dirname "$0")/pyenv.sh"
-"$(dirname "$0")/gen12/setup.sh"
-echo "setup: done"
+if [ "$dev" -eq 1 ]; then
+    "$(dirname "$0")/pyenv.sh"
+    "$(dirname "$0")/gen12/setup.sh"
+    echo "setup: done (build, run and tests)"
+else
+    echo "setup: done (build and run; \`tools/setup.sh --dev\` adds what the tests need)"
+fi

@@ -59,10 +59,24 @@ pub struct BatchArgs {
     /// Peaks only: no thumbnails.
     #[arg(long)]
     pub no_thumbnails: bool,
+    /// What the thumbnails show: `brain` (default: the brain of a head scan, as `render`
+    /// shows it, so a report meant to be shared shows no faces) or `head` (the whole head,
+    /// brain extraction off).
+    #[arg(long, value_enum, default_value_t = Thumbnails::Brain, value_name = "WHAT")]
+    pub thumbnails: Thumbnails,
     /// Exit 0 even when some scans failed (default: exit 3; the failures are recorded in
     /// OUT_DIR either way).
     #[arg(long)]
     pub allow_failures: bool,
+}
+
+/// `--thumbnails`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Thumbnails {
+    /// The brain of a head scan (brain extraction as `render` does it).
+    Brain,
+    /// The whole head (brain extraction off): faces are identifiable.
+    Head,
 }
 
 fn batch_error(e: BatchError) -> Error {
@@ -117,6 +131,7 @@ pub fn run(args: &BatchArgs, global: &super::GlobalOptions) -> Result<(), Error>
         shard: shard(args)?,
         thumbnail: args.thumbnail_size,
         thumbnails: !args.no_thumbnails,
+        head_thumbnails: args.thumbnails == Thumbnails::Head,
     };
     let terminal = std::io::stderr().is_terminal();
     let mut bar: Option<indicatif::ProgressBar> = None;

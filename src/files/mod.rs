@@ -9,6 +9,7 @@
 //! over the target only when complete, and [`write::check_output`] checks an output path before
 //! any work is done.
 
+pub mod base64;
 pub mod cache_dir;
 pub mod movie;
 pub mod parallel;

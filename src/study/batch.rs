@@ -52,6 +52,9 @@ pub struct ParticipantOptions {
     pub thumbnail: u32,
     /// Render thumbnails (off: peaks only).
     pub thumbnails: bool,
+    /// Thumbnails of the whole head (`--thumbnails head`: brain extraction off) instead of the
+    /// brain; the default shows the brain, so a report meant to be shared shows no faces.
+    pub head_thumbnails: bool,
 }
 
 /// Why the participant level stopped (a scan's own failure never stops it).
@@ -152,12 +155,16 @@ impl Worker {
     }
 }
 
-/// The scene of the thumbnails (the command line's default DVR), or for peaks only a MIP scene:
-/// it needs no derived volumes, so no derivative pass runs on a scan that is never rendered.
-fn recipe(thumbnails: bool) -> SceneRecipe {
+/// The scene of the thumbnails (the command line's default DVR: the brain of a head scan, or
+/// with `head` the whole head), or for peaks only a MIP scene: it needs no derived volumes, so
+/// no derivative pass runs on a scan that is never rendered.
+fn recipe(thumbnails: bool, head: bool) -> SceneRecipe {
     let mut recipe = SceneRecipe::default();
     if !thumbnails {
         recipe.effects.mode = crate::scene::RenderMode::Mip;
+    }
+    if head {
+        recipe.effects.brain = crate::passes::brain::BrainSwitch::Off;
     }
     recipe
 }
@@ -177,7 +184,7 @@ fn process(
     let open = OpenOptions {
         read: ReadOptions::default(),
         image: [size, size],
-        recipe: recipe(options.thumbnails),
+        recipe: recipe(options.thumbnails, options.head_thumbnails),
         first_frame: options.thumbnails,
     };
     let before_gpu = Instant::now();
@@ -196,6 +203,8 @@ fn process(
     std::fs::create_dir_all(&outputs.dir)
         .map_err(|e| OutputError::io(&outputs.dir, e).to_string())?;
     let mut thumbnails = Vec::new();
+    // Pixels off the background of each thumbnail (the blank-picture flag).
+    let mut lit = Vec::new();
     if options.thumbnails {
         if worker.target.is_none() {
             let target = worker
@@ -217,6 +226,10 @@ fn process(
                 .render_twin(target, &mut opened.twin, &scene)
                 .map_err(|e| e.to_string())?;
             timings.render_ms += ms(before);
+            lit.push(crate::scene::visibility::pixels_off_background(
+                &frame.rgba8,
+                scene.background,
+            ));
             let before = Instant::now();
             let provenance = Provenance {
                 input: scan.relative.clone(),
@@ -238,8 +251,16 @@ fn process(
         &read.volume.warnings,
     );
     timings.total_ms = ms(start);
+    let brain = opened
+        .twin
+        .derived()
+        .and_then(|d| d.brain.as_ref())
+        .map(|b| b.report.decision);
+    let qc = super::batch_qc::flags(&opened.report, brain, &lit);
     let mut value = serde_json::to_value(&summary).map_err(|e| e.to_string())?;
     if let Some(map) = value.as_object_mut() {
+        map.insert("qc".into(), serde_json::json!(qc));
+        map.insert("brain".into(), serde_json::json!(brain));
         map.insert("subject".into(), scan.subject.clone().into());
         map.insert("session".into(), scan.session.clone().into());
         map.insert("suffix".into(), scan.suffix.clone().into());

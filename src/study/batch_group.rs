@@ -8,8 +8,11 @@
 //!   walking it (not from the logs, which a rerun appends to): what is on disk is the state.
 //! - The TSV's columns are the Table-1 row's fields (sorted by name) after the scan's
 //!   identity, so a new field appears without a change here; missing values are `n/a` (BIDS).
-//! - The HTML is one file with inline SVG and relative links to the thumbnails: it opens from
-//!   the folder, from a copy of OUT_DIR, or from a web server, with no script or network.
+//! - The HTML is one self-contained file: inline SVG, the thumbnails embedded as `data:` URIs
+//!   (base64 PNG), no script or network, so the file alone can be mailed or archived; the PNGs
+//!   stay beside it for other tools.
+//! - Each scan's quality flags (`batch_qc`: blank picture, fallback windows, brain not found,
+//!   contrast guessed) are a column of both; a flagged row is marked in the HTML.
 
 use super::batch_outputs::group_dir;
 use crate::files::write::{OutputError, write_file};
@@ -162,7 +165,7 @@ fn tsv(summaries: &[Record]) -> String {
         text.push('\t');
         text.push_str(c);
     }
-    text.push_str("\tcontrast\twarnings\n");
+    text.push_str("\tcontrast\tcontrast_basis\tqc\twarnings\n");
     for r in summaries {
         let v = &r.value;
         let mut row = vec![
@@ -175,6 +178,8 @@ fn tsv(summaries: &[Record]) -> String {
             row.push(cell(v.get("table1").and_then(|t| t.get(c))));
         }
         row.push(cell(v.get("contrast").and_then(|c| c.get("contrast"))));
+        row.push(cell(v.get("contrast").and_then(|c| c.get("basis"))));
+        row.push(qc_cell(v));
         let warnings = v
             .get("warnings")
             .and_then(Value::as_array)
@@ -253,17 +258,42 @@ fn distribution_svg(title: &str, values: &[f64], colour: &str) -> String {
     svg
 }
 
+/// A summary's quality flags as one cell (`ok`; `n/a` for a summary written before them).
+fn qc_cell(v: &Value) -> String {
+    match v.get("qc").and_then(Value::as_array) {
+        Some(flags) => {
+            let flags: Vec<String> = flags
+                .iter()
+                .filter_map(|f| f.as_str().map(str::to_string))
+                .collect();
+            super::batch_qc::cell(&flags)
+        }
+        None => "n/a".into(),
+    }
+}
+
+/// A thumbnail as a `data:` URI, read from `out`; None when it cannot be read (the cell then
+/// says so instead of showing a broken image).
+fn embedded(out: &Path, relative_dir: &str, name: &str) -> Option<String> {
+    let bytes = std::fs::read(out.join(relative_dir).join(name)).ok()?;
+    Some(format!(
+        "data:image/png;base64,{}",
+        crate::files::base64::encode(&bytes)
+    ))
+}
+
 fn fmt(v: Option<f64>) -> String {
     v.map_or("n/a".into(), |x| format!("{x:.4}"))
 }
 
 /// The HTML report.
-fn html(summaries: &[Record], failures: &[Record]) -> String {
+fn html(out: &Path, summaries: &[Record], failures: &[Record]) -> String {
     let mut page = String::from(
         "<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>morphray group report</title>\
          <style>body{font-family:sans-serif;margin:2em}table{border-collapse:collapse}\
          td,th{border:1px solid #ccc;padding:2px 6px;font-size:13px}\
-         img{width:128px;height:128px;background:#000}.fail{color:#a00}</style></head><body>",
+         img{width:128px;height:128px;background:#000}.fail{color:#a00}\
+         tr.flagged td{background:#fff3cd}</style></head><body>",
     );
     let _ = write!(
         page,
@@ -287,21 +317,26 @@ fn html(summaries: &[Record], failures: &[Record]) -> String {
     page.push_str(
         "</div><h2>Table 1 across scans</h2><table><tr><th>scan</th><th>Imin</th>\
                    <th>Imax</th><th>CSF</th><th>GM</th><th>WM</th><th>contrast</th>\
-                   <th>anterior</th><th>lateral</th><th>superior</th></tr>",
+                   <th>quality</th><th>anterior</th><th>lateral</th><th>superior</th></tr>",
     );
     for r in summaries {
         let v = &r.value;
         let t = |k: &str| number(v.pointer(&format!("/table1/{k}")));
+        let qc = qc_cell(v);
+        let flagged = if qc == "ok" { "" } else { " class=\"flagged\"" };
         let _ = write!(
             page,
-            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>",
+            "<tr{flagged}><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>\
+             <td>{} ({})</td><td>{}</td>",
             esc(&cell(v.get("file"))),
             fmt(t("imin")),
             fmt(t("imax")),
             fmt(t("csf_norm")),
             fmt(t("gm_norm")),
             fmt(t("wm_norm")),
-            esc(&cell(v.pointer("/contrast/contrast")))
+            esc(&cell(v.pointer("/contrast/contrast"))),
+            esc(&cell(v.pointer("/contrast/basis"))),
+            esc(&qc)
         );
         let thumbs = v
             .get("thumbnails")
@@ -309,15 +344,13 @@ fn html(summaries: &[Record], failures: &[Record]) -> String {
             .cloned()
             .unwrap_or_default();
         for i in 0..3 {
-            match thumbs.get(i).and_then(Value::as_str) {
-                Some(name) => {
-                    let _ = write!(
-                        page,
-                        "<td><img src=\"../{}/{}\" alt=\"{}\"></td>",
-                        esc(&r.relative_dir),
-                        esc(name),
-                        esc(name)
-                    );
+            let name = thumbs.get(i).and_then(Value::as_str);
+            match name.map(|n| (n, embedded(out, &r.relative_dir, n))) {
+                Some((name, Some(uri))) => {
+                    let _ = write!(page, "<td><img src=\"{uri}\" alt=\"{}\"></td>", esc(name));
+                }
+                Some((name, None)) => {
+                    let _ = write!(page, "<td class=\"fail\">{} missing</td>", esc(name));
                 }
                 None => page.push_str("<td>-</td>"),
             }
@@ -358,6 +391,6 @@ pub fn run_group(out: &Path) -> Result<GroupReport, GroupError> {
         html: dir.join("morphray_report.html"),
     };
     write_file(&report.tsv, tsv(&summaries).as_bytes())?;
-    write_file(&report.html, html(&summaries, &failures).as_bytes())?;
+    write_file(&report.html, html(out, &summaries, &failures).as_bytes())?;
     Ok(report)
 }
