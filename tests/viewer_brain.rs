@@ -6,12 +6,13 @@
 //! the slices carry the mask's outline exactly while a mask is in use. Validation layer
 //! required. Fails (never skips) without a Vulkan device.
 
+mod common;
+
 use morphray::app::brain_outline::OUTLINE_COLOUR;
 use morphray::volume::nifti::write_nifti1;
 use morphray::volume::phantom::{PhantomSpec, generate};
 use morphray::volume::phantom_contrast::Contrast;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 fn temp_dir(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("morphray-vbrain-{}-{name}", std::process::id()));
@@ -133,35 +134,7 @@ fn brain_and_head_switches_change_the_picture_the_outline_and_only_recompute_whe
         "wait 1".into(),
     ]
     .join("\n");
-    let script_path = dir.join("script.txt");
-    std::fs::write(&script_path, script + "\n").unwrap();
-    let o = Command::new(env!("CARGO_BIN_EXE_morphray"))
-        .env_remove("DISPLAY")
-        .env_remove("WAYLAND_DISPLAY")
-        .args([
-            "view",
-            "--layout",
-            "3d",
-            "--offscreen",
-            volume.to_str().unwrap(),
-        ])
-        .args(["--size", "720x440", "--frames", "2"])
-        .args(["--script", script_path.to_str().unwrap()])
-        .env("MORPHRAY_VALIDATION", "required")
-        .output()
-        .expect("morphray runs");
-    let log = String::from_utf8_lossy(&o.stdout).into_owned();
-    let stderr = String::from_utf8_lossy(&o.stderr);
-    assert!(
-        !stderr.contains("no Vulkan") && !stderr.contains("found no device"),
-        "this test needs a Vulkan device (Debian: apt-get install mesa-vulkan-drivers \
-         libvulkan1 vulkan-validationlayers): {stderr}"
-    );
-    assert!(
-        o.status.success() && log.contains("validation layer: 0 error(s)"),
-        "exit {:?}\nstdout:\n{log}\nstderr:\n{stderr}",
-        o.status.code()
-    );
+    let log = common::viewer::offscreen(&volume, &dir, "720x440", &script);
 
     // The load extracted the brain with the other derived volumes and decided: a head.
     let loaded = before(&log, "show head");
