@@ -346,6 +346,9 @@ fn the_overlay_colours_the_blob_on_the_slices_and_its_switch_hides_it() {
         false,
         &extra,
     );
+    // The readout names the label under the crosshair from the lookup table (issue 31 item 1).
+    let log = String::from_utf8_lossy(&o.stdout);
+    assert!(log.contains("|  label 7 Blob"), "{log}");
     let axial = rect(&layout_line(&o), "axial");
     let (x, n) = Png::read(&shot).mean_x(axial, red);
     assert!(n > 10, "the label is drawn on the axial slice ({n} px)");

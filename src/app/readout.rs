@@ -11,6 +11,9 @@
 //!   A/P, S/I), as the slices' orientation letters are, so nothing depends on a convention the
 //!   reader has to know.
 //! - Outside the volume the readout says so instead of clamping to the border voxel.
+//! - With a label overlay the label under the crosshair follows, with its name when the
+//!   overlay's lookup table has one (`label 17 Left-Hippocampus`); label 0 (no label) is not
+//!   shown.
 
 use crate::volume::Volume;
 use glam::{DMat4, DVec3, DVec4};
@@ -26,6 +29,8 @@ pub struct Readout {
     pub value: Option<f64>,
     /// `HU` for CT, empty otherwise.
     pub unit: &'static str,
+    /// The overlay's label at the voxel and its name in the lookup table, when there is one.
+    pub label: Option<(u16, Option<String>)>,
 }
 
 /// The readout of `volume` at `world`; `hounsfield`: the volume is a CT.
@@ -49,6 +54,25 @@ pub fn readout(volume: &Volume, world: DVec3, hounsfield: bool) -> Readout {
         voxel,
         value,
         unit: if hounsfield { "HU" } else { "" },
+        label: None,
+    }
+}
+
+impl Readout {
+    /// This readout with the label of `labels` (on the volume's grid) at its voxel, named by
+    /// `table`; label 0 is no label.
+    pub fn with_label(
+        mut self,
+        labels: &crate::scene::overlay::Labels,
+        table: &crate::scene::overlay::LabelTable,
+    ) -> Readout {
+        let [nx, ny, _] = labels.dims;
+        self.label = self
+            .voxel
+            .and_then(|[i, j, k]| labels.values.get(i + nx * (j + ny * k)).copied())
+            .filter(|&l| l != 0)
+            .map(|l| (l, table.entries.get(&l).map(|(name, _)| name.clone())));
+        self
     }
 }
 
@@ -84,8 +108,13 @@ impl Readout {
                 } else {
                     format!(" {}", self.unit)
                 };
+                let label = match &self.label {
+                    Some((l, Some(name))) => format!("  |  label {l} {name}"),
+                    Some((l, None)) => format!("  |  label {l}"),
+                    None => String::new(),
+                };
                 format!(
-                    "{position}  |  voxel {i}, {j}, {k}  |  value {}{unit}",
+                    "{position}  |  voxel {i}, {j}, {k}  |  value {}{unit}{label}",
                     value_text(v)
                 )
             }
@@ -145,6 +174,38 @@ mod tests {
         assert_eq!(r.voxel, None);
         assert!(r.text().starts_with("crosshair  R 40.0  A 0.0  S 0.0 mm"));
         assert!(r.text().ends_with("outside the volume"), "{}", r.text());
+    }
+
+    #[test]
+    fn the_label_under_the_crosshair_is_named_by_the_table() {
+        let v = volume();
+        let mut values = vec![0u16; 3 * 4 * 5];
+        values[2 + 3 * (1 + 4 * 3)] = 17;
+        values[0] = 5;
+        let labels = crate::scene::overlay::Labels {
+            dims: [3, 4, 5],
+            values,
+        };
+        let table = crate::scene::overlay::LabelTable::parse(
+            "17 Left-Hippocampus 220 216 20 0\n",
+            "lut.txt",
+        )
+        .unwrap();
+        let at = |x: f64, y: f64, z: f64| {
+            readout(&v, DVec3::new(x, y, z), false)
+                .with_label(&labels, &table)
+                .text()
+        };
+        assert!(
+            at(-6.0, -8.0, -4.0).ends_with("value -811  |  label 17 Left-Hippocampus"),
+            "{}",
+            at(-6.0, -8.0, -4.0)
+        );
+        assert!(at(-10.0, -10.0, -10.0).ends_with("value -1024  |  label 5"));
+        assert!(
+            at(-8.0, -10.0, -10.0).ends_with("value -924"),
+            "label 0 is not shown"
+        );
     }
 
     #[test]

@@ -35,9 +35,18 @@ impl Viewer {
         };
         let prepared = &current.loaded.twin.prepared;
         let slices = &mut self.controls.slices;
+        let overlay = slices.overlay.as_ref();
         let readout = slices.crosshair.map(|world| {
             let ct = current.loaded.report.modality.modality == crate::analysis::Modality::Ct;
-            crate::app::readout::readout(&current.loaded.host, world, ct).text()
+            let r = crate::app::readout::readout(&current.loaded.host, world, ct);
+            match overlay {
+                // The labels are on this volume's grid once the overlay is set up below.
+                Some(o) if o.labels.dims == current.loaded.host.dims => {
+                    r.with_label(&o.labels, &o.table)
+                }
+                _ => r,
+            }
+            .text()
         });
         if readout != self.status.readout {
             if let Some(line) = &readout {
