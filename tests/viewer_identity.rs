@@ -53,4 +53,26 @@ fn the_menus_steps_open_the_volume_again_as_the_given_contrast_preset_and_modali
         "after auto:\n{log}"
     );
     assert!(identities.len() >= 4, "one load per change:\n{log}");
+    // Each preset's look reaches the picture, as `render` draws it: the angiogram's bright
+    // band and vessel channel, the CT's bone and vessel bands, the tissues again at the end.
+    let looks: Vec<&str> = log.lines().filter(|l| l.starts_with("look:")).collect();
+    println!("{}", looks.join("\n"));
+    assert!(
+        looks
+            .iter()
+            .any(|l| l.contains("preset angio: shows pathology; vessels on")),
+        "{log}"
+    );
+    assert!(
+        looks
+            .iter()
+            .any(|l| l.contains("preset ct: shows wm, pathology")),
+        "{log}"
+    );
+    assert!(
+        looks
+            .last()
+            .is_some_and(|l| l.contains("preset mr: shows csf, gm, wm; vessels off")),
+        "{log}"
+    );
 }

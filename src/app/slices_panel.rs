@@ -123,6 +123,39 @@ pub struct SliceControls {
     /// The brain mask in use, outlined on the slices (`brain_outline.rs`); None when the
     /// picture uses no mask. The viewer sets it and marks the slices dirty when it changes.
     pub brain: Option<std::sync::Arc<super::brain_outline::BrainOutline>>,
+    /// The file's units for the window's numbers: the physical values of I_norm 0 and 1, and
+    /// `HU` for a CT (set by the viewer for each volume); None: I_norm.
+    pub units: Option<(f64, f64, &'static str)>,
+    /// The crosshair's readout (`app::readout`), drawn under the slices.
+    pub readout: Option<String>,
+}
+
+impl SliceControls {
+    /// The grey window in the file's units (`window 40..400 HU`), I_norm without them.
+    pub fn window_text(&self) -> String {
+        let (lo, hi) = self.window;
+        match self.units {
+            Some((imin, imax, unit)) => {
+                // Whole numbers over a range of 100 and more (HU, most MR), else 2 or 4 decimals.
+                let span = (imax - imin).abs();
+                let decimals = if span >= 100.0 {
+                    0
+                } else if span >= 1.0 {
+                    2
+                } else {
+                    4
+                };
+                let raw = |v: f64| format!("{:.*}", decimals, imin + v * (imax - imin));
+                let unit = if unit.is_empty() {
+                    String::new()
+                } else {
+                    format!(" {unit}")
+                };
+                format!("window {}..{}{unit}", raw(lo), raw(hi))
+            }
+            None => format!("window {lo:.2}..{hi:.2} (I_norm)"),
+        }
+    }
 }
 
 /// A label overlay resampled onto the volume's grid, with its colours.
@@ -265,12 +298,16 @@ fn slice_column(ui: &mut Ui, slices: &mut SliceControls) {
     });
     ui.label(
         egui::RichText::new(format!(
-            "window {:.2}..{:.2} (right-drag); click: crosshair; scroll: move",
-            slices.window.0, slices.window.1
+            "{} (right-drag); click: crosshair; scroll: move",
+            slices.window_text()
         ))
         .small()
         .weak(),
     );
+    colour_bar(ui);
+    if let Some(readout) = &slices.readout {
+        ui.label(egui::RichText::new(readout).small());
+    }
     let planes = slices.layout.planes();
     let area = ui.available_rect_before_wrap();
     let each = area.height() / planes.len().max(1) as f32;
@@ -284,6 +321,22 @@ fn slice_column(ui: &mut Ui, slices: &mut SliceControls) {
         slice_cell(ui, slices, plane, cell);
     }
     ui.allocate_rect(area, egui::Sense::hover());
+}
+
+/// The slices' grey scale under the window's numbers (`window_text`): black at its low end to
+/// white at its high end.
+fn colour_bar(ui: &mut Ui) {
+    let (rect, _) = ui.allocate_exact_size(vec2(ui.available_width(), 10.0), egui::Sense::hover());
+    let mut mesh = egui::Mesh::default();
+    let (top, bottom) = (rect.top(), rect.bottom());
+    for (x, grey) in [(rect.left(), 0u8), (rect.right(), 255u8)] {
+        let colour = Color32::from_gray(grey);
+        mesh.colored_vertex(Pos2::new(x, top), colour);
+        mesh.colored_vertex(Pos2::new(x, bottom), colour);
+    }
+    mesh.add_triangle(0, 1, 2);
+    mesh.add_triangle(1, 2, 3);
+    ui.painter().add(egui::Shape::mesh(mesh));
 }
 
 /// The label overlay's section of the tools panel (nothing without `--overlay`): whether it is
@@ -528,6 +581,21 @@ mod tests {
             cross,
             "a right-drag does not move the crosshair"
         );
+    }
+
+    #[test]
+    fn the_window_reads_in_the_files_units() {
+        let mut s = SliceControls {
+            window: (0.25, 0.5),
+            ..Default::default()
+        };
+        assert_eq!(s.window_text(), "window 0.25..0.50 (I_norm)");
+        s.units = Some((-1000.0, 3000.0, "HU"));
+        assert_eq!(s.window_text(), "window 0..1000 HU");
+        s.units = Some((0.0, 1.0, ""));
+        assert_eq!(s.window_text(), "window 0.25..0.50");
+        s.units = Some((-1009.6207, 1409.8882, "HU"));
+        assert_eq!(s.window_text(), "window -405..200 HU");
     }
 
     #[test]

@@ -245,6 +245,8 @@ pub struct Viewer {
     /// A load that opens the volume on screen again for its scene: its adoption keeps the
     /// controls as they are.
     keep_scene: Option<u64>,
+    /// The look by modality of the volume on screen (`opening.rs`, `adopt_preset_look`).
+    shown_preset: Option<crate::scene::Preset>,
     /// The scene the bricked volume was last opened again for.
     reopened_for: Option<SceneRecipe>,
     /// The frame of 4-D files opened now (`--frame`, then the frame slider's).
@@ -345,6 +347,7 @@ impl Viewer {
             mirror: Default::default(),
             render_blocked: None,
             keep_scene: None,
+            shown_preset: None,
             reopened_for: None,
             frame: config.frame,
             adaptive: super::adaptive::Controller::new(config.frame_budget_ms),

@@ -40,8 +40,16 @@ impl Viewer {
                     loaded.scene.classification.head.window
             }
         }
+        self.adopt_preset_look(&loaded);
         self.render_blocked = None;
         self.status.file = loaded.label.clone();
+        let r = &loaded.report;
+        let unit = if crate::scene::preset::values_are_hu(r) {
+            "HU"
+        } else {
+            ""
+        };
+        self.controls.slices.units = (r.imax > r.imin).then_some((r.imin, r.imax, unit));
         let identity = crate::app::status::identity_text(&loaded.report);
         let preset = self.config.recipe.preset_for(&loaded.report).name();
         self.log
@@ -228,6 +236,38 @@ impl Viewer {
         let series = shown_series(&current.loaded);
         self.frame = index;
         self.open(source, series, label_for_log);
+    }
+
+    /// A volume whose look by modality (`scene::preset`) is not the plain MR one, or differs
+    /// from the last volume's, is shown as the preset draws it: its tissue styles (windows in
+    /// HU for a CT, the bright band for an angiogram, which tissues are shown, colours,
+    /// opacities) and its vessel channel, as `render` shows it. Between two `mr` volumes the
+    /// person's styles stay (only the windows follow the new volume).
+    fn adopt_preset_look(&mut self, loaded: &LoadedVolume) {
+        let preset = self.config.recipe.preset_for(&loaded.report);
+        let changed = self.shown_preset != Some(preset);
+        self.shown_preset = Some(preset);
+        if self.keep_scene == Some(loaded.id) || (preset == crate::scene::Preset::Mr && !changed) {
+            return;
+        }
+        self.controls.scene.classification = loaded.scene.classification.clone();
+        // The command line's choice or the preset's: a channel an earlier look turned on goes.
+        self.controls.scene.effects.vessels = self.config.recipe.vessels_for(&loaded.report);
+        let shown: Vec<&str> = crate::scene::TissueClass::ALL
+            .into_iter()
+            .filter(|&t| loaded.scene.classification.style(t).visible)
+            .map(|t| t.name())
+            .collect();
+        self.log.say(&format!(
+            "look: preset {}: shows {}; vessels {}",
+            preset.name(),
+            shown.join(", "),
+            if self.controls.scene.effects.vessels {
+                "on"
+            } else {
+                "off"
+            }
+        ));
     }
 
     /// Takes the volume on screen (and those opened after it) as `choice` says (the modality,

@@ -53,6 +53,7 @@ impl Viewer {
                 // Scripted runs and tests read where the crosshair went and what is there.
                 self.log.say(line);
             }
+            slices.readout.clone_from(&readout);
             self.status.readout = readout;
         }
         if slices.volume != current.loaded.id {
