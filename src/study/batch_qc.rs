@@ -95,19 +95,36 @@ mod tests {
         );
     }
 
-    /// A histogram with no tissue in it (one bright value over the background) gets the
-    /// fallback window, and the flag says so; a fitted scan never carries it.
+    /// The fallback (foreground window, no tissue class) is named as such, not as `no windows`;
+    /// a report with no window at all is `no windows`; a fitted scan carries neither.
     #[test]
-    fn fallback_windows_are_flagged() {
-        let mut hist = [0u32; crate::reference::BINS];
-        hist[0] = 5000;
-        hist[200] = 40_000;
-        let mut flat = analyze(&hist, 0.0, 1000.0, 45_000, 0);
-        assert!(flat.fallback.is_some(), "one value: no tissue class");
+    fn fallback_and_missing_windows_are_flagged() {
+        let mut flat = report();
         flat.contrast.basis = Basis::Metadata;
+        let window = crate::analysis::Window {
+            lo: 0.2,
+            hi: 1.0,
+            edge: 0.002,
+        };
+        flat.fallback = Some(crate::analysis::Fallback {
+            window,
+            voxels: 1000,
+            reason: "test".into(),
+        });
         assert_eq!(
             cell(&flags(&flat, None, &[5, 5, 5])),
             "fallback windows (no tissue class found)"
+        );
+        flat.fallback = None;
+        flat.adaptive_windows = crate::analysis::TissueWindows {
+            csf: None,
+            gm: None,
+            wm: None,
+            pathology: None,
+        };
+        assert!(
+            cell(&flags(&flat, None, &[0]))
+                .ends_with("no windows (no tissue class and no foreground found)")
         );
         let fitted = report();
         assert!(fitted.fallback.is_none());
