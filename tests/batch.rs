@@ -401,6 +401,9 @@ fn the_report_flags_quality_embeds_its_pictures_and_takes_the_contrast_from_the_
     assert_eq!(row("02")[basis], "metadata", "{tsv}");
     assert_eq!(row("01")[contrast], "t1", "{tsv}");
     assert!(row("03")[qc].contains("blank picture"), "{tsv}");
+    // The cause is named too: a constant volume gets no window at all.
+    assert!(row("03")[qc].contains("no windows"), "{tsv}");
+    assert!(!row("01")[qc].contains("no windows"), "{tsv}");
     assert!(!row("01")[qc].contains("blank picture"), "{tsv}");
     // One self-contained file: every thumbnail inside it, no link to a file beside it.
     let html = std::fs::read_to_string(out.join("group/morphray_report.html")).unwrap();

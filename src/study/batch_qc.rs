@@ -8,6 +8,8 @@
 //! - `blank picture`: a thumbnail with no pixel off the background (the render's own test,
 //!   `scene::visibility::pixels_off_background`); a scan that renders nothing is not a success.
 //! - `fallback windows`: no tissue class was found, the foreground is shown instead.
+//! - `no windows`: neither a tissue class nor the fallback was placed (nothing to show); the
+//!   blank picture follows from it, this names the cause.
 //! - `brain not found`: an MR head scan (structural, where extraction runs) in which no
 //!   brain-like region was found, so its thumbnails show the whole head.
 //! - `contrast guessed` / `contrast assumed`: the tissue order came from the histogram, or from
@@ -25,6 +27,8 @@ pub fn flags(report: &TissueReport, brain: Option<BrainDecision>, lit: &[usize])
     }
     if report.fallback.is_some() {
         flags.push("fallback windows (no tissue class found)".to_string());
+    } else if no_windows(report) {
+        flags.push("no windows (no tissue class and no foreground found)".to_string());
     }
     if brain == Some(BrainDecision::NotFound) {
         flags.push("brain not found (the whole head is shown)".to_string());
@@ -38,6 +42,13 @@ pub fn flags(report: &TissueReport, brain: Option<BrainDecision>, lit: &[usize])
         _ => {}
     }
     flags
+}
+
+/// No window at all: neither a tissue class nor the foreground fallback was placed, so the
+/// thumbnails can show nothing (seen on noise-free phantoms of a few discrete values).
+fn no_windows(report: &TissueReport) -> bool {
+    let w = &report.adaptive_windows;
+    w.csf.is_none() && w.gm.is_none() && w.wm.is_none() && w.pathology.is_none()
 }
 
 /// The flags as one cell: `ok`, or the flags joined by `; `.
@@ -82,5 +93,41 @@ mod tests {
             cell(&flags(&r, None, &[])),
             "contrast assumed (T1: nothing told)"
         );
+    }
+
+    /// The fallback (foreground window, no tissue class) is named as such, not as `no windows`;
+    /// a report with no window at all is `no windows`; a fitted scan carries neither.
+    #[test]
+    fn fallback_and_missing_windows_are_flagged() {
+        let mut flat = report();
+        flat.contrast.basis = Basis::Metadata;
+        let window = crate::analysis::Window {
+            lo: 0.2,
+            hi: 1.0,
+            edge: 0.002,
+        };
+        flat.fallback = Some(crate::analysis::Fallback {
+            window,
+            voxels: 1000,
+            reason: "test".into(),
+        });
+        assert_eq!(
+            cell(&flags(&flat, None, &[5, 5, 5])),
+            "fallback windows (no tissue class found)"
+        );
+        flat.fallback = None;
+        flat.adaptive_windows = crate::analysis::TissueWindows {
+            csf: None,
+            gm: None,
+            wm: None,
+            pathology: None,
+        };
+        assert!(
+            cell(&flags(&flat, None, &[0]))
+                .ends_with("no windows (no tissue class and no foreground found)")
+        );
+        let fitted = report();
+        assert!(fitted.fallback.is_none());
+        assert!(!cell(&flags(&fitted, None, &[5])).contains("fallback"));
     }
 }
