@@ -200,6 +200,24 @@ fn render_of_an_exam_folder_writes_a_png_naming_the_series() {
     assert_one_line_failure(&o, "--series");
 }
 
+/// `cd exam/S3 && morphray render ..`: the default output is named after the folder `..`
+/// resolves to, in the current directory (not `volume.png`, not `..png`).
+#[test]
+fn render_of_dot_dot_names_the_picture_after_the_folder() {
+    let (dir, _, _) = exam("dotdot");
+    let here = dir.join("S3");
+    let o = Command::new(env!("CARGO_BIN_EXE_morphray"))
+        .args(["render", "..", "--size", "40x32"])
+        .current_dir(&here)
+        .output()
+        .expect("the morphray binary runs");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let name = dir.file_name().unwrap().to_string_lossy().into_owned();
+    let png = here.join(format!("{name}.png"));
+    assert!(png.is_file(), "{} missing: {}", png.display(), stderr(&o));
+    assert!(!here.join("volume.png").exists());
+}
+
 #[test]
 fn several_files_are_one_input_and_a_nifti_among_them_is_refused() {
     let dir = folder("several");

@@ -68,8 +68,18 @@ pub fn base_name(file: Option<&Path>) -> String {
     let Some(file) = file else {
         return "phantom".into();
     };
+    // `.` or `..` (a DICOM folder opened from inside it) has no file name of its own: the
+    // folder it resolves to names the output, not a generic "volume.png".
+    let resolved = || {
+        std::fs::canonicalize(file)
+            .ok()?
+            .file_name()
+            .map(ToOwned::to_owned)
+    };
     let name = file
         .file_name()
+        .map(ToOwned::to_owned)
+        .or_else(resolved)
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| "volume".into());
     let lower = name.to_ascii_lowercase();
@@ -194,5 +204,18 @@ mod tests {
         assert_eq!(base_name(Some(Path::new("scan.hdr"))), "scan");
         assert_eq!(base_name(Some(Path::new("dicom_folder"))), "dicom_folder");
         assert_eq!(base_name(None), "phantom");
+    }
+
+    #[test]
+    fn a_folder_named_by_dots_gives_its_own_name() -> std::io::Result<()> {
+        let dir = std::env::temp_dir().join(format!("morphray-base-{}", std::process::id()));
+        let series = dir.join("head_series");
+        std::fs::create_dir_all(series.join("sub"))?;
+        let named = base_name(Some(&series.join("sub").join("..")));
+        std::fs::remove_dir_all(&dir)?;
+        assert_eq!(named, "head_series");
+        // The root has no name at all: the generic one, not an empty ".png".
+        assert_eq!(base_name(Some(Path::new("/"))), "volume");
+        Ok(())
     }
 }
