@@ -7,7 +7,9 @@
 #   - glslangValidator (glslang-tools: build.rs compiles the GLSL shaders with it);
 #   - the X11 client libraries winit opens at run time for the viewer (libx11-xcb1,
 #     libxcursor1, libxrandr2, libxi6, libxkbcommon-x11-0); runtime packages only, no -dev
-#     packages are needed to build.
+#     packages are needed to build. The default build is X11 only (Wayland desktops run it
+#     through XWayland); a `--features wayland` build dlopens libwayland-client0,
+#     libwayland-cursor0 and libxkbcommon0 at run time, which every Wayland desktop has already.
 # `tools/setup.sh --dev` (to run the tests: `cargo test`), the above and:
 #   - the Khronos validation layers (vulkan-validationlayers: tests run with them as an
 #     oracle), vulkan-tools (vulkaninfo), spirv-tools (spirv-val in tests);
@@ -24,7 +26,7 @@ case "${1:-}" in
     "") ;;
     --dev) dev=1 ;;
     -h|--help)
-        sed -n '2,19p' "$0" | sed 's/^# \{0,1\}//'
+        sed -n '2,21p' "$0" | sed 's/^# \{0,1\}//'
         exit 0
         ;;
     *)
