@@ -12,7 +12,7 @@
 //!   (base64 PNG), no script or network, so the file alone can be mailed or archived; the PNGs
 //!   stay beside it for other tools.
 //! - Each scan's quality flags (`batch_qc`: blank picture, fallback windows, brain not found,
-//!   contrast guessed) are a column of both; a flagged row is marked in the HTML.
+//!   no windows, contrast guessed) are a column of both; a flagged row is marked in the HTML.
 
 use super::batch_outputs::group_dir;
 use crate::files::write::{OutputError, write_file};

@@ -250,7 +250,7 @@ impl Viewer {
         if self.keep_scene == Some(loaded.id) || (preset == crate::scene::Preset::Mr && !changed) {
             return;
         }
-        self.controls.scene.classification = loaded.scene.classification.clone();
+        self.controls.scene.classification = loaded.scene.classification;
         // The command line's choice or the preset's: a channel an earlier look turned on goes.
         self.controls.scene.effects.vessels = self.config.recipe.vessels_for(&loaded.report);
         let shown: Vec<&str> = crate::scene::TissueClass::ALL
