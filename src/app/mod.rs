@@ -12,6 +12,7 @@
 //! loader.rs          worker thread: opens volumes the library's way (plan, whole or bricked,
 //!                    analyse, derive), derives later effects (never the UI thread)
 //! readout.rs         the crosshair's mm, voxel and value in the scanner's units (HU for CT)
+//! identity_panel.rs  modality, contrast and preset menus and script steps (reopen as given)
 //! script.rs          scripted actions for tests and demos
 //! frame_log.rs       per-frame passes and action -> first-frame latencies
 //! adaptive.rs        adaptive quality: coarser step/scale while interacting (--frame-budget)
