@@ -37,18 +37,26 @@ pub(crate) struct Frames<'a> {
     pub scaling: (f64, f64),
 }
 
+/// Where frame `frame` of `frames` starts in the data: `offset + frame * frame_bytes`, checked
+/// so that no arithmetic on header values can overflow.
+pub(crate) fn frame_start(
+    frame: usize,
+    frames: usize,
+    frame_bytes: usize,
+    offset: usize,
+) -> Result<usize, NiftiError> {
+    frame
+        .checked_mul(frame_bytes)
+        .and_then(|skip| skip.checked_add(offset))
+        .ok_or(NiftiError::FrameOutOfRange { frame, frames })
+}
+
 /// The mean frame, its (identity) map and the first frame's conversion warnings.
 pub(crate) fn mean_frame(f: &Frames) -> Result<(Samples, LinearMap, Vec<String>), NiftiError> {
     let mut sum: Vec<f64> = Vec::new();
     let mut warnings = Vec::new();
     for frame in 0..f.frames {
-        let start = frame
-            .checked_mul(f.frame_bytes)
-            .and_then(|skip| skip.checked_add(f.offset))
-            .ok_or(NiftiError::FrameOutOfRange {
-                frame,
-                frames: f.frames,
-            })?;
+        let start = frame_start(frame, f.frames, f.frame_bytes, f.offset)?;
         let bytes = start
             .checked_add(f.frame_bytes)
             .and_then(|end| f.data.get(start..end))

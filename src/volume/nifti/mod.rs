@@ -374,14 +374,8 @@ fn one_frame(
     NiftiError,
 > {
     // In range because frame < frames and offset + frames * frame_bytes <= data.len() (layout);
-    // checked anyway so that no arithmetic on header values can overflow.
-    let start = frame
-        .checked_mul(lay.frame_bytes)
-        .and_then(|skip| skip.checked_add(lay.offset))
-        .ok_or(NiftiError::FrameOutOfRange {
-            frame,
-            frames: lay.frames,
-        })?;
+    // checked anyway.
+    let start = frame_mean::frame_start(frame, lay.frames, lay.frame_bytes, lay.offset)?;
     let converted =
         convert::convert_frame(data, start, lay.frame_bytes, datatype, order, slope, inter)?;
     Ok((converted.samples, converted.to_physical, converted.warnings))
