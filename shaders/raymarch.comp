@@ -43,6 +43,13 @@
 // position, nearest voxel, colour and opacity per mm from a lookup table (labels.glsl); bricks
 // holding a label are occupied for skipping, so skipping stays lossless.
 //
+// Lighting (LIGHTING, DEPTH_CUES; issue 34 item 2): the studio model and the surface cues of
+// lighting.glsl. Cut faces (CAPPING by uniform, issue 34 item 3): where a ray enters through a
+// crop face or clip plane, the samples within params.cap.x mm of that face take the window
+// opacity f(v) instead of the gradient-modulated one, so a cut shows its tissues as solid
+// colours (cortex over white matter, the ventricles) instead of the see-through interior that
+// eq. 4 gives a flat region; the f64 twin does the same.
+//
 // Geometry: rays start in world space (mm) and are marched in index space with the parameter
 // in mm (geometry.glsl); the interval is cut to the crop box and clip planes (clip.glsl) before
 // any sample is placed; ray starts are jittered per pixel against wood-grain banding.
@@ -70,6 +77,8 @@ layout(constant_id = 10) const bool VESSELS = false;      // the vessel channel 
 layout(constant_id = 11) const bool LONG_STEPS = false;   // longer steps in bricks of low opacity bound
 layout(constant_id = 12) const bool BRAIN = false;        // tissues inside the brain mask, the head layer outside
 layout(constant_id = 13) const bool CLASSIFY_TABLE = false; // tissue windows from the transfer-function table
+layout(constant_id = 14) const uint LIGHTING = 0u;        // 0 headlight Phong, 1 studio (lighting.glsl)
+layout(constant_id = 15) const bool DEPTH_CUES = false;   // occlusion and shadow at the surface (lighting.glsl)
 
 layout(set = 0, binding = 0) uniform sampler3D volume;          // I_norm, trilinear
 layout(set = 0, binding = 1) uniform sampler3D gradient_volume; // .r |g|, .g k (scaled, see derived_scale)
@@ -110,6 +119,10 @@ layout(set = 0, binding = 4, std140) uniform Params {
     vec4 head_window;       // lo, hi, edge on I_norm, visible
     vec4 head_colour;       // rgb, opacity (0 when hidden)
     vec4 brain_grid;        // xyz: the extent in voxels the brain mask's texture spans
+    // Lighting and cut faces (issue 34).
+    vec4 key_light;         // xyz: unit world direction toward the key light; w: silhouette strength
+    vec4 cues;              // x: occlusion strength, y: shadow strength, z: occlusion reach mm, w: shadow reach mm
+    vec4 cap;               // x: depth in mm behind a cut face that is drawn solid (0: off)
 } params;
 
 // Benchmark counters (COUNT_SAMPLES only): samples marched and samples that passed
@@ -145,6 +158,26 @@ layout(set = 0, binding = 12, std430) readonly buffer TransferTable { vec4 entri
 #include "gradients.glsl"
 #include "labels.glsl"
 
+// The classification of the sample at p with I_norm v, as the march sees it: the brain mask and
+// the vessel channel when their variants are on.
+vec4 classify_at(vec3 p, float v) {
+    if (BRAIN) {
+        float vessel_weight = VESSELS ? window_weight(fetch_volume(vesselness_volume, p).r, params.vessel_window) * params.vessel_colour.a : 0.0;
+        return classify_in_brain(v, vessel_weight, brain_weight(p));
+    }
+    return VESSELS ? classify_with_vessels(v, fetch_volume(vesselness_volume, p).r) : classify(v);
+}
+
+// The depth cues' occluder density at index position p: f(v), 0 where nothing is kept.
+float cue_density(vec3 p) {
+    if (!kept(p)) {
+        return 0.0;
+    }
+    return classify_at(p, sample_volume(p)).a;
+}
+
+#include "lighting.glsl"
+
 const uint MODE_DVR = 0u;
 const uint MODE_MIP = 1u;
 const uint MODE_MINIP = 2u;
@@ -166,6 +199,14 @@ vec3 shade(vec3 colour, vec3 normal, vec3 view_direction) {
     float n8 = n4 * n4;
     float n24 = n8 * n8 * n8;
     return min(colour * (0.35 + 0.65 * ndl) + vec3(0.25 * n24), vec3(1.0));
+}
+
+// The scene's lighting model (LIGHTING).
+vec3 lit(vec3 colour, vec3 normal, vec3 view_direction) {
+    if (LIGHTING == 1u) {
+        return shade_studio(colour, normal, view_direction);
+    }
+    return shade(colour, normal, view_direction);
 }
 
 void count_samples(uint marched, uint classified) {
@@ -216,7 +257,9 @@ float brick_bound(uint b) {
 
 // One classified tissue sample's colour (rgb, shaded with SHADING) and step-corrected opacity
 // (a): the gradient-magnitude term, the curvature weight and the colour of eqs. 4-6.
-vec4 tissue_sample(vec3 p, float v, vec4 cls, vec3 direction_world, float r) {
+// `solid`: the sample lies in a cut face's cap (opacity f(v)). `normal_out`: the shading normal
+// (0 without one), for the surface cues.
+vec4 tissue_sample(vec3 p, float v, vec4 cls, vec3 direction_world, float r, bool solid, out vec3 normal_out) {
     float magnitude;
     float k = 0.0;
     vec3 normal = vec3(0.0);
@@ -245,14 +288,21 @@ vec4 tissue_sample(vec3 p, float v, vec4 cls, vec3 direction_world, float r) {
     if (CURVATURE_MODE != 0u) {
         a = min(a * curvature_weight(k), 1.0);
     }
+    if (solid) {
+        // A cut face: the window's opacity, its colour unshaded (the gradient of a flat interior
+        // is noise, not a surface's normal).
+        a = max(a, min(cls.a, 1.0));
+        normal = vec3(0.0);
+    }
     a = NAIVE_OPACITY ? opacity_correct_naive(a, r) : opacity_correct(a, r);
     vec3 colour = cls.rgb;
     if (params.crop_hi.w > 0.5) {
         colour = colormap_lookup(display_position(v));
     }
     if (SHADING) {
-        colour = shade(colour, normal, direction_world);
+        colour = lit(colour, normal, direction_world);
     }
+    normal_out = normal;
     return vec4(colour, a);
 }
 
@@ -278,7 +328,10 @@ void main() {
     float t_near;
     float t_far;
     bool hit = intersect_box(origin, direction, dims, t_near, t_far);
+    float box_near = t_near;
     hit = hit && clip_ray(origin, direction, dims, t_near, t_far);
+    // Samples before this parameter lie in a cut face's cap (none unless a cut moved the entry).
+    float cap_end = (hit && t_near > box_near + 1e-4) ? t_near + params.cap.x : -1.0;
     float offset = params.march.z > 0.5 ? jitter(pixel, params.image.z) : 0.5;
     float start = t_near + offset * dt;
     // Samples at start + i * dt for i in [0, n) while inside; clamped before the conversion
@@ -289,6 +342,10 @@ void main() {
     vec4 result = vec4(params.background.rgb, 1.0);
     if (MODE == MODE_DVR) {
         vec4 acc = vec4(0.0);
+        // The surface the depth cues are evaluated at (DEPTH_CUES): where acc.a first reaches 0.5.
+        bool surface_found = false;
+        vec3 surface_p = vec3(0.0);
+        vec3 surface_normal = vec3(0.0);
         for (uint i = 0u; i < steps; i++) {
             vec3 p = origin + direction * (start + float(i) * dt);
             // Opacity exponent of this sample: r, or k r for a long step.
@@ -315,13 +372,7 @@ void main() {
             }
             float v = sample_volume(p);
             marched++;
-            vec4 cls;
-            if (BRAIN) {
-                float vessel_weight = VESSELS ? window_weight(fetch_volume(vesselness_volume, p).r, params.vessel_window) * params.vessel_colour.a : 0.0;
-                cls = classify_in_brain(v, vessel_weight, brain_weight(p));
-            } else {
-                cls = VESSELS ? classify_with_vessels(v, fetch_volume(vesselness_volume, p).r) : classify(v);
-            }
+            vec4 cls = classify_at(p, v);
             uint label = 0u;
             vec4 label_colour = vec4(0.0);
             if (LABELS) {
@@ -331,22 +382,34 @@ void main() {
             if (cls.a <= 0.0 && label_colour.a <= 0.0) {
                 continue;
             }
+            vec3 normal = vec3(0.0);
             if (cls.a > 0.0) {
                 classified++;
-                vec4 tissue = tissue_sample(p, v, cls, direction_world, r);
+                bool solid = start + float(i) * dt < cap_end;
+                vec4 tissue = tissue_sample(p, v, cls, direction_world, r, solid, normal);
                 composite(acc, tissue.rgb, tissue.a);
             }
             if (LABELS && label_colour.a > 0.0) {
                 // The label's medium, after the tissue at the same position (labels.glsl).
                 vec3 lc = label_colour.rgb;
                 if (SHADING) {
-                    lc = shade(lc, label_normal(nearest_voxel(p), label), direction_world);
+                    vec3 label_n = label_normal(nearest_voxel(p), label);
+                    lc = lit(lc, label_n, direction_world);
+                    normal = cls.a > 0.0 ? normal : label_n;
                 }
                 composite(acc, lc, opacity_correct(label_colour.a, r));
+            }
+            if (DEPTH_CUES && !surface_found && acc.a >= 0.5) {
+                surface_found = true;
+                surface_p = p;
+                surface_normal = normal;
             }
             if (acc.a > params.march.y) {
                 break;
             }
+        }
+        if (DEPTH_CUES && surface_found) {
+            acc.rgb *= surface_cues(surface_p, surface_normal, direction_world);
         }
         result = vec4(acc.rgb + (1.0 - acc.a) * params.background.rgb, 1.0);
     } else {

@@ -48,4 +48,22 @@ bool clip_ray(vec3 origin, vec3 direction, vec3 dims, inout float t_near, inout 
     return inside_parallel && t_near <= t_far && t_far >= 0.0;
 }
 
+// Whether index position p is kept: inside the volume box, the crop box and every plane's
+// half-space (the depth cues' occluders; twin: IndexClip::keeps).
+bool kept(vec3 p) {
+    vec3 lo = max(params.crop_lo.xyz, vec3(-0.5));
+    vec3 hi = min(params.crop_hi.xyz, params.dims.xyz - 0.5);
+    if (any(lessThan(p, lo)) || any(greaterThan(p, hi))) {
+        return false;
+    }
+    uint planes = uint(params.crop_lo.w);
+    for (uint i = 0u; i < planes && i < 4u; i++) {
+        vec4 plane = params.clip_planes[i];
+        if (dot(plane.xyz, p) + plane.w < 0.0) {
+            return false;
+        }
+    }
+    return true;
+}
+
 #endif

@@ -102,10 +102,21 @@ fn every_effects() -> Vec<Effects> {
                         vessels: false,
                         // The brain mask adds one fetch per classified sample, as the vessels.
                         brain: crate::passes::brain::BrainSwitch::Off,
+                        lighting: crate::scene::Lighting::default(),
                     });
                 }
             }
         }
+    }
+    // The stills' lighting (studio, depth cues) on the shaded default variants: its cost is the
+    // lighting's, not another axis of every quality knob.
+    for curvature in [false, true] {
+        all.push(Effects {
+            curvature,
+            shading: true,
+            lighting: crate::scene::Lighting::STILL,
+            ..Effects::default()
+        });
     }
     all
 }

@@ -50,6 +50,10 @@ pub struct RaymarchVariant {
     pub brain: bool,
     /// Tissue windows from the transfer-function table (classification.glsl).
     pub classify_table: bool,
+    /// 0 headlight Phong, 1 studio lighting (lighting.glsl; only with `shading`).
+    pub lighting: u32,
+    /// Occlusion and shadow at each ray's surface (lighting.glsl; DVR).
+    pub depth_cues: bool,
 }
 
 impl RaymarchVariant {
@@ -82,6 +86,8 @@ impl RaymarchVariant {
             ("LONG_STEPS", self.long_steps),
             ("BRAIN", self.brain),
             ("CLASSIFY_TABLE", self.classify_table),
+            ("STUDIO_LIGHTING", self.lighting == 1),
+            ("DEPTH_CUES", self.depth_cues),
         ] {
             text.push_str(&format!(", {name}={}", on(value)));
         }
@@ -176,6 +182,8 @@ impl RaymarchPass {
                 ("VESSELS", SpecValue::Bool(variant.vessels)),
                 ("BRAIN", SpecValue::Bool(variant.brain)),
                 ("CLASSIFY_TABLE", SpecValue::Bool(variant.classify_table)),
+                ("LIGHTING", SpecValue::U32(variant.lighting)),
+                ("DEPTH_CUES", SpecValue::Bool(variant.depth_cues)),
             ],
             cache,
         )?;

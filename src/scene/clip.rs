@@ -73,6 +73,22 @@ pub struct IndexClip {
     pub count: usize,
 }
 
+impl IndexClip {
+    /// Whether index position `p` is kept: inside the volume box `[-0.5, dims - 0.5]`, the crop
+    /// box and every plane's half-space (twin of `kept` in clip.glsl).
+    pub fn keeps(&self, p: DVec3, dims: [u32; 3]) -> bool {
+        let box_hi = DVec3::new(f64::from(dims[0]), f64::from(dims[1]), f64::from(dims[2])) - 0.5;
+        let lo = self.lo.max(DVec3::splat(-0.5));
+        let hi = self.hi.min(box_hi);
+        if p.cmplt(lo).any() || p.cmpgt(hi).any() {
+            return false;
+        }
+        self.planes[..self.count.min(MAX_CLIP_PLANES)]
+            .iter()
+            .all(|plane| plane.truncate().dot(p) + plane.w >= 0.0)
+    }
+}
+
 impl Clip {
     /// True when nothing is cut away.
     pub fn is_full(&self) -> bool {

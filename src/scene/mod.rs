@@ -10,6 +10,7 @@ pub mod classification;
 pub mod clip;
 pub mod colormap;
 pub mod geometry;
+pub mod lighting;
 pub mod occupancy;
 pub mod overlay;
 pub mod preset;
@@ -26,6 +27,7 @@ pub use classification::{Classification, TissueClass, TissueStyle, VesselStyle, 
 pub use clip::{Clip, ClipPlane};
 pub use colormap::Colormap;
 pub use geometry::VolumeGeometry;
+pub use lighting::{Cutaway, DepthCues, LightModel, Lighting};
 pub use preset::Preset;
 pub use recipe::{RecipeError, SceneRecipe, WindowSet};
 
@@ -173,6 +175,8 @@ pub struct Effects {
     /// Classify tissues inside the extracted brain only (DVR; issue 27): `Auto` masks a head
     /// scan and leaves a skull-stripped one alone.
     pub brain: crate::passes::brain::BrainSwitch,
+    /// Lighting model and depth cues (DVR; issue 34).
+    pub lighting: Lighting,
 }
 
 impl Effects {
@@ -234,6 +238,7 @@ impl Default for Effects {
             quality: Quality::default(),
             vessels: false,
             brain: crate::passes::brain::BrainSwitch::Auto,
+            lighting: Lighting::default(),
         }
     }
 }
@@ -269,9 +274,23 @@ pub struct Scene {
     /// MIP/MinIP: the map of the display window (None: grey). DVR: sample colours from the map
     /// instead of the tissue colours (None: tissue colours).
     pub colormap: Option<Colormap>,
+    /// Outline and depth-cue strengths (issue 34; used by the lighting the effects select).
+    pub cues: DepthCues,
+    /// The "open the brain" cut: a plane through a point facing the camera (issue 34 item 3).
+    pub cutaway: Option<Cutaway>,
 }
 
 impl Scene {
+    /// The crop and planes a frame cuts with: the scene's, plus the cut-away's plane for the
+    /// camera looking along `forward` (left out when every plane slot is taken: the command
+    /// line refuses that scene before it is built).
+    pub fn frame_clip(&self, forward: glam::DVec3, bounds: (glam::DVec3, glam::DVec3)) -> Clip {
+        match self.cutaway {
+            Some(cut) => cut.add_to(&self.clip, forward, bounds).unwrap_or(self.clip),
+            None => self.clip,
+        }
+    }
+
     /// The sampling distance the raymarch uses: `step_voxels`, or 0.5 when it is not a finite
     /// positive number (the one rule shared by the GPU uniforms and the f64 reference).
     pub fn sanitized_step_voxels(&self) -> f64 {
@@ -305,6 +324,8 @@ impl Scene {
             minip_floor: 0.0,
             clip: Clip::default(),
             colormap: None,
+            cues: DepthCues::default(),
+            cutaway: None,
         }
     }
 }

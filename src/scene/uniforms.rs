@@ -78,6 +78,12 @@ pub struct RaymarchUniforms {
     pub head_colour: [f32; 4],
     /// Brain mask: xyz the extent in voxels its texture spans (w unused).
     pub brain_grid: [f32; 4],
+    /// xyz: unit world direction toward the key light; w: silhouette strength (issue 34).
+    pub key_light: [f32; 4],
+    /// Occlusion and shadow strengths, then their reaches in mm.
+    pub cues: [f32; 4],
+    /// x: depth in mm behind a cut face drawn solid.
+    pub cap: [f32; 4],
 }
 
 /// Where a bricked volume's bricks are (zeros for a whole volume).
@@ -169,7 +175,10 @@ impl RaymarchUniforms {
         } else {
             0.0
         };
-        let clip = scene.clip.to_index(geometry);
+        let clip = scene
+            .frame_clip(rays.forward, geometry.world_bounds())
+            .to_index(geometry);
+        let cues = &scene.cues;
         let colormap = scene
             .colormap
             .unwrap_or(super::Colormap::Gray)
@@ -186,6 +195,12 @@ impl RaymarchUniforms {
         };
         let [bx, by, bz] = frame.brain_grid;
         RaymarchUniforms {
+            key_light: vec4(
+                super::lighting::key_light(&rays),
+                f64::from(cues.sanitized().silhouette),
+            ),
+            cues: cues.uniform(),
+            cap: [super::lighting::CAP_MM as f32, 0.0, 0.0, 0.0],
             brain_grid: [bx, by, bz, 0.0],
             head_window: [
                 head.window.lo as f32,

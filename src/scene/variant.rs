@@ -7,7 +7,7 @@
 
 use super::{
     ClassificationLookup, CurvatureMode, Effects, GradientFilter, GradientSource, Interpolation,
-    OpacityCorrection, RenderMode,
+    LightModel, OpacityCorrection, RenderMode,
 };
 use crate::passes::raymarch::RaymarchVariant;
 
@@ -57,6 +57,11 @@ impl RaymarchVariant {
             // Set by the engine where the derived volumes hold a brain mask in use.
             brain: false,
             classify_table: dvr && q.classification == ClassificationLookup::Table,
+            lighting: match effects.lighting.model {
+                LightModel::Studio if dvr && effects.shading => 1,
+                _ => 0,
+            },
+            depth_cues: dvr && effects.lighting.depth_cues,
         }
     }
 }

@@ -7,7 +7,7 @@
 //! matrix. The positions are f64 here and f32 on the GPU, so a sample within f32 rounding of a
 //! voxel boundary can take the neighbouring label: comparisons allow for a few such pixels.
 
-use super::formulas::{opacity_correct, shade};
+use super::formulas::opacity_correct;
 use glam::{DMat3, DVec3};
 
 /// A label map on the volume's grid and its colour table (`engine::label_colours`).
@@ -29,15 +29,17 @@ impl ReferenceLabels<'_> {
         self.values[i + dims[0] * (j + dims[1] * k)]
     }
 
-    /// The colour and step-corrected opacity the label at index position `p` adds, or None.
+    /// The colour (unshaded), step-corrected opacity and world shading normal (zero without
+    /// `shading`) the label at index position `p` adds, or None. The caller shades with the
+    /// scene's lighting model, as the shader's `lit` does.
     pub fn sample(
         &self,
         dims: [usize; 3],
         p: DVec3,
         gradient_to_world: DMat3,
-        shading: Option<DVec3>,
+        shading: bool,
         opacity_exponent: f64,
-    ) -> Option<([f64; 3], f64)> {
+    ) -> Option<([f64; 3], f64, DVec3)> {
         let q = [p.x, p.y, p.z].map(|c| (c + 0.5).floor() as i64);
         let label = self.label_at(dims, q);
         let word = *self
@@ -48,8 +50,8 @@ impl ReferenceLabels<'_> {
         if a <= 0.0 {
             return None;
         }
-        let mut colour = [r, g, b];
-        if let Some(view_direction) = shading {
+        let mut normal = DVec3::ZERO;
+        if shading {
             let mut d = DVec3::ZERO;
             for axis in 0..3 {
                 let (mut up, mut down) = (q, q);
@@ -58,8 +60,8 @@ impl ReferenceLabels<'_> {
                 let inside = |n: [i64; 3]| f64::from(u8::from(self.label_at(dims, n) == label));
                 d[axis] = inside(up) - inside(down);
             }
-            colour = shade(colour, gradient_to_world * (0.5 * d), view_direction);
+            normal = gradient_to_world * (0.5 * d);
         }
-        Some((colour, opacity_correct(a, opacity_exponent)))
+        Some(([r, g, b], opacity_correct(a, opacity_exponent), normal))
     }
 }

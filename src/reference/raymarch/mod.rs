@@ -61,14 +61,17 @@
 //! `formulas.rs` (per-sample formulas), this file (rays, samples, pixels).
 
 mod brain;
+mod dvr_sample;
 mod formulas;
 mod inputs;
 mod labels;
+mod lighting;
 mod long_steps;
 mod sampling;
 #[cfg(test)]
 mod tests;
 
+pub use dvr_sample::DvrSample;
 pub use formulas::*;
 pub use inputs::{ReferenceDerived, ReferenceError, ReferenceVolume};
 pub use labels::ReferenceLabels;
@@ -83,7 +86,6 @@ use crate::scene::{
     Classification, ClassificationLookup, Colormap, CurvatureMode, GradientFilter, GradientSource,
     Interpolation, OpacityCorrection, RenderMode, Scene,
 };
-use formulas::{curvature_with, gradient_central_with, gradient_sobel_with};
 use glam::DVec3;
 use inputs::{check_values, finite};
 use sampling::Grid;
@@ -107,6 +109,9 @@ pub struct RayPlan {
     pub step_mm: f64,
     /// Number of samples (0 on a miss).
     pub count: u32,
+    /// Samples with a parameter below this lie in a cut face's cap (-1: the ray entered through
+    /// no cut face).
+    pub cap_end: f64,
 }
 
 impl RayPlan {
@@ -119,30 +124,6 @@ impl RayPlan {
     pub fn parameter(&self, i: u32) -> f64 {
         self.start + f64::from(i) * self.step_mm
     }
-}
-
-/// The intermediate values of one DVR sample, named as in the shader's loop body.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct DvrSample {
-    /// Trilinear I_norm `v`.
-    pub value: f64,
-    /// `f(v)`, in (0, 1].
-    pub f: f64,
-    /// `C_s(v)`, before shading.
-    pub colour: [f64; 3],
-    /// |grad I| per mm (precomputed and interpolated, or on the fly).
-    pub magnitude: f64,
-    /// Curvature k per mm^2 (0 unless the curvature effect is on).
-    pub curvature: f64,
-    /// Shading normal, not normalized (0 unless shading is on, or where |g| <= tau on the fly).
-    pub normal: DVec3,
-    /// Opacity of eq. 4 for one voxel of step: `clamp(f |g| / |g|max, 0, 1)`, times `w(k)` and
-    /// capped at 1 when the curvature effect is on.
-    pub opacity: f64,
-    /// `opacity` corrected for the step (`opacity_correct(opacity, r)`): what is composited.
-    pub corrected: f64,
-    /// The colour composited (shaded when shading is on).
-    pub shaded: [f64; 3],
 }
 
 /// A validated raymarch of one scene on one volume and image size: the f64 counterpart of the
@@ -190,6 +171,8 @@ pub struct ReferenceRaymarch<'a> {
     long_steps: Option<ReferenceLongSteps<'a>>,
     // The transfer-function table when the scene classifies through it (issue 33 item 1).
     table: Option<crate::scene::transfer_table::TransferTable>,
+    // Lighting model, depth cues and their parameters (issue 34).
+    lighting: lighting::ReferenceLighting,
 }
 
 impl<'a> ReferenceRaymarch<'a> {
@@ -352,7 +335,15 @@ impl<'a> ReferenceRaymarch<'a> {
             minip_floor,
             width,
             height,
-            clip: scene.clip.to_index(geometry),
+            clip: scene
+                .frame_clip(rays.forward, geometry.world_bounds())
+                .to_index(geometry),
+            lighting: lighting::ReferenceLighting {
+                studio: shading && effects.lighting.model == crate::scene::LightModel::Studio,
+                depth_cues: dvr && effects.lighting.depth_cues,
+                key_light: crate::scene::lighting::key_light(&rays),
+                cues: scene.cues.sanitized(),
+            },
             colormap: scene.colormap,
             labels: None,
             vesselness: None,
@@ -455,6 +446,14 @@ impl<'a> ReferenceRaymarch<'a> {
         };
         let t_near = hit.map_or(0.0, |(t_near, _)| t_near);
         let start = t_near + offset * dt;
+        // As the shader: a cap only where a cut moved the entry beyond the volume box's.
+        let box_near = crate::scene::geometry::intersect_box(origin, direction, self.volume.dims)
+            .map_or(0.0, |b| b.0);
+        let cap_end = if hit.is_some() && t_near > box_near + 1e-4 {
+            t_near + crate::scene::lighting::CAP_MM
+        } else {
+            -1.0
+        };
         let count = match hit {
             // Clamped before the conversion, like the shader (NaN converts to 0).
             Some((_, t_far)) => {
@@ -471,6 +470,7 @@ impl<'a> ReferenceRaymarch<'a> {
             start,
             step_mm: dt,
             count,
+            cap_end,
         }
     }
 
@@ -509,108 +509,10 @@ impl<'a> ReferenceRaymarch<'a> {
         fetch(&self.volume, p, self.interpolation)
     }
 
-    /// |g|, k and the shading normal at `p` (k and the normal are 0 when their effect is off).
-    fn derivatives(&self, p: DVec3, v: f64) -> (f64, f64, DVec3) {
-        let m = self.geometry.gradient_to_world;
-        let sample = |q: DVec3| self.value(q);
-        let (magnitude, mut normal, central) = if self.on_the_fly {
-            let g = match self.gradient_filter {
-                GradientFilter::Central => gradient_central_with(&sample, m, p),
-                GradientFilter::Sobel => gradient_sobel_with(&sample, m, p),
-            };
-            let magnitude = g.length();
-            let normal = if magnitude > self.tau {
-                g / magnitude
-            } else {
-                DVec3::ZERO
-            };
-            let central = (self.gradient_filter == GradientFilter::Central).then_some(g);
-            (magnitude, normal, central)
-        } else {
-            let scalar = |grid: Option<Grid<'_, f64>>| {
-                grid.map_or(0.0, |g| g.fetch(p, |v| [v], self.interpolation)[0])
-            };
-            let normal = match self.normals {
-                Some(grid) => DVec3::from_array(grid.fetch(p, |n| n, self.interpolation)),
-                None => DVec3::ZERO,
-            };
-            (scalar(self.gradient_magnitude), normal, None)
-        };
-        let k = match self.curvature_mode {
-            CurvatureMode::Off => 0.0,
-            CurvatureMode::Stored => self
-                .curvature
-                .map_or(0.0, |g| g.fetch(p, |v| [v], self.interpolation)[0]),
-            CurvatureMode::OnTheFly => {
-                let g = central.unwrap_or_else(|| gradient_central_with(&sample, m, p));
-                curvature_with(&sample, m, self.tau, p, v, g)
-            }
-        };
-        if !self.shading {
-            normal = DVec3::ZERO;
-        }
-        (magnitude, k, normal)
-    }
-
-    /// The DVR terms of one sample at index position `p` seen along the unit world direction
-    /// `view_direction`, or None where the shader skips it (`f(v) <= 0`). For finding out why a
-    /// GPU pixel differs: every intermediate of the shader's loop body.
-    pub fn dvr_sample(&self, p: DVec3, view_direction: DVec3) -> Option<DvrSample> {
-        self.dvr_sample_with(p, view_direction, self.opacity_exponent)
-    }
-
-    /// [`ReferenceRaymarch::dvr_sample`] with opacity exponent `r` (a long step's is larger).
-    fn dvr_sample_with(&self, p: DVec3, view_direction: DVec3, r: f64) -> Option<DvrSample> {
-        let value = self.value(p);
-        let vessels = self
-            .vesselness
-            .filter(|_| self.vessels_on)
-            .map(|grid| grid.fetch(p, |v| [v], self.interpolation)[0]);
-        let nearest = self.interpolation == crate::scene::Interpolation::Nearest;
-        let brain = self
-            .brain_mask
-            .map(|mask| mask.at([p.x, p.y, p.z], nearest));
-        let (f, mut colour) = match &self.table {
-            Some(table) => table.classify_masked(&self.classification, value, vessels, brain),
-            None => self.classification.classify_masked(value, vessels, brain),
-        };
-        if f <= 0.0 {
-            return None;
-        }
-        if let Some(map) = self.colormap {
-            colour = map.lookup(self.display_position(value));
-        }
-        let (magnitude, curvature, normal) = self.derivatives(p, value);
-        let mut opacity = (f * magnitude * self.inv_max_magnitude).clamp(0.0, 1.0);
-        if self.curvature_on {
-            opacity = (opacity * curvature_weight(curvature, self.curvature_strength, self.k_ref))
-                .min(1.0);
-        }
-        let corrected = if self.naive_opacity {
-            opacity_correct_naive(opacity, r)
-        } else {
-            opacity_correct(opacity, r)
-        };
-        let shaded = if self.shading {
-            shade(colour, normal, view_direction)
-        } else {
-            colour
-        };
-        Some(DvrSample {
-            value,
-            f,
-            colour,
-            magnitude,
-            curvature,
-            normal,
-            opacity,
-            corrected,
-            shaded,
-        })
-    }
-
     fn dvr(&self, plan: &RayPlan) -> [f64; 4] {
         let mut acc = [0.0; 4];
+        // Where the depth cues are evaluated: the sample at which acc.a first reaches 0.5.
+        let mut surface: Option<(DVec3, DVec3)> = None;
         let mut next = 0;
         while next < plan.count {
             let i = next;
@@ -618,25 +520,44 @@ impl<'a> ReferenceRaymarch<'a> {
             next = i + span;
             let r = self.opacity_exponent * f64::from(span);
             let p = plan.position(i);
-            let tissue = self.dvr_sample_with(p, plan.view_direction, r);
+            let solid = plan.parameter(i) < plan.cap_end;
+            let tissue = self.dvr_sample_with(p, plan.view_direction, r, solid);
             let label = self.labels.and_then(|labels| {
-                let shading = self.shading.then_some(plan.view_direction);
                 let m = self.geometry.gradient_to_world;
-                labels.sample(self.volume.dims.map(|d| d as usize), p, m, shading, r)
+                labels.sample(self.volume.dims.map(|d| d as usize), p, m, self.shading, r)
             });
             if tissue.is_none() && label.is_none() {
                 continue;
             }
-            if let Some(sample) = tissue {
+            let mut normal = DVec3::ZERO;
+            if let Some(sample) = &tissue {
                 composite(&mut acc, sample.shaded, sample.corrected);
+                normal = sample.normal;
             }
             // The label's medium after the tissue at the same position, as in the shader.
-            if let Some((colour, opacity)) = label {
+            if let Some((colour, opacity, label_normal)) = label {
+                let colour = if self.shading {
+                    self.lit(colour, label_normal, plan.view_direction)
+                } else {
+                    colour
+                };
+                if tissue.is_none() {
+                    normal = label_normal;
+                }
                 composite(&mut acc, colour, opacity);
+            }
+            if self.lighting.depth_cues && surface.is_none() && acc[3] >= 0.5 {
+                surface = Some((p, normal));
             }
             // After compositing, like the shader: the sample that crosses the threshold counts.
             if acc[3] > self.early_termination {
                 break;
+            }
+        }
+        if let Some((p, normal)) = surface {
+            let factor = self.surface_cues(p, normal, plan.view_direction);
+            for c in &mut acc[..3] {
+                *c *= factor;
             }
         }
         self.with_background(acc)

@@ -1,0 +1,81 @@
+// Studio lighting and depth cues (issue 34 item 2). The f64 twin is
+// src/reference/raymarch/lighting.rs; src/scene/lighting.rs documents the choices.
+//
+// LIGHTING == 1 (studio): per sample, the normal turned to face the viewer, an ambient term, a
+// headlight fill on |n . v|, a key light from the upper left (params.key_light.xyz, fixed to the
+// camera) with a Blinn highlight, and silhouette darkening (1 - s (1 - |n . v|)^2) that draws the
+// outline of every surface seen edge-on. No pow(): the highlight's exponent 32 is five squarings.
+//
+// DEPTH_CUES: ambient occlusion and a soft shadow toward the key light, evaluated once per ray at
+// the visible surface (the sample where the accumulated opacity first reaches 0.5, the depth a
+// click picks), not per sample: a surface cue costs CUE_SAMPLES fetches per pixel instead of per
+// classified sample. Both integrate the classified opacity f(v) (per mm, the windows only: matter
+// occludes whether or not it is on an edge) along a short ray: the occlusion along the normal
+// turned to the viewer (an obscurance along the normal: a sulcus's opposite wall darkens its
+// floor), the shadow toward the key light. Outside the volume and in cut-away regions nothing
+// occludes.
+#ifndef MORPHRAY_LIGHTING_GLSL
+#define MORPHRAY_LIGHTING_GLSL
+
+const uint OCCLUSION_SAMPLES = 4u;
+const uint SHADOW_SAMPLES = 8u;
+
+// x^32 by five squarings.
+float pow32(float x) {
+    float x2 = x * x;
+    float x4 = x2 * x2;
+    float x8 = x4 * x4;
+    float x16 = x8 * x8;
+    return x16 * x16;
+}
+
+// The studio model (twin: shade_studio). `view_direction` is the unit ray direction.
+vec3 shade_studio(vec3 colour, vec3 normal, vec3 view_direction) {
+    float len2 = dot(normal, normal);
+    if (len2 < 1e-6) {
+        return colour;
+    }
+    vec3 n = normal * inversesqrt(len2);
+    float ndv = dot(n, view_direction);
+    if (ndv > 0.0) {
+        n = -n;
+    }
+    float facing = abs(ndv);
+    vec3 light = params.key_light.xyz;
+    float key = max(dot(n, light), 0.0);
+    vec3 halfway = normalize(light - view_direction);
+    float highlight = 0.2 * pow32(max(dot(n, halfway), 0.0));
+    float rim = 1.0 - facing;
+    float outline = 1.0 - params.key_light.w * rim * rim;
+    vec3 lit = (colour * (0.3 + 0.3 * facing + 0.55 * key) + vec3(highlight)) * outline;
+    return min(lit, vec3(1.0));
+}
+
+// exp(-integral of f(v) dl) over `count` samples at reach * (j + 1) / count mm from p along the
+// index-space direction `step_index` (per mm). `density` is the caller's classified opacity at an
+// index position (0 outside what is kept).
+float cue_transmittance(vec3 p, vec3 step_index, float reach_mm, uint count) {
+    float dl = reach_mm / float(count);
+    float sum = 0.0;
+    for (uint j = 1u; j <= count; j++) {
+        sum += cue_density(p + step_index * (dl * float(j)));
+    }
+    return exp(-sum * dl);
+}
+
+// The factor the surface's colour is multiplied by: occlusion and shadow, each mixed with 1 by its
+// strength. `normal` is world space (any length; 0: the occlusion looks back along the ray).
+float surface_cues(vec3 p, vec3 normal, vec3 view_direction) {
+    vec3 toward_viewer = -view_direction;
+    float len2 = dot(normal, normal);
+    if (len2 >= 1e-6) {
+        vec3 n = normal * inversesqrt(len2);
+        toward_viewer = dot(n, view_direction) > 0.0 ? -n : n;
+    }
+    mat3 to_index = mat3(params.world_to_index);
+    float occlusion = cue_transmittance(p, to_index * toward_viewer, params.cues.z, OCCLUSION_SAMPLES);
+    float shadow = cue_transmittance(p, to_index * params.key_light.xyz, params.cues.w, SHADOW_SAMPLES);
+    return mix(1.0, occlusion, params.cues.x) * mix(1.0, shadow, params.cues.y);
+}
+
+#endif

@@ -1,0 +1,118 @@
+//! f64 twins of `shaders/include/lighting.glsl` (studio lighting, the surface's depth cues) and of
+//! the raymarch's cut-face capping (issue 34; `scene::lighting` documents the choices).
+//!
+//! The formulas are the shader's term for term: the normal turned to the viewer, ambient 0.3,
+//! headlight fill 0.3 |n . v|, key light 0.55 max(n . l, 0), Blinn highlight 0.2 (n . h)^32,
+//! outline 1 - s (1 - |n . v|)^2, clamped to 1; the cues' transmittance exp(-sum f dl) over
+//! samples at reach (j + 1) / count, j < count.
+
+use super::ReferenceRaymarch;
+use crate::scene::lighting::DepthCues;
+use glam::DVec3;
+
+/// Samples of the occlusion ray (OCCLUSION_SAMPLES in lighting.glsl).
+pub const OCCLUSION_SAMPLES: u32 = 4;
+/// Samples of the shadow ray (SHADOW_SAMPLES in lighting.glsl).
+pub const SHADOW_SAMPLES: u32 = 8;
+
+/// The studio model of one sample: `key_light` is the unit world direction toward the key light,
+/// `silhouette` the outline strength, `view_direction` the unit ray direction.
+pub fn shade_studio(
+    colour: [f64; 3],
+    normal: DVec3,
+    view_direction: DVec3,
+    key_light: DVec3,
+    silhouette: f64,
+) -> [f64; 3] {
+    let len = normal.length();
+    if len < 1e-3 {
+        return colour;
+    }
+    let mut n = normal / len;
+    let ndv = n.dot(view_direction);
+    if ndv > 0.0 {
+        n = -n;
+    }
+    let facing = ndv.abs();
+    let key = n.dot(key_light).max(0.0);
+    let halfway = (key_light - view_direction).normalize_or_zero();
+    let highlight = 0.2 * n.dot(halfway).max(0.0).powi(32);
+    let rim = 1.0 - facing;
+    let outline = 1.0 - silhouette * rim * rim;
+    colour.map(|c| ((c * (0.3 + 0.3 * facing + 0.55 * key) + highlight) * outline).min(1.0))
+}
+
+/// What the twin needs of the scene's lighting, resolved once.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ReferenceLighting {
+    /// Studio model (else the headlight Phong of `formulas::shade`).
+    pub studio: bool,
+    /// Depth cues at each ray's surface.
+    pub depth_cues: bool,
+    /// Unit world direction toward the key light.
+    pub key_light: DVec3,
+    /// The strengths and reaches as the shader reads them (f32 values, sanitized).
+    pub cues: DepthCues,
+}
+
+impl ReferenceRaymarch<'_> {
+    /// The cues' occluder density at index position `p`: f(v), 0 where nothing is kept.
+    fn cue_density(&self, p: DVec3) -> f64 {
+        if !self.clip.keeps(p, self.volume.dims) {
+            return 0.0;
+        }
+        self.classify_at(p, self.value(p)).0
+    }
+
+    /// exp(-sum f dl) along `step_index` (index space per mm) from `p`.
+    fn cue_transmittance(&self, p: DVec3, step_index: DVec3, reach_mm: f64, count: u32) -> f64 {
+        let dl = reach_mm / f64::from(count);
+        let sum: f64 = (1..=count)
+            .map(|j| self.cue_density(p + step_index * (dl * f64::from(j))))
+            .sum();
+        (-sum * dl).exp()
+    }
+
+    /// The factor a ray's colour is multiplied by at its surface `p` (index space) with shading
+    /// normal `normal` (world, any length; zero: the occlusion looks back along the ray).
+    pub(super) fn surface_cues(&self, p: DVec3, normal: DVec3, view_direction: DVec3) -> f64 {
+        let light = &self.lighting;
+        let mut toward_viewer = -view_direction;
+        if normal.length_squared() >= 1e-6 {
+            let n = normal.normalize();
+            toward_viewer = if n.dot(view_direction) > 0.0 { -n } else { n };
+        }
+        let to_index = glam::DMat3::from_mat4(self.geometry.world_to_index);
+        let cues = light.cues;
+        let occlusion = self.cue_transmittance(
+            p,
+            to_index * toward_viewer,
+            f64::from(cues.occlusion_reach_mm),
+            OCCLUSION_SAMPLES,
+        );
+        let shadow = self.cue_transmittance(
+            p,
+            to_index * light.key_light,
+            f64::from(cues.shadow_reach_mm),
+            SHADOW_SAMPLES,
+        );
+        let mix = |t: f64, strength: f32| 1.0 + (t - 1.0) * f64::from(strength);
+        mix(occlusion, cues.occlusion) * mix(shadow, cues.shadow)
+    }
+
+    /// The scene's lighting model applied to one sample's colour.
+    pub(super) fn lit(&self, colour: [f64; 3], normal: DVec3, view_direction: DVec3) -> [f64; 3] {
+        let light = &self.lighting;
+        if light.studio {
+            shade_studio(
+                colour,
+                normal,
+                view_direction,
+                light.key_light,
+                f64::from(light.cues.silhouette),
+            )
+        } else {
+            super::formulas::shade(colour, normal, view_direction)
+        }
+    }
+}
