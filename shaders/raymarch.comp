@@ -399,7 +399,7 @@ void main() {
                 }
                 composite(acc, lc, opacity_correct(label_colour.a, r));
             }
-            if (DEPTH_CUES && !surface_found && acc.a >= 0.5) {
+            if (DEPTH_CUES && !surface_found && acc.a >= CUE_SURFACE_ALPHA) {
                 surface_found = true;
                 surface_p = p;
                 surface_normal = normal;
@@ -409,7 +409,7 @@ void main() {
             }
         }
         if (DEPTH_CUES && surface_found) {
-            acc.rgb *= surface_cues(surface_p, surface_normal, direction_world);
+            acc.rgb *= surface_cues(surface_p, surface_normal, direction_world, offset);
         }
         result = vec4(acc.rgb + (1.0 - acc.a) * params.background.rgb, 1.0);
     } else {

@@ -5,7 +5,7 @@
 //! naming the option before any file is read; the library checks the same rules again
 //! (`Clip::check`) for clients that do not come through the command line.
 
-use crate::scene::{Clip, ClipPlane, Colormap};
+use crate::scene::{Clip, ClipPlane, Colormap, Cutaway};
 use clap::Args;
 
 /// Crop, clip planes and colour map.
@@ -29,6 +29,15 @@ pub struct ClipArgs {
     /// the same window, while the tissue windows still decide opacity.
     #[arg(long, value_name = "gray|hot|viridis|inferno|bone", value_parser = parse_colormap)]
     pub colormap: Option<Colormap>,
+    /// Open the brain: cut away the side facing the camera, through the centre or X,Y,Z (mm)
+    ///
+    /// A clip plane through the volume's centre (or the world point X,Y,Z in mm) that turns with
+    /// the camera; the cut face is drawn solid in the tissue colours (cortex over white matter,
+    /// the ventricles) where eq. 4 alone would show a flat interior see-through. An oblique view
+    /// shows it best: `--cutaway --azimuth 40 --elevation 25`; a point is given with `=`:
+    /// `--cutaway=-12,4,8`. Takes one of the 4 clip-plane slots.
+    #[arg(long, value_name = "X,Y,Z", num_args = 0..=1, default_missing_value = "centre", require_equals = true, value_parser = parse_cutaway)]
+    pub cutaway: Option<Cutaway>,
 }
 
 impl ClipArgs {
@@ -42,6 +51,14 @@ impl ClipArgs {
             clip.add_plane(*plane).map_err(|e| e.0)?;
         }
         clip.check().map_err(|e| e.0)?;
+        if self.cutaway.is_some() && clip.planes.iter().all(Option::is_some) {
+            return Err(format!(
+                "--cutaway needs one of the {} clip-plane slots: give at most {} --clip-plane \
+                 options with it",
+                crate::scene::clip::MAX_CLIP_PLANES,
+                crate::scene::clip::MAX_CLIP_PLANES - 1
+            ));
+        }
         Ok(clip)
     }
 }
@@ -65,6 +82,23 @@ fn parse_plane(text: &str) -> Result<ClipPlane, String> {
     Ok(ClipPlane {
         normal: [nx, ny, nz],
         offset_mm: d,
+    })
+}
+
+fn parse_cutaway(text: &str) -> Result<Cutaway, String> {
+    if ["centre", "center"].contains(&text.trim()) {
+        return Ok(Cutaway::default());
+    }
+    let values: Vec<f64> = text
+        .split(',')
+        .map(|v| v.trim().parse::<f64>().ok().filter(|x| x.is_finite()))
+        .collect::<Option<_>>()
+        .ok_or_else(|| format!("`{text}`: expected `centre` or three finite numbers X,Y,Z (mm)"))?;
+    let [x, y, z] = values[..] else {
+        return Err(format!("`{text}`: expected three numbers X,Y,Z (world mm)"));
+    };
+    Ok(Cutaway {
+        point_mm: Some([x, y, z]),
     })
 }
 

@@ -23,7 +23,7 @@ use super::args::{
     Switch, WindowsArg,
 };
 use super::output::{ms, print_line, print_warnings};
-use super::scene_args::Channel;
+use super::scene_args::{Channel, LightingArg};
 use super::session;
 use crate::analysis::{Contrast, ContrastBasis, TissueReport};
 use crate::error::Error;
@@ -31,8 +31,8 @@ use crate::files::png::{Provenance, write_rgba8};
 use crate::files::write::{OutputKind, check_output};
 use crate::scene::visibility::{EmptyScene, pixels_off_background, predict_empty};
 use crate::scene::{
-    Camera, DerivedPrecision, GradientSource, Projection, RenderMode, Scene, SceneRecipe,
-    TissueClass, VesselStyle, WindowSet,
+    Camera, DerivedPrecision, GradientSource, LightModel, Projection, RenderMode, Scene,
+    SceneRecipe, TissueClass, VesselStyle, WindowSet,
 };
 use ash::vk;
 use std::path::{Path, PathBuf};
@@ -141,6 +141,12 @@ pub fn recipe_from_args(args: &SceneArgs) -> Result<SceneRecipe, Error> {
         } else {
             crate::passes::brain::BrainSwitch::Off
         },
+        lighting: crate::scene::Lighting {
+            model: args
+                .lighting
+                .map_or(LightModel::Headlight, LightingArg::model),
+            depth_cues: args.depth_cues.is_some_and(Switch::on),
+        },
         ..Default::default()
     };
     effects.quality.derived_precision = match args.derived_precision {
@@ -177,6 +183,8 @@ pub fn recipe_from_args(args: &SceneArgs) -> Result<SceneRecipe, Error> {
             },
         },
         effects,
+        cues: args.cues(),
+        cutaway: args.clip.cutaway,
         step_voxels: args.step,
         jitter: !args.no_jitter,
         background: args.background,
@@ -334,10 +342,7 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
     }
     args.movie.check(&paths, &inputs)?;
     // A still is shaded unless asked otherwise (see --shading).
-    let scene_args = SceneArgs {
-        shading: Some(args.scene.shading.unwrap_or(Switch::On)),
-        ..args.scene.clone()
-    };
+    let scene_args = args.scene.as_still();
     // On a terminal the spinner shows from the start: reading, extraction and the derived
     // volumes of a large scan take seconds before the first frame.
     let mut progress = super::progress::Progress::new(u64::from(frames), "frames");

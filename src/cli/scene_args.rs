@@ -66,6 +66,26 @@ pub enum ClassificationArg {
     Table,
 }
 
+/// The lighting model of shaded DVR (`scene::LightModel`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum LightingArg {
+    /// A light at the eye: ambient, two-sided diffuse, highlight (the paper's look, cheapest).
+    Headlight,
+    /// Key light from the upper left, headlight fill, highlight, outlines.
+    Studio,
+}
+
+impl LightingArg {
+    /// The scene's model.
+    pub fn model(self) -> crate::scene::LightModel {
+        match self {
+            LightingArg::Headlight => crate::scene::LightModel::Headlight,
+            LightingArg::Studio => crate::scene::LightModel::Studio,
+        }
+    }
+}
+
 /// Source of the gradient term.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum, serde::Serialize)]
 #[serde(rename_all = "kebab-case")]
@@ -168,8 +188,25 @@ pub struct SceneArgs {
     /// off unless asked.
     #[arg(long, value_enum)]
     pub shading: Option<Switch>,
+    /// Lighting: studio (stills: key light, outlines, depth cues) or headlight (interactive)
+    ///
+    /// `studio`: a key light from the upper left with a highlight, a headlight fill, dark
+    /// outlines where a surface turns away, and (with --depth-cues, on for stills) ambient
+    /// occlusion and a soft shadow at the visible surface. `headlight`: the paper renderer's
+    /// Phong with the light at the eye, the cheapest (the viewer while you interact).
+    /// Costs: BENCHMARKS.md "Lighting and depth cues".
+    #[arg(long, value_enum)]
+    pub lighting: Option<LightingArg>,
+    /// Ambient occlusion and a soft shadow toward the key light: on for stills, off for the others
+    ///
+    /// Evaluated once per pixel at the visible surface (12 fetches), compiled out when off.
+    #[arg(long, value_enum, hide_short_help = true)]
+    pub depth_cues: Option<Switch>,
+    /// Strengths 0..1 of the occlusion, the shadow and the outlines [default: 0.7,0.5,0.5]
+    #[arg(long, value_name = "OCCLUSION,SHADOW,OUTLINE", value_parser = parse_cue_strengths, hide_short_help = true)]
+    pub cue_strength: Option<[f32; 3]>,
     /// Where the gradient term comes from.
-    #[arg(long, value_enum, default_value_t = GradientArg::Precomputed)]
+    #[arg(long, value_enum, default_value_t = GradientArg::Precomputed, hide_short_help = true)]
     pub gradient: GradientArg,
     /// Precision of the stored derived volumes.
     ///
@@ -188,7 +225,7 @@ pub struct SceneArgs {
     #[arg(long, default_value = "#000000", value_parser = parse_colour)]
     pub background: [f32; 3],
     /// Disable the per-pixel jitter of ray starts (shows wood-grain banding; for comparisons).
-    #[arg(long)]
+    #[arg(long, hide_short_help = true)]
     pub no_jitter: bool,
     /// A tissue's window by hand, in I_norm (0..1): TISSUE=LO:HI, repeatable
     ///
@@ -221,9 +258,48 @@ pub struct SceneArgs {
     pub denoise: crate::passes::denoise::Denoise,
 }
 
+impl SceneArgs {
+    /// These arguments for a still (`render`, Python's `render()`): shaded, studio lighting and
+    /// depth cues unless the arguments say otherwise. The one place the stills' look is chosen.
+    pub fn as_still(&self) -> SceneArgs {
+        SceneArgs {
+            shading: Some(self.shading.unwrap_or(Switch::On)),
+            lighting: Some(self.lighting.unwrap_or(LightingArg::Studio)),
+            depth_cues: Some(self.depth_cues.unwrap_or(Switch::On)),
+            ..self.clone()
+        }
+    }
+
+    /// The outline and depth-cue strengths (`--cue-strength`), the library's defaults otherwise.
+    pub fn cues(&self) -> crate::scene::DepthCues {
+        let mut cues = crate::scene::DepthCues::default();
+        if let Some([occlusion, shadow, outline]) = self.cue_strength {
+            cues.occlusion = occlusion;
+            cues.shadow = shadow;
+            cues.silhouette = outline;
+        }
+        cues
+    }
+}
+
 fn parse_brain(text: &str) -> Result<crate::passes::brain::BrainSwitch, String> {
     crate::passes::brain::BrainSwitch::parse(text)
         .ok_or_else(|| format!("--brain `{text}`: use auto, on or off"))
+}
+
+fn parse_cue_strengths(text: &str) -> Result<[f32; 3], String> {
+    let values: Vec<f32> = text
+        .split(',')
+        .map(|v| {
+            v.trim()
+                .parse::<f32>()
+                .ok()
+                .filter(|x| (0.0..=1.0).contains(x))
+        })
+        .collect::<Option<_>>()
+        .ok_or_else(|| format!("`{text}`: expected three strengths in 0..1"))?;
+    <[f32; 3]>::try_from(values)
+        .map_err(|_| format!("`{text}`: expected OCCLUSION,SHADOW,OUTLINE, e.g. 0.7,0.5,0.5"))
 }
 
 fn parse_denoise(text: &str) -> Result<crate::passes::denoise::Denoise, String> {

@@ -65,6 +65,10 @@ pub struct SceneRecipe {
     pub intensity_window: [f32; 2],
     /// Crop box and clip planes.
     pub clip: Clip,
+    /// Outline and depth-cue strengths.
+    pub cues: super::DepthCues,
+    /// The "open the brain" cut.
+    pub cutaway: Option<super::Cutaway>,
     /// Colour map (MIP/MinIP; DVR instead of tissue colours).
     pub colormap: Option<Colormap>,
     /// Denoising of I_norm when the volume is opened (before the derivatives and the raymarch);
@@ -153,6 +157,8 @@ impl SceneRecipe {
             curvature_strength: scene.curvature_strength,
             intensity_window: scene.intensity_window,
             clip: scene.clip,
+            cues: scene.cues,
+            cutaway: scene.cutaway,
             colormap: scene.colormap,
             denoise: crate::passes::denoise::Denoise::None,
             preset: None,
@@ -173,6 +179,8 @@ impl SceneRecipe {
         scene.intensity_window = self.intensity_window;
         scene.minip_floor = report.background_threshold as f32;
         scene.clip = self.clip;
+        scene.cues = self.cues;
+        scene.cutaway = self.cutaway;
         scene.colormap = self.colormap;
         scene
     }

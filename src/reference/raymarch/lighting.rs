@@ -3,8 +3,9 @@
 //!
 //! The formulas are the shader's term for term: the normal turned to the viewer, ambient 0.3,
 //! headlight fill 0.3 |n . v|, key light 0.55 max(n . l, 0), Blinn highlight 0.2 (n . h)^32,
-//! outline 1 - s (1 - |n . v|)^2, clamped to 1; the cues' transmittance exp(-sum f dl) over
-//! samples at reach (j + 1) / count, j < count.
+//! outline 1 - s (1 - |n . v|)^2, clamped to 1; the cues' transmittance
+//! exp(-CUE_EXTINCTION sum f dl) over samples at (j + offset) dl, j < count, from a point
+//! CUE_BACKOFF_MM back along the ray, the occlusion along the normal's side with less matter.
 
 use super::ReferenceRaymarch;
 use crate::scene::lighting::DepthCues;
@@ -14,6 +15,12 @@ use glam::DVec3;
 pub const OCCLUSION_SAMPLES: u32 = 4;
 /// Samples of the shadow ray (SHADOW_SAMPLES in lighting.glsl).
 pub const SHADOW_SAMPLES: u32 = 8;
+/// How far back along the ray the cue rays start, mm (CUE_BACKOFF_MM).
+pub const CUE_BACKOFF_MM: f64 = 1.5;
+/// The density's scale in the cues' transmittance (CUE_EXTINCTION).
+pub const CUE_EXTINCTION: f64 = 0.5;
+/// The accumulated opacity at which a ray's surface is taken (CUE_SURFACE_ALPHA).
+pub const CUE_SURFACE_ALPHA: f64 = 0.2;
 
 /// The studio model of one sample: `key_light` is the unit world direction toward the key light,
 /// `silhouette` the outline strength, `view_direction` the unit ray direction.
@@ -64,37 +71,60 @@ impl ReferenceRaymarch<'_> {
         self.classify_at(p, self.value(p)).0
     }
 
-    /// exp(-sum f dl) along `step_index` (index space per mm) from `p`.
-    fn cue_transmittance(&self, p: DVec3, step_index: DVec3, reach_mm: f64, count: u32) -> f64 {
+    /// exp(-CUE_EXTINCTION sum f dl) along `step_index` (index space per mm) from `p`, the
+    /// samples at (j + offset) dl.
+    fn cue_transmittance(
+        &self,
+        p: DVec3,
+        step_index: DVec3,
+        reach_mm: f64,
+        count: u32,
+        offset: f64,
+    ) -> f64 {
         let dl = reach_mm / f64::from(count);
-        let sum: f64 = (1..=count)
-            .map(|j| self.cue_density(p + step_index * (dl * f64::from(j))))
+        let sum: f64 = (0..count)
+            .map(|j| self.cue_density(p + step_index * (dl * (f64::from(j) + offset))))
             .sum();
-        (-sum * dl).exp()
+        (-CUE_EXTINCTION * sum * dl).exp()
     }
 
     /// The factor a ray's colour is multiplied by at its surface `p` (index space) with shading
-    /// normal `normal` (world, any length; zero: the occlusion looks back along the ray).
-    pub(super) fn surface_cues(&self, p: DVec3, normal: DVec3, view_direction: DVec3) -> f64 {
+    /// normal `normal` (world, any length; zero: the occlusion looks back along the ray) and the
+    /// ray's start offset `offset` (the jitter), as `surface_cues` in lighting.glsl.
+    pub(super) fn surface_cues(
+        &self,
+        p: DVec3,
+        normal: DVec3,
+        view_direction: DVec3,
+        offset: f64,
+    ) -> f64 {
         let light = &self.lighting;
-        let mut toward_viewer = -view_direction;
+        let to_index = glam::DMat3::from_mat4(self.geometry.world_to_index);
+        let origin = p - to_index * view_direction * CUE_BACKOFF_MM;
+        let mut outward = -view_direction;
         if normal.length_squared() >= 1e-6 {
             let n = normal.normalize();
-            toward_viewer = if n.dot(view_direction) > 0.0 { -n } else { n };
+            let n_index = to_index * n;
+            outward = if self.cue_density(p + n_index) <= self.cue_density(p - n_index) {
+                n
+            } else {
+                -n
+            };
         }
-        let to_index = glam::DMat3::from_mat4(self.geometry.world_to_index);
         let cues = light.cues;
         let occlusion = self.cue_transmittance(
-            p,
-            to_index * toward_viewer,
+            origin,
+            to_index * outward,
             f64::from(cues.occlusion_reach_mm),
             OCCLUSION_SAMPLES,
+            offset,
         );
         let shadow = self.cue_transmittance(
-            p,
+            origin,
             to_index * light.key_light,
             f64::from(cues.shadow_reach_mm),
             SHADOW_SAMPLES,
+            offset,
         );
         let mix = |t: f64, strength: f32| 1.0 + (t - 1.0) * f64::from(strength);
         mix(occlusion, cues.occlusion) * mix(shadow, cues.shadow)

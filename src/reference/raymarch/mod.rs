@@ -546,7 +546,10 @@ impl<'a> ReferenceRaymarch<'a> {
                 }
                 composite(&mut acc, colour, opacity);
             }
-            if self.lighting.depth_cues && surface.is_none() && acc[3] >= 0.5 {
+            if self.lighting.depth_cues
+                && surface.is_none()
+                && acc[3] >= lighting::CUE_SURFACE_ALPHA
+            {
                 surface = Some((p, normal));
             }
             // After compositing, like the shader: the sample that crosses the threshold counts.
@@ -555,7 +558,7 @@ impl<'a> ReferenceRaymarch<'a> {
             }
         }
         if let Some((p, normal)) = surface {
-            let factor = self.surface_cues(p, normal, plan.view_direction);
+            let factor = self.surface_cues(p, normal, plan.view_direction, plan.offset);
             for c in &mut acc[..3] {
                 *c *= factor;
             }

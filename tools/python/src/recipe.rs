@@ -4,8 +4,8 @@
 //! parsed and checked here exactly as `morphray render` parses them, so names, units, defaults
 //! and errors cannot drift between the two.
 //!
-//! One difference, stated once: a still from Python is shaded unless `shading="off"`, as
-//! `morphray render`'s are (`--shading` defaults to on for stills).
+//! One difference, stated once: a still from Python is lit as `morphray render`'s are (shading,
+//! studio lighting and depth cues unless the options say otherwise: `SceneArgs::as_still`).
 
 use crate::errors;
 use morphray::cli::args::Switch;
@@ -37,10 +37,7 @@ fn usage(error: Error) -> PyErr {
 /// The scene arguments of `words`, shaded unless they say otherwise (module doc).
 fn still_args(words: &[String]) -> PyResult<SceneArgs> {
     let args = options::parse_scene_args(words).map_err(usage)?;
-    Ok(SceneArgs {
-        shading: Some(args.shading.unwrap_or(Switch::On)),
-        ..args
-    })
+    Ok(args.as_still())
 }
 
 /// The recipe and size `words` describe (`["--mode", "mip", ...]`); a ValueError names the
