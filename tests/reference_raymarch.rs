@@ -108,6 +108,7 @@ fn all_effect_combinations() -> Vec<Effects> {
                     quality: Default::default(),
                     vessels: false,
                     brain: morphray::passes::brain::BrainSwitch::Off,
+                    lighting: Default::default(),
                 });
             }
         }
@@ -482,6 +483,7 @@ fn camera_inside_the_volume_gives_finite_non_background_pixels() {
         quality: Default::default(),
         vessels: false,
         brain: morphray::passes::brain::BrainSwitch::Off,
+        lighting: Default::default(),
     };
     // Zoom 8 puts the eye at 3.86 / 8 = 0.48 bounding radii from the centre, inside the cube
     // (half side = 0.577 radii). Check that, then that every ray starts at t = 0.
@@ -617,6 +619,7 @@ fn grazing_rays_are_finite() {
             quality: Default::default(),
             vessels: false,
             brain: morphray::passes::brain::BrainSwitch::Off,
+            lighting: Default::default(),
         };
         for (az, el) in [
             (90.0, 0.0),
@@ -711,6 +714,7 @@ fn object_scene() -> Scene {
         quality: Default::default(),
         vessels: false,
         brain: morphray::passes::brain::BrainSwitch::Off,
+        lighting: Default::default(),
     };
     scene.camera = Camera {
         azimuth_deg: 30.0,
@@ -884,6 +888,7 @@ fn hiding_a_tissue_removes_exactly_its_contribution() {
         quality: Default::default(),
         vessels: false,
         brain: morphray::passes::brain::BrainSwitch::Off,
+        lighting: Default::default(),
     };
     let size = 48;
     let draw = |scene: &Scene| {
@@ -1258,6 +1263,7 @@ proptest! {
             quality: Default::default(),
             vessels: false,
             brain: morphray::passes::brain::BrainSwitch::Off,
+            lighting: Default::default(),
         };
         scene.jitter = flags[3];
         scene.frame = seed as u32;

@@ -82,6 +82,12 @@ pub enum Action {
     CurvatureStrength(f32),
     /// Phong shading on or off.
     Shading(bool),
+    /// The lighting model (`lighting studio` / `lighting headlight`).
+    Lighting(crate::scene::LightModel),
+    /// Depth cues on or off (`cues on`).
+    DepthCues(bool),
+    /// The cut-away through the crosshair on or off (`cutaway on`).
+    Cutaway(bool),
     /// Background colour.
     Background([f32; 3]),
     /// Open a source (`open` alone or `open phantom`: the built-in phantom; several paths
@@ -423,6 +429,17 @@ fn parse_line(line: &str) -> Result<Action, String> {
             w => Action::Curvature(switch(w)?),
         },
         "shading" => Action::Shading(switch(next())?),
+        "lighting" => match next() {
+            Some("studio") => Action::Lighting(crate::scene::LightModel::Studio),
+            Some("headlight") => Action::Lighting(crate::scene::LightModel::Headlight),
+            w => {
+                return Err(format!(
+                    "expected `lighting studio` or `lighting headlight`, got {w:?}"
+                ));
+            }
+        },
+        "cues" => Action::DepthCues(switch(next())?),
+        "cutaway" => Action::Cutaway(switch(next())?),
         "brain" => {
             let word = next().unwrap_or("");
             Action::Brain(BrainSwitch::parse(word).ok_or_else(|| {

@@ -21,7 +21,7 @@ use super::script::Preset;
 use super::status::Status;
 use crate::analysis::TissueReport;
 use crate::scene::visibility::{EmptyScene, predict_empty};
-use crate::scene::{Classification, RenderMode, Scene, TissueClass};
+use crate::scene::{Classification, Cutaway, LightModel, RenderMode, Scene, TissueClass};
 use crate::volume::source::VolumeSource;
 use egui::{Color32, Rect, RichText, Ui, vec2};
 use std::path::PathBuf;
@@ -455,11 +455,42 @@ fn rendering_panel(ui: &mut Ui, controls: &mut Controls) {
         );
     });
     ui.checkbox(&mut scene.effects.shading, "Shading")
-        .on_hover_text("Headlight Phong shading (computes normals once)");
+        .on_hover_text("Phong shading with gradient normals (computes normals once)");
+    lighting_controls(ui, scene);
     ui.horizontal(|ui| {
         ui.label("Background");
         ui.color_edit_button_rgb(&mut scene.background);
     });
+}
+
+/// Lighting model, depth cues and the cut-away (issue 34); `render`'s stills use studio + cues.
+fn lighting_controls(ui: &mut Ui, scene: &mut Scene) {
+    let model = &mut scene.effects.lighting.model;
+    ui.add_enabled_ui(scene.effects.shading, |ui| {
+        ui.horizontal(|ui| {
+            ui.selectable_value(model, LightModel::Headlight, "Headlight")
+                .on_hover_text("The light at the eye: the cheapest (the paper's look)");
+            ui.selectable_value(model, LightModel::Studio, "Studio")
+                .on_hover_text(
+                    "Key light from the upper left, highlight, outlines (the stills' look)",
+                );
+        });
+    });
+    ui.checkbox(&mut scene.effects.lighting.depth_cues, "Depth cues")
+        .on_hover_text(
+            "Ambient occlusion and a soft shadow at the visible surface (14 fetches per pixel)",
+        );
+    let mut open = scene.cutaway.is_some();
+    if ui
+        .checkbox(&mut open, "Open the brain")
+        .on_hover_text(
+            "Cut away the side facing the camera through the crosshair; the cut face shows the \
+             tissues solid (turn the view to an oblique angle)",
+        )
+        .changed()
+    {
+        scene.cutaway = open.then(Cutaway::default);
+    }
 }
 
 fn camera_panel(ui: &mut Ui, controls: &mut Controls) {

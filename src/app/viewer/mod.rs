@@ -433,6 +433,10 @@ impl Viewer {
         self.current.as_ref()?;
         let mut scene = self.controls.scene;
         scene.effects = self.active_effects;
+        // The cut-away goes through the crosshair (the volume's centre before there is one).
+        if let Some(cut) = &mut scene.cutaway {
+            cut.point_mm = self.controls.slices.crosshair.map(|c| c.to_array());
+        }
         Some(scene)
     }
 

@@ -270,6 +270,7 @@ fn inconsistent_inputs_are_typed_errors() {
         quality: Default::default(),
         vessels: true,
         brain: crate::passes::brain::BrainSwitch::Off,
+        lighting: Default::default(),
     };
     assert!(run(&scene, &none).is_ok());
     // A given derived volume is validated even when unused.
