@@ -690,8 +690,10 @@ fn a_render_over_the_budget_bricks_and_says_so() {
         .chunks_exact(4)
         .filter(|p| p[0] as u32 + p[1] as u32 + p[2] as u32 > 30)
         .count();
+    // 47 lit pixels of 1280 on lavapipe with the stills' look (studio lighting and depth cues
+    // darken the small cube's faces); an empty or black render has none.
     assert!(
-        lit > 50,
+        lit > 30,
         "the bricked render shows the phantom ({lit} lit pixels)"
     );
 }

@@ -26,12 +26,14 @@ const LAYERS: [(&str, u8); 11] = [
 ];
 
 /// Upward imports at the time of writing: (file, layer it imports).
-const KNOWN: [(&str, &str); 15] = [
+const KNOWN: [(&str, &str); 17] = [
     ("src/analysis/range.rs", "volume"),
     ("src/passes/slice.rs", "scene"),
     ("src/reference/brain_tests.rs", "analysis"),
     ("src/reference/raymarch/tests.rs", "passes"),
+    ("src/reference/raymarch/dvr_sample.rs", "scene"),
     ("src/reference/raymarch/formulas.rs", "scene"),
+    ("src/reference/raymarch/lighting.rs", "scene"),
     ("src/reference/raymarch/long_steps.rs", "scene"),
     ("src/reference/raymarch/mod.rs", "scene"),
     ("src/reference/raymarch/sampling.rs", "scene"),

@@ -115,7 +115,17 @@ fn psnr(a: &[[f64; 4]], b: &[[f64; 4]]) -> f64 {
 #[test]
 fn long_steps_match_the_twin_and_take_fewer_samples() {
     let mut engine = common::engine();
-    let p = prepare(&mut engine, 48);
+    let mut p = prepare(&mut engine, 48);
+    // The translucent opacities of before issue 34 (CSF 0.2, GM 0.3, WM 0.9): with today's
+    // opaque GM and WM (1.0) every tissue brick's bound is 1 and no threshold below 1 lets a
+    // long step into one, so the image could not differ.
+    for (tissue, opacity) in [
+        (morphray::scene::TissueClass::Csf, 0.2),
+        (morphray::scene::TissueClass::Gm, 0.3),
+        (morphray::scene::TissueClass::Wm, 0.9),
+    ] {
+        p.scene.classification.style_mut(tissue).opacity = opacity;
+    }
     let size = 48;
     let (plain, plain_samples) = gpu_render(&mut engine, &p, &p.scene, size);
     for (factor, threshold_e4) in [(2, 2500), (4, 3500), (4, 10000)] {

@@ -73,7 +73,9 @@ fn the_head_phantom_as_ct_shows_its_skull_with_the_automatic_ct_preset() {
     let ct = Picture::read(&png);
     // The skull encloses the head: the middle of the picture is bone seen from the front.
     let centre = ct.find(Some([40, 40, 16, 16]), bright).len();
-    assert!(centre > 200, "only {centre} of 256 centre pixels show bone");
+    // 168 with the stills' studio lighting (this machine, lavapipe; 200+ with the headlight):
+    // the key light leaves the bone's centre a little darker than the bright predicate.
+    assert!(centre > 120, "only {centre} of 256 centre pixels show bone");
     // The provenance names the preset.
     let text = std::fs::read(&png).unwrap();
     let text = String::from_utf8_lossy(&text);

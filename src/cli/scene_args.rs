@@ -202,7 +202,7 @@ pub struct SceneArgs {
     /// Evaluated once per pixel at the visible surface (12 fetches), compiled out when off.
     #[arg(long, value_enum, hide_short_help = true)]
     pub depth_cues: Option<Switch>,
-    /// Strengths 0..1 of the occlusion, the shadow and the outlines [default: 0.7,0.5,0.5]
+    /// Strengths 0..1 of the occlusion, the shadow and the outlines [default: 0.6,0.4,0.5]
     #[arg(long, value_name = "OCCLUSION,SHADOW,OUTLINE", value_parser = parse_cue_strengths, hide_short_help = true)]
     pub cue_strength: Option<[f32; 3]>,
     /// Where the gradient term comes from.
@@ -299,7 +299,7 @@ fn parse_cue_strengths(text: &str) -> Result<[f32; 3], String> {
         .collect::<Option<_>>()
         .ok_or_else(|| format!("`{text}`: expected three strengths in 0..1"))?;
     <[f32; 3]>::try_from(values)
-        .map_err(|_| format!("`{text}`: expected OCCLUSION,SHADOW,OUTLINE, e.g. 0.7,0.5,0.5"))
+        .map_err(|_| format!("`{text}`: expected OCCLUSION,SHADOW,OUTLINE, e.g. 0.6,0.4,0.5"))
 }
 
 fn parse_denoise(text: &str) -> Result<crate::passes::denoise::Denoise, String> {
