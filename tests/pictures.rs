@@ -14,13 +14,15 @@
 //! - Tolerances from measurement (this machine, lavapipe; `cargo test --test pictures --
 //!   --nocapture` prints them): with the depth cues off, another jitter seed scores 0.9932 mean /
 //!   0.8376 worst block and a step of 0.45 instead of 0.5 0.9951 / 0.8724 (the MIP with another
-//!   seed 0.9965 / 0.9669); against the phantom's reference, the previous default opacities
-//!   score 0.8480 / 0.2109, shading off 0.8149 / 0.2830, depth cues off 0.8947 / 0.2758. The
-//!   tolerances, 0.97 and 0.60, sit between the two groups.
+//!   seed 0.9965 / 0.9669); with the stills' defaults, a step of 0.49999 scores 0.9975 / 0.8806
+//!   and the camera turned by 0.01 degrees 0.9954 / 0.9230 (rounding-sized changes, as another
+//!   lavapipe or CPU might make, flip some of the depth cues' speckle). Against the phantom's
+//!   reference, the previous default opacities score 0.8480 / 0.2109, shading off 0.8149 /
+//!   0.2830, depth cues off 0.8947 / 0.2758. The tolerances, 0.97 and 0.60, sit between.
 //! - The references are compared at jitter seed 0, where a render is deterministic (the same
 //!   bytes on every run here): today's depth cues draw a speckle that moves with the seed, so a
-//!   seed change with the cues on scores about 0.91 / 0.15, as low as a real regression (the
-//!   ignored test `harmless_changes_pass_with_the_still_defaults`).
+//!   seed change with the cues on scores 0.91 / 0.11 to 0.21 (seeds 1, 2, 7), as low as a real
+//!   regression (the ignored test `harmless_changes_pass_with_the_still_defaults`).
 //! - `MORPHRAY_UPDATE_PICTURES=1 cargo test --test pictures` rewrites every reference (and says
 //!   which); a failure writes the picture and its SSIM map under target/pictures-failed/.
 
@@ -267,25 +269,34 @@ fn report(what: &str, s: &Ssim) -> String {
 }
 
 /// The tolerances are loose enough for what should not count as a change: another jitter seed
-/// and a step 10 % shorter pass. Measured with the depth cues off: with them on (the stills'
-/// default now), see the ignored test below.
+/// and a step 10 % shorter, measured with the depth cues off (with them on, the stills' default
+/// now, see the ignored test below); and, with the stills' defaults, changes of the size of
+/// another device's rounding (a step 0.00002 % shorter, the camera turned by 0.01 degrees),
+/// which move some of the depth cues' speckle.
 #[test]
 fn harmless_changes_pass() {
     let cues_off = ["--depth-cues", "off"];
     let seed = perturbed(&cues_off, &[], |s| s.frame = 7);
     let step = perturbed(&cues_off, &["--step", "0.45"], |_| {});
-    for (what, s) in [("jitter seed 7", &seed), ("step 0.45", &step)] {
+    let rounding = perturbed(&[], &["--step", "0.49999"], |_| {});
+    let turned = perturbed(&[], &[], |s| s.camera.azimuth_deg += 0.01);
+    for (what, s) in [
+        ("jitter seed 7, cues off", &seed),
+        ("step 0.45, cues off", &step),
+        ("step 0.49999", &rounding),
+        ("azimuth + 0.01 degrees", &turned),
+    ] {
         println!("{}", report(what, s));
         assert!(passes(s), "{} must pass", report(what, s));
     }
 }
 
 /// The same with the stills' defaults. Fails today: the depth cues draw a speckle of dark
-/// pixels that moves with the jitter seed (a seed change scores about 0.91 mean, 0.15 worst
-/// block on this machine, as low as a real regression), so the references are compared at the
-/// fixed seed 0, where a render is deterministic. Run it when the cues change.
+/// pixels that moves with the jitter seed (seeds 1, 2 and 7 score 0.909 to 0.913 mean, 0.11 to
+/// 0.21 worst block on this machine, as low as a real regression), so the references are
+/// compared at the fixed seed 0, where a render is deterministic. Run it when the cues change.
 #[test]
-#[ignore = "the depth cues' speckle moves with the jitter seed (mean ~0.91, block ~0.15)"]
+#[ignore = "the depth cues' speckle moves with the jitter seed (mean 0.91, worst block 0.11-0.21)"]
 fn harmless_changes_pass_with_the_still_defaults() {
     let seed = perturbed(&[], &[], |s| s.frame = 7);
     let step = perturbed(&[], &["--step", "0.45"], |_| {});
