@@ -20,5 +20,6 @@ pub mod perturb_geometry;
 pub mod perturb_run;
 pub mod perturb_score;
 pub mod plot;
+pub mod ssim;
 pub mod stability;
 pub mod vessels;
