@@ -122,7 +122,7 @@ layout(set = 0, binding = 4, std140) uniform Params {
     // Lighting and cut faces (issue 34).
     vec4 key_light;         // xyz: unit world direction toward the key light; w: silhouette strength
     vec4 cues;              // x: occlusion strength, y: shadow strength, z: occlusion reach mm, w: shadow reach mm
-    vec4 cap;               // x: depth in mm behind a cut face that is drawn solid (0: off)
+    vec4 cap;               // x: depth in mm behind a cut face that is drawn solid (0: off); y: cue unit mm
 } params;
 
 // Benchmark counters (COUNT_SAMPLES only): samples marched and samples that passed
@@ -409,7 +409,7 @@ void main() {
             }
         }
         if (DEPTH_CUES && surface_found) {
-            acc.rgb *= surface_cues(surface_p, surface_normal, direction_world, offset);
+            acc.rgb *= surface_cues(surface_p, surface_normal, direction_world);
         }
         result = vec4(acc.rgb + (1.0 - acc.a) * params.background.rgb, 1.0);
     } else {

@@ -182,7 +182,7 @@ fn a_cutaway_shows_its_cut_face_solid_and_matches_the_twin() {
     // The geometry of the cut: the plane goes through the centre facing the camera.
     let geometry = VolumeGeometry::new(prepared.dims, prepared.affine).unwrap();
     let rays = s.camera.rays(geometry.world_bounds(), W, H);
-    let clip = s.frame_clip(rays.forward, geometry.world_bounds());
+    let clip = s.frame_clip(&rays, geometry.world_bounds());
     assert_eq!(clip.planes.iter().flatten().count(), 1);
     common::assert_no_validation_errors(&engine);
 }

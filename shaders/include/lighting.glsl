@@ -11,8 +11,8 @@
 // = 0.2: at 0.5 a ray that enters a gently rising edge is millimetres deep, and the cues drew
 // iso-depth rings), not per sample: 14 fetches per pixel instead of 12 per classified sample.
 // Both integrate the classified opacity f(v) (per mm, the windows only: matter occludes whether
-// or not it is on an edge; scaled by CUE_EXTINCTION) along a short ray from CUE_BACKOFF_MM back
-// along the view ray, at the pixel's jittered offsets (banding becomes fine noise): the
+// or not it is on an edge; scaled by CUE_EXTINCTION) along a short ray from CUE_BACKOFF units back
+// along the view ray, at the middle of equal intervals (jittered offsets only added noise): the
 // occlusion along the normal's side with less matter (an obscurance along the normal: a sulcus's
 // opposite wall darkens its floor), the shadow toward the key light. Outside the volume and in
 // cut-away regions nothing occludes.
@@ -21,7 +21,10 @@
 
 const uint OCCLUSION_SAMPLES = 4u;
 const uint SHADOW_SAMPLES = 8u;
-const float CUE_BACKOFF_MM = 1.5;
+// In units of max(1 mm, the finest voxel side) (params.cap.y): a fixed millimetre is less
+// than a voxel on a coarse grid, where the probes then read one voxel's noise.
+const float CUE_BACKOFF = 1.5;
+const float CUE_SIDE_PROBE = 1.5;
 const float CUE_EXTINCTION = 0.5;
 const float CUE_SURFACE_ALPHA = 0.2;
 
@@ -59,34 +62,35 @@ vec3 shade_studio(vec3 colour, vec3 normal, vec3 view_direction) {
 // exp(-integral of f(v) dl) over `count` samples at reach * (j + 1) / count mm from p along the
 // index-space direction `step_index` (per mm). `density` is the caller's classified opacity at an
 // index position (0 outside what is kept).
-float cue_transmittance(vec3 p, vec3 step_index, float reach_mm, uint count, float offset) {
+float cue_transmittance(vec3 p, vec3 step_index, float reach_mm, uint count) {
     float dl = reach_mm / float(count);
     float sum = 0.0;
     for (uint j = 0u; j < count; j++) {
-        sum += cue_density(p + step_index * (dl * (float(j) + offset)));
+        sum += cue_density(p + step_index * (dl * (float(j) + 0.5)));
     }
     return exp(-CUE_EXTINCTION * sum * dl);
 }
 
 // The factor the surface's colour is multiplied by: occlusion and shadow, each mixed with 1 by its
 // strength. `normal` is world space (any length; 0: the occlusion looks back along the ray).
-float surface_cues(vec3 p, vec3 normal, vec3 view_direction, float offset) {
+float surface_cues(vec3 p, vec3 normal, vec3 view_direction) {
     mat3 to_index = mat3(params.world_to_index);
-    // From CUE_BACKOFF_MM back along the ray: the surface sample lies inside the tissue, and
+    // From CUE_BACKOFF units back along the ray: the surface sample lies inside the tissue, and
     // rays from there would measure the tissue itself (noise, not occlusion).
-    vec3 origin = p - to_index * view_direction * CUE_BACKOFF_MM;
+    float unit = params.cap.y;
+    vec3 origin = p - to_index * view_direction * (CUE_BACKOFF * unit);
     vec3 outward = -view_direction;
     float len2 = dot(normal, normal);
     if (len2 >= 1e-6) {
-        // The normal's side with less matter one millimetre away: the gradient's sign depends
+        // The normal's side with less matter CUE_SIDE_PROBE units away: the gradient's sign depends
         // on the contrast (T1 tissue is brighter than CSF, T2 darker), and its side relative to
         // the ray flips at grazing angles, where either choice would be noise.
         vec3 n = normal * inversesqrt(len2);
-        vec3 n_index = to_index * n;
+        vec3 n_index = to_index * n * (CUE_SIDE_PROBE * unit);
         outward = cue_density(p + n_index) <= cue_density(p - n_index) ? n : -n;
     }
-    float occlusion = cue_transmittance(origin, to_index * outward, params.cues.z, OCCLUSION_SAMPLES, offset);
-    float shadow = cue_transmittance(origin, to_index * params.key_light.xyz, params.cues.w, SHADOW_SAMPLES, offset);
+    float occlusion = cue_transmittance(origin, to_index * outward, params.cues.z, OCCLUSION_SAMPLES);
+    float shadow = cue_transmittance(origin, to_index * params.key_light.xyz, params.cues.w, SHADOW_SAMPLES);
     return mix(1.0, occlusion, params.cues.x) * mix(1.0, shadow, params.cues.y);
 }
 

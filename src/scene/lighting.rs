@@ -17,9 +17,11 @@
 //!   iso-depth rings; without the 1.5 mm back-off and the open-side test the sulcal walls
 //!   speckled black. An approximation of global illumination, not a model of it: a cue darkens, it never
 //!   brightens, and what lies behind the surface in a translucent ray is darkened with it.
-//! - **The cut-away is a clip plane through a point, facing the camera** ([`Cutaway`]): it is
-//!   added to the scene's planes per frame (it turns with the camera, so a turntable keeps the
-//!   brain open toward the viewer), and every cut face is drawn solid for [`CAP_MM`]: a flat
+//! - **The cut-away is a clip plane through a point, turned 45 degrees from the view toward the
+//!   image's right** ([`Cutaway`]): it removes the near left quarter, so the cut face and the
+//!   intact surface are seen side by side. It is added to the scene's planes per frame (it
+//!   turns with the camera, so a turntable keeps the brain open toward the viewer), and every
+//!   cut face is drawn solid for [`CAP_MM`]: a flat
 //!   tissue interior has no gradient, so eq. 4 would show it see-through; the cap gives the cut
 //!   the tissue colours (cortex over white matter, ventricles) without shading.
 //!
@@ -130,6 +132,16 @@ impl DepthCues {
     }
 }
 
+/// The depth cues' unit length: max(1 mm, the finest voxel side `voxel_mm`), so the cue rays'
+/// back-off and the normal's side probe step past a voxel's noise on a coarse grid too.
+pub fn cue_unit_mm(voxel_mm: f64) -> f64 {
+    if voxel_mm.is_finite() {
+        voxel_mm.max(1.0)
+    } else {
+        1.0
+    }
+}
+
 /// The unit world direction toward the key light: upper left of the image and toward the viewer,
 /// fixed to the camera.
 pub fn key_light(rays: &CameraRays) -> DVec3 {
@@ -146,16 +158,22 @@ pub struct Cutaway {
 }
 
 impl Cutaway {
-    /// The plane for a camera looking along `forward` at a volume whose world box is `bounds`.
-    pub fn plane(&self, forward: DVec3, bounds: (DVec3, DVec3)) -> ClipPlane {
+    /// The plane for the camera `rays` on a volume whose world box is `bounds`: its normal is
+    /// halfway between the view direction and the image's right, so the cut removes the near
+    /// left quarter of the volume and shows its face at 45 degrees beside the intact surface on
+    /// the right (a plane facing the camera would show a flat slice and hide the surface).
+    pub fn plane(&self, rays: &CameraRays, bounds: (DVec3, DVec3)) -> ClipPlane {
         let point = self
             .point_mm
             .map(DVec3::from_array)
             .filter(|p| p.is_finite())
             .unwrap_or((bounds.0 + bounds.1) * 0.5);
+        let normal = (rays.forward + rays.right)
+            .try_normalize()
+            .unwrap_or(rays.forward);
         ClipPlane {
-            normal: forward.to_array(),
-            offset_mm: -forward.dot(point),
+            normal: normal.to_array(),
+            offset_mm: -normal.dot(point),
         }
     }
 
@@ -163,11 +181,11 @@ impl Cutaway {
     pub fn add_to(
         &self,
         clip: &Clip,
-        forward: DVec3,
+        rays: &CameraRays,
         bounds: (DVec3, DVec3),
     ) -> Result<Clip, ClipError> {
         let mut with_cut = *clip;
-        with_cut.add_plane(self.plane(forward, bounds))?;
+        with_cut.add_plane(self.plane(rays, bounds))?;
         Ok(with_cut)
     }
 }
@@ -176,16 +194,21 @@ impl Cutaway {
 mod tests {
     use super::*;
 
-    #[test]
-    fn the_key_light_is_a_unit_vector_toward_the_viewer_and_up() {
-        let rays = CameraRays {
+    /// Looking along +y with +x to the image's right and +z up.
+    fn rays() -> CameraRays {
+        CameraRays {
             origin: DVec3::ZERO,
             right: DVec3::X,
             up: DVec3::Z,
             forward: DVec3::Y,
             half_extent: [1.0, 1.0],
             orthographic: false,
-        };
+        }
+    }
+
+    #[test]
+    fn the_key_light_is_a_unit_vector_toward_the_viewer_and_up() {
+        let rays = rays();
         let l = key_light(&rays);
         assert!((l.length() - 1.0).abs() < 1e-12);
         assert!(l.dot(rays.forward) < 0.0, "toward the viewer");
@@ -196,22 +219,25 @@ mod tests {
     }
 
     #[test]
-    fn the_cutaway_keeps_the_far_side_of_its_point() {
+    fn the_cutaway_removes_the_near_left_quarter_around_its_point() {
         let cut = Cutaway {
             point_mm: Some([1.0, 2.0, 3.0]),
         };
-        let plane = cut.plane(DVec3::Y, (DVec3::splat(-10.0), DVec3::splat(10.0)));
+        let plane = cut.plane(&rays(), (DVec3::splat(-10.0), DVec3::splat(10.0)));
         let keeps = |p: DVec3| DVec3::from_array(plane.normal).dot(p) + plane.offset_mm >= 0.0;
+        assert!(keeps(DVec3::new(1.0, 5.0, 3.0)), "beyond the point");
         assert!(
-            keeps(DVec3::new(0.0, 5.0, 0.0)),
-            "beyond the point along the view"
+            keeps(DVec3::new(6.0, 0.0, 3.0)),
+            "near but right of the point"
         );
         assert!(
-            !keeps(DVec3::new(0.0, 0.0, 0.0)),
-            "between the camera and the point"
+            !keeps(DVec3::new(-4.0, 0.0, 3.0)),
+            "near and left of the point"
         );
-        let centred = Cutaway::default().plane(DVec3::Y, (DVec3::ZERO, DVec3::splat(4.0)));
-        assert_eq!(centred.offset_mm, -2.0);
+        assert!(keeps(DVec3::new(1.0, 2.0, 3.0)), "the point itself");
+        let centred = Cutaway::default().plane(&rays(), (DVec3::ZERO, DVec3::splat(4.0)));
+        let n = DVec3::from_array(centred.normal);
+        assert!((n.dot(DVec3::splat(2.0)) + centred.offset_mm).abs() < 1e-12);
     }
 
     #[test]
@@ -225,10 +251,10 @@ mod tests {
             .unwrap();
         }
         let bounds = (DVec3::ZERO, DVec3::ONE);
-        assert!(Cutaway::default().add_to(&full, DVec3::Y, bounds).is_err());
+        assert!(Cutaway::default().add_to(&full, &rays(), bounds).is_err());
         assert!(
             Cutaway::default()
-                .add_to(&Clip::default(), DVec3::Y, bounds)
+                .add_to(&Clip::default(), &rays(), bounds)
                 .is_ok()
         );
     }

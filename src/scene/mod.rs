@@ -282,11 +282,15 @@ pub struct Scene {
 
 impl Scene {
     /// The crop and planes a frame cuts with: the scene's, plus the cut-away's plane for the
-    /// camera looking along `forward` (left out when every plane slot is taken: the command
-    /// line refuses that scene before it is built).
-    pub fn frame_clip(&self, forward: glam::DVec3, bounds: (glam::DVec3, glam::DVec3)) -> Clip {
+    /// camera `rays` (left out when every plane slot is taken: the command line refuses that
+    /// scene before it is built).
+    pub fn frame_clip(
+        &self,
+        rays: &camera::CameraRays,
+        bounds: (glam::DVec3, glam::DVec3),
+    ) -> Clip {
         match self.cutaway {
-            Some(cut) => cut.add_to(&self.clip, forward, bounds).unwrap_or(self.clip),
+            Some(cut) => cut.add_to(&self.clip, rays, bounds).unwrap_or(self.clip),
             None => self.clip,
         }
     }

@@ -82,7 +82,7 @@ pub struct RaymarchUniforms {
     pub key_light: [f32; 4],
     /// Occlusion and shadow strengths, then their reaches in mm.
     pub cues: [f32; 4],
-    /// x: depth in mm behind a cut face drawn solid.
+    /// x: depth in mm behind a cut face drawn solid; y: the depth cues' unit length in mm.
     pub cap: [f32; 4],
 }
 
@@ -176,7 +176,7 @@ impl RaymarchUniforms {
             0.0
         };
         let clip = scene
-            .frame_clip(rays.forward, geometry.world_bounds())
+            .frame_clip(&rays, geometry.world_bounds())
             .to_index(geometry);
         let cues = &scene.cues;
         let colormap = scene
@@ -200,7 +200,12 @@ impl RaymarchUniforms {
                 f64::from(cues.sanitized().silhouette),
             ),
             cues: cues.uniform(),
-            cap: [super::lighting::CAP_MM as f32, 0.0, 0.0, 0.0],
+            cap: [
+                super::lighting::CAP_MM as f32,
+                super::lighting::cue_unit_mm(geometry.voxel_mm) as f32,
+                0.0,
+                0.0,
+            ],
             brain_grid: [bx, by, bz, 0.0],
             head_window: [
                 head.window.lo as f32,

@@ -8,4 +8,4 @@ MNI=${2:?usage: $0 MORPHRAY MNI152.nii.gz [OUT_DIR]}
 OUT=${3:-tools/figures}
 "$M" render "$MNI" --size 384x384 --force --lighting headlight --depth-cues off -o "$OUT/mni152-headlight.png"
 "$M" render "$MNI" --size 384x384 --force -o "$OUT/mni152-studio.png"
-"$M" render "$MNI" --size 384x384 --force --cutaway --azimuth 40 --elevation 25 -o "$OUT/mni152-cutaway.png"
+"$M" render "$MNI" --size 384x384 --force --cutaway -o "$OUT/mni152-cutaway.png"

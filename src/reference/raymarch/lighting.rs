@@ -4,8 +4,9 @@
 //! The formulas are the shader's term for term: the normal turned to the viewer, ambient 0.3,
 //! headlight fill 0.3 |n . v|, key light 0.55 max(n . l, 0), Blinn highlight 0.2 (n . h)^32,
 //! outline 1 - s (1 - |n . v|)^2, clamped to 1; the cues' transmittance
-//! exp(-CUE_EXTINCTION sum f dl) over samples at (j + offset) dl, j < count, from a point
-//! CUE_BACKOFF_MM back along the ray, the occlusion along the normal's side with less matter.
+//! exp(-CUE_EXTINCTION sum f dl) over samples at (j + 0.5) dl, j < count, from a point
+//! CUE_BACKOFF units back along the ray, the occlusion along the normal's side with less matter
+//! (probed CUE_SIDE_PROBE units away; a unit is max(1 mm, the finest voxel side)).
 
 use super::ReferenceRaymarch;
 use crate::scene::lighting::DepthCues;
@@ -15,8 +16,10 @@ use glam::DVec3;
 pub const OCCLUSION_SAMPLES: u32 = 4;
 /// Samples of the shadow ray (SHADOW_SAMPLES in lighting.glsl).
 pub const SHADOW_SAMPLES: u32 = 8;
-/// How far back along the ray the cue rays start, mm (CUE_BACKOFF_MM).
-pub const CUE_BACKOFF_MM: f64 = 1.5;
+/// How far back along the ray the cue rays start, in cue units (CUE_BACKOFF).
+pub const CUE_BACKOFF: f64 = 1.5;
+/// How far the normal's two sides are probed, in cue units (CUE_SIDE_PROBE).
+pub const CUE_SIDE_PROBE: f64 = 1.5;
 /// The density's scale in the cues' transmittance (CUE_EXTINCTION).
 pub const CUE_EXTINCTION: f64 = 0.5;
 /// The accumulated opacity at which a ray's surface is taken (CUE_SURFACE_ALPHA).
@@ -72,39 +75,28 @@ impl ReferenceRaymarch<'_> {
     }
 
     /// exp(-CUE_EXTINCTION sum f dl) along `step_index` (index space per mm) from `p`, the
-    /// samples at (j + offset) dl.
-    fn cue_transmittance(
-        &self,
-        p: DVec3,
-        step_index: DVec3,
-        reach_mm: f64,
-        count: u32,
-        offset: f64,
-    ) -> f64 {
+    /// samples at (j + 0.5) dl.
+    fn cue_transmittance(&self, p: DVec3, step_index: DVec3, reach_mm: f64, count: u32) -> f64 {
         let dl = reach_mm / f64::from(count);
         let sum: f64 = (0..count)
-            .map(|j| self.cue_density(p + step_index * (dl * (f64::from(j) + offset))))
+            .map(|j| self.cue_density(p + step_index * (dl * (f64::from(j) + 0.5))))
             .sum();
         (-CUE_EXTINCTION * sum * dl).exp()
     }
 
     /// The factor a ray's colour is multiplied by at its surface `p` (index space) with shading
-    /// normal `normal` (world, any length; zero: the occlusion looks back along the ray) and the
-    /// ray's start offset `offset` (the jitter), as `surface_cues` in lighting.glsl.
-    pub(super) fn surface_cues(
-        &self,
-        p: DVec3,
-        normal: DVec3,
-        view_direction: DVec3,
-        offset: f64,
-    ) -> f64 {
+    /// normal `normal` (world, any length; zero: the occlusion looks back along the ray), as
+    /// `surface_cues` in lighting.glsl.
+    pub(super) fn surface_cues(&self, p: DVec3, normal: DVec3, view_direction: DVec3) -> f64 {
         let light = &self.lighting;
         let to_index = glam::DMat3::from_mat4(self.geometry.world_to_index);
-        let origin = p - to_index * view_direction * CUE_BACKOFF_MM;
+        // The shader's unit is the f32 uniform of `cue_unit_mm`.
+        let unit = f64::from(crate::scene::lighting::cue_unit_mm(self.geometry.voxel_mm) as f32);
+        let origin = p - to_index * view_direction * (CUE_BACKOFF * unit);
         let mut outward = -view_direction;
         if normal.length_squared() >= 1e-6 {
             let n = normal.normalize();
-            let n_index = to_index * n;
+            let n_index = to_index * n * (CUE_SIDE_PROBE * unit);
             outward = if self.cue_density(p + n_index) <= self.cue_density(p - n_index) {
                 n
             } else {
@@ -117,14 +109,12 @@ impl ReferenceRaymarch<'_> {
             to_index * outward,
             f64::from(cues.occlusion_reach_mm),
             OCCLUSION_SAMPLES,
-            offset,
         );
         let shadow = self.cue_transmittance(
             origin,
             to_index * light.key_light,
             f64::from(cues.shadow_reach_mm),
             SHADOW_SAMPLES,
-            offset,
         );
         let mix = |t: f64, strength: f32| 1.0 + (t - 1.0) * f64::from(strength);
         mix(occlusion, cues.occlusion) * mix(shadow, cues.shadow)

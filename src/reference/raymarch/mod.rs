@@ -336,7 +336,7 @@ impl<'a> ReferenceRaymarch<'a> {
             width,
             height,
             clip: scene
-                .frame_clip(rays.forward, geometry.world_bounds())
+                .frame_clip(&rays, geometry.world_bounds())
                 .to_index(geometry),
             lighting: lighting::ReferenceLighting {
                 studio: shading && effects.lighting.model == crate::scene::LightModel::Studio,
@@ -558,7 +558,7 @@ impl<'a> ReferenceRaymarch<'a> {
             }
         }
         if let Some((p, normal)) = surface {
-            let factor = self.surface_cues(p, normal, plan.view_direction, plan.offset);
+            let factor = self.surface_cues(p, normal, plan.view_direction);
             for c in &mut acc[..3] {
                 *c *= factor;
             }
