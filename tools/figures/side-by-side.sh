@@ -33,6 +33,7 @@ if [ -z "${MORPHRAY:-}" ]; then
   [ -x "$MORPHRAY" ] || MORPHRAY=$(command -v morphray || true)
 fi
 NV_AZ=180 NV_EL=0 NV_FRAMES=1
+export NV_PROBE=frame   # page.html waits for any drawn pixel (an angiogram's centre stays black)
 
 die() { echo "error: $*" >&2; exit 2; }
 [ -n "$MORPHRAY" ] && [ -x "$MORPHRAY" ] \
@@ -65,6 +66,9 @@ read -r -a best <<< "$BEST_FLAGS"
   echo "morphray: $("$MORPHRAY" --version) ($MORPHRAY, built $(date -u -r "$MORPHRAY" +%FT%TZ)); $("$MORPHRAY" devices 2>&1 | head -1)"
   echo "niivue: $(niivue_versions)"
 } > "$METRICS"
+# The device's name for the labels: "llvmpipe" from "#0 llvmpipe (LLVM 15.0.6, 256 bits) (cpu, ...".
+DEVICE=$("$MORPHRAY" devices 2>/dev/null | sed -n 's/^#[0-9]* \([^ (]*\).*usable.*/\1/p' | head -1)
+DONE=()
 for i in "${!NAMES[@]}"; do
   v=${NAMES[$i]} f=${FILES[$i]} p=$OUT/pictures/$v
   echo "== $v" >&2
@@ -73,11 +77,17 @@ for i in "${!NAMES[@]}"; do
   niivue_add "$v" "$f"
   rm -f "$p-niivue.png"
   niivue_run "$v" "$SIZE" "$p-niivue.png" "$NV_AZ" "$NV_EL" > "$p-niivue.json"
-  [ -f "$p-niivue.png" ] || die "NiiVue could not show $v: $(cut -c1-300 "$p-niivue.json")"
+  if [ ! -f "$p-niivue.png" ]; then
+    rm -f "$OUT/sheet-$v.png"
+    echo "NiiVue could not show $v (no sheet, no metrics): $(cut -c1-300 "$p-niivue.json")" | tee -a "$METRICS" >&2
+    continue
+  fi
+  DONE+=("$v")
   "$PY" "$ROOT/benches/niivue/sheet.py" "$OUT/sheet-$v.png" \
-    "$p-morphray-default.png" "morphray default: render --size $SIZE (Vulkan, lavapipe)" \
+    "$p-morphray-default.png" "morphray default: render --size $SIZE (Vulkan, ${DEVICE:-?})" \
     "$p-morphray-best.png" "morphray best: render --size $SIZE $BEST_FLAGS" \
     "$p-niivue.png" "NiiVue $NIIVUE_VERSION defaults, azimuth $NV_AZ elevation $NV_EL (WebGL2, ANGLE llvmpipe)" >&2
 done
-"$PY" "$HERE/side_by_side_metrics.py" "$OUT/pictures" "${NAMES[@]}" >> "$METRICS"
+[ ${#DONE[@]} -gt 0 ] || die "NiiVue showed no volume (see $NV_LOG)"
+"$PY" "$HERE/side_by_side_metrics.py" "$OUT/pictures" "${DONE[@]}" >> "$METRICS"
 cat "$METRICS"
