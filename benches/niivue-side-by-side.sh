@@ -28,60 +28,29 @@ MORPHRAY=${1:?usage: $0 MORPHRAY_BINARY [ROUNDS] [OUT_DIR]}
 ROUNDS=${2:-3}
 HERE=$(cd "$(dirname "$0")" && pwd)
 OUT=${3:-$HERE/results/lavapipe-$(date -u +%F)-niivue}
-CACHE=${NIIVUE_CACHE:-$HOME/.cache/morphray/niivue}
 FRAMES=${FRAMES:-6}
-NV_ANGLE=${NV_ANGLE:-gl-egl}
-PORT=${PORT:-$(python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')}
+NV_FRAMES=$FRAMES NV_LOG=$OUT/raw/niivue-console.log
+# shellcheck source=benches/niivue/common.sh
+. "$HERE/niivue/common.sh"
 # Timed VOLUME:SIZE pairs; morphray's cold first pixel (bench --trials 1: three fresh processes)
 # only at COLD_SIZE, to keep a round within a few minutes on 2 shared cores.
 PAIRS=${PAIRS:-mni152:500x500 mni152:960x540 phantom:500x500 phantom:960x540}
 COLD_SIZE=${COLD_SIZE:-500x500}
-NIIVUE_VERSION=1.0.0-rc.9 PLAYWRIGHT_VERSION=1.57.0 ESBUILD_VERSION=0.25.12
 MNI=${MNI:-/work/shared/data/mni152_t1_2009a.nii.gz}
 REAL=${REAL:-/work/shared/data/real}
 PY=${PY:-/tmp/proto/bin/python}   # needs pillow
 
 [ -x "$MORPHRAY" ] || { echo "error: $MORPHRAY is not an executable morphray binary (build with cargo build --release)" >&2; exit 2; }
-command -v chromium >/dev/null || { apt-get update -qq && apt-get install -y -qq chromium; }
-mkdir -p "$CACHE" "$OUT/raw"
-if [ "$(node -p "try{require('$CACHE/node_modules/@niivue/niivue/package.json').version}catch(e){''}")" != "$NIIVUE_VERSION" ] \
-   || [ ! -d "$CACHE/node_modules/playwright-core" ] || [ ! -x "$CACHE/node_modules/.bin/esbuild" ]; then
-  [ -f "$CACHE/package.json" ] || echo '{"name":"morphray-niivue-bench","private":true}' > "$CACHE/package.json"
-  (cd "$CACHE" && npm install --no-audit --no-fund "@niivue/niivue@$NIIVUE_VERSION" \
-     "playwright-core@$PLAYWRIGHT_VERSION" "esbuild@$ESBUILD_VERSION")
-fi
-# Everything served lives in this run's own folder, so two runs (or two worktrees) never share a
-# served file, a port or a phantom.
-WORK=$(mktemp -d)
-WWW=$WORK/www
-mkdir -p "$WWW"
-echo "export { default } from '@niivue/niivue/webgl2'" > "$WORK/entry.mjs"
-NODE_PATH="$CACHE/node_modules" "$CACHE/node_modules/.bin/esbuild" "$WORK/entry.mjs" --bundle \
-   --format=esm --platform=browser --log-level=error --outfile="$WWW/niivue.bundle.js"
-ln -sfn "$HERE/niivue/page.html" "$WWW/page.html"
-(cd "$WWW" && exec python3 -m http.server "$PORT" --bind 127.0.0.1 >"$WORK/http.log" 2>&1) &
-HTTP_PID=$!
-trap 'kill $HTTP_PID 2>/dev/null; rm -rf "$WORK"' EXIT
+mkdir -p "$OUT/raw"
+niivue_install
+niivue_serve
+WORK=$NV_WORK
 "$MORPHRAY" phantom -o "$WORK/phantom.nii.gz" >/dev/null
-# morphray writes .nii.gz as several 1 MiB gzip members (parallel inflation); NiiVue 1.0.0-rc.9
-# inflates only the first member and rejects the truncated image ("infinite image"). Both
-# renderers get the same single-member copy (same header, slope 1 and intercept 0, and voxels).
-python3 - "$WORK/phantom.nii.gz" <<'PYEOF'
-import gzip, struct, sys
-b = bytearray(gzip.open(sys.argv[1]).read())
-b[112:120] = struct.pack("<ff", 1.0, 0.0)
-gzip.open(sys.argv[1], "wb", compresslevel=1).write(bytes(b))
-PYEOF
+niivue_single_gzip "$WORK/phantom.nii.gz"
 declare -A VOL=([mni152]=$MNI [phantom]=$WORK/phantom.nii.gz)
 [ -f "$REAL/chris_t1.nii.gz" ] && VOL[chris_t1]=$REAL/chris_t1.nii.gz
 [ -f "$REAL/T2w.nii.gz" ] && VOL[T2w]=$REAL/T2w.nii.gz
-for v in "${!VOL[@]}"; do ln -sfn "${VOL[$v]}" "$WWW/$v.nii.gz"; done
-sleep 1
-
-niivue() { # VOLNAME SIZE PNG [AZ EL] -> one JSON line on stdout
-  node "$HERE/niivue/driver.mjs" "$CACHE" "http://127.0.0.1:$PORT" "$1.nii.gz" "$2" "$FRAMES" \
-    "$NV_ANGLE" "$3" "${@:4}" 2>>"$OUT/raw/niivue-console.log"
-}
+for v in "${!VOL[@]}"; do niivue_add "$v" "${VOL[$v]}"; done
 echo "machine: $(uname -n), $(nproc) cores, $(date -u +%FT%TZ); chromium $(chromium --version | tail -1)" | tee "$OUT/raw/machine.txt"
 # APPEND=1 adds rounds to an earlier run's raw output (ROUNDS=0: only the pictures and the table).
 [ "${APPEND:-0}" = 1 ] || : > "$OUT/raw/niivue.jsonl"
@@ -91,7 +60,7 @@ for r in $(seq "$FIRST_ROUND" $((FIRST_ROUND + ROUNDS - 1))); do
       v=${pair%%:*} s=${pair#*:}
       trials=0; [ "$s" = "$COLD_SIZE" ] && trials=1
       echo "round $r: $v $s" >&2
-      niivue "$v" "$s" "$WORK/nv.png" | sed "s/^{/{\"round\":$r,\"name\":\"$v\",/" | tee -a "$OUT/raw/niivue.jsonl" | cut -c1-160
+      niivue_run "$v" "$s" "$WORK/nv.png" | sed "s/^{/{\"round\":$r,\"name\":\"$v\",/" | tee -a "$OUT/raw/niivue.jsonl" | cut -c1-160
       "$MORPHRAY" bench "${VOL[$v]}" --size "$s" --frames "$FRAMES" --repeat 1 --trials $trials \
         --shading on > "$OUT/raw/morphray-$v-$s-r$r.txt" 2>&1
       grep -E "^raymarch:|total \(spawn" "$OUT/raw/morphray-$v-$s-r$r.txt" | cut -c1-100
@@ -101,11 +70,12 @@ done
 for v in ${PICTURES-mni152 phantom chris_t1 T2w}; do
   [ -n "${VOL[$v]:-}" ] || continue
   echo "pictures: $v" >&2
-  niivue "$v" 500x500 "$WORK/$v-niivue.png" > "$OUT/raw/niivue-picture-$v.json"
+  niivue_run "$v" 500x500 "$WORK/$v-niivue.png" > "$OUT/raw/niivue-picture-$v.json"
   [ -f "$WORK/$v-niivue.png" ] || { echo "NiiVue could not show $v: $(cut -c1-200 "$OUT/raw/niivue-picture-$v.json")" >&2; continue; }
   "$MORPHRAY" render "${VOL[$v]}" -o "$WORK/$v-morphray.png" --size 500x500 \
     --projection orthographic --azimuth 250 --elevation 10 >/dev/null
-  "$PY" "$HERE/niivue/sheet.py" "$WORK/$v-niivue.png" "$WORK/$v-morphray.png" "$OUT/sheet-$v.png" \
-    "NiiVue $NIIVUE_VERSION (WebGL2, llvmpipe)" "morphray (Vulkan, lavapipe)"
+  "$PY" "$HERE/niivue/sheet.py" "$OUT/sheet-$v.png" \
+    "$WORK/$v-niivue.png" "NiiVue $NIIVUE_VERSION (WebGL2, llvmpipe)" \
+    "$WORK/$v-morphray.png" "morphray (Vulkan, lavapipe)"
 done
 "$PY" "$HERE/niivue/report.py" "$OUT/raw" | tee "$OUT/table.md"

@@ -3,6 +3,7 @@
 // the WebGL renderer string, the first rendered frame (from navigation start, and from browser
 // launch), the frame times, and writing NiiVue's canvas screenshot as PNG.
 // Usage: node driver.mjs CACHE_DIR BASE_URL VOL_URL WxH FRAMES ANGLE PNG_OUT [AZIMUTH ELEVATION]
+//   NV_PROBE=frame (environment): page.html waits for any drawn pixel, not the centre's.
 //   ANGLE: ANGLE's backend: swiftshader, gl-egl (Mesa llvmpipe through EGL), vulkan (lavapipe).
 import { createRequire } from 'node:module'
 import { mkdtempSync, rmSync, writeFileSync } from 'node:fs'
@@ -32,6 +33,7 @@ try {
   const tNav = performance.now()
   let q = `vol=${encodeURIComponent(vol)}&w=${w}&h=${h}&frames=${frames}`
   if (az !== undefined) q += `&azimuth=${az}&elevation=${el}`
+  if (process.env.NV_PROBE) q += `&probe=${process.env.NV_PROBE}`
   await page.goto(`${base}/page.html?${q}`)
   await page.waitForFunction(() => window.bench && window.bench.stage !== 'start', null,
     { timeout: 180000, polling: 100 })
