@@ -284,7 +284,7 @@ fn preset_list_names_every_preset_and_an_unknown_name_is_one_line() {
         .collect();
     assert_eq!(
         names,
-        ["mr", "ct", "angio", "post-contrast", "epi"],
+        ["mr", "ct", "angio", "post-contrast", "epi", "paper"],
         "{out}"
     );
     let o = morphray(&["peaks", "--preset", "bone"]);
@@ -292,7 +292,54 @@ fn preset_list_names_every_preset_and_an_unknown_name_is_one_line() {
     let err = String::from_utf8_lossy(&o.stderr);
     let first = err.lines().next().unwrap_or("");
     assert!(
-        first.contains("unknown preset `bone`; use mr, ct, angio, post-contrast, epi"),
+        first.contains("unknown preset `bone`; use mr, ct, angio, post-contrast, epi, paper"),
         "{err}"
+    );
+}
+
+#[test]
+fn the_paper_preset_is_the_translucent_headlight_look_of_before() {
+    // Issue 34: the stills became opaque and studio-lit; `--preset paper` keeps eq. 4's former
+    // look, exactly what the opacities and lighting flags of before give.
+    let dir = folder("paper");
+    let paper = dir.join("paper.png");
+    let by_hand = dir.join("by_hand.png");
+    ok(&[
+        "render",
+        "--preset",
+        "paper",
+        "--size",
+        "48x40",
+        "-o",
+        s(&paper),
+    ]);
+    ok(&[
+        "render",
+        "--size",
+        "48x40",
+        "-o",
+        s(&by_hand),
+        "--opacity",
+        "csf=0.2",
+        "--opacity",
+        "gm=0.3",
+        "--opacity",
+        "wm=0.9",
+        "--lighting",
+        "headlight",
+        "--depth-cues",
+        "off",
+    ]);
+    let (a, b) = (Picture::read(&paper), Picture::read(&by_hand));
+    assert_eq!(
+        a.pixels, b.pixels,
+        "--preset paper differs from the flags it stands for"
+    );
+    let default = dir.join("default.png");
+    ok(&["render", "--size", "48x40", "-o", s(&default)]);
+    assert_ne!(
+        Picture::read(&default).pixels,
+        a.pixels,
+        "the default look is not the paper's"
     );
 }

@@ -261,11 +261,19 @@ pub struct SceneArgs {
 impl SceneArgs {
     /// These arguments for a still (`render`, Python's `render()`): shaded, studio lighting and
     /// depth cues unless the arguments say otherwise. The one place the stills' look is chosen.
+    /// `--preset paper` keeps the paper's look: the headlight without cues.
     pub fn as_still(&self) -> SceneArgs {
+        let paper =
+            super::preset_arg::PresetArg::preset(self.preset) == Some(crate::scene::Preset::Paper);
+        let (lighting, cues) = if paper {
+            (LightingArg::Headlight, Switch::Off)
+        } else {
+            (LightingArg::Studio, Switch::On)
+        };
         SceneArgs {
             shading: Some(self.shading.unwrap_or(Switch::On)),
-            lighting: Some(self.lighting.unwrap_or(LightingArg::Studio)),
-            depth_cues: Some(self.depth_cues.unwrap_or(Switch::On)),
+            lighting: Some(self.lighting.unwrap_or(lighting)),
+            depth_cues: Some(self.depth_cues.unwrap_or(cues)),
             ..self.clone()
         }
     }

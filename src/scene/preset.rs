@@ -50,10 +50,14 @@ pub enum Preset {
     PostContrast,
     /// Low-resolution EPI, BOLD, ASL: a foreground window.
     Epi,
+    /// The paper's look: MR tissues with the translucent opacities of eq. 4's renderer before
+    /// issue 34 (CSF 0.20, GM 0.30, WM 0.90 per mm); stills then use the headlight without depth
+    /// cues unless asked (`SceneArgs::as_still`).
+    Paper,
 }
 
 /// The table: every preset with its one-line description, in `--preset list` order.
-pub const PRESETS: [(Preset, &str); 5] = [
+pub const PRESETS: [(Preset, &str); 6] = [
     (
         Preset::Mr,
         "MR tissues (T1, T2, PD, FLAIR): CSF, GM and WM from the fitted classes (alias: brain)",
@@ -74,6 +78,17 @@ pub const PRESETS: [(Preset, &str); 5] = [
         Preset::Epi,
         "EPI, BOLD, ASL: one translucent foreground window on the mean frame of a 4-D series",
     ),
+    (
+        Preset::Paper,
+        "the paper's look: translucent tissues (CSF 0.2, GM 0.3, WM 0.9), headlight, no cues",
+    ),
+];
+
+/// The paper preset's opacities per mm (CSF, GM, WM): morphray's defaults before issue 34.
+pub const PAPER_OPACITIES: [(TissueClass, f32); 3] = [
+    (TissueClass::Csf, 0.20),
+    (TissueClass::Gm, 0.30),
+    (TissueClass::Wm, 0.90),
 ];
 
 /// Hounsfield bands of the CT preset: (slot, lo, hi, visible, colour, opacity).
@@ -113,12 +128,13 @@ const CT_FRACTIONS: [(f64, f64); 4] = [(0.0, 0.15), (0.15, 0.45), (0.45, 0.75), 
 
 impl Preset {
     /// Every preset, in table order.
-    pub const ALL: [Preset; 5] = [
+    pub const ALL: [Preset; 6] = [
         Preset::Mr,
         Preset::Ct,
         Preset::Angio,
         Preset::PostContrast,
         Preset::Epi,
+        Preset::Paper,
     ];
 
     /// Name as typed on the command line and written in the outputs.
@@ -129,6 +145,7 @@ impl Preset {
             Preset::Angio => "angio",
             Preset::PostContrast => "post-contrast",
             Preset::Epi => "epi",
+            Preset::Paper => "paper",
         }
     }
 
@@ -149,6 +166,7 @@ impl Preset {
             "angio" | "tof" | "cta" => Some(Preset::Angio),
             "post-contrast" | "postcontrast" | "gd" => Some(Preset::PostContrast),
             "epi" | "bold" | "asl" => Some(Preset::Epi),
+            "paper" => Some(Preset::Paper),
             _ => None,
         }
     }
@@ -234,6 +252,11 @@ impl Preset {
     pub fn apply(self, classification: &mut Classification, report: &TissueReport) {
         match self {
             Preset::Mr => {}
+            Preset::Paper => {
+                for (tissue, opacity) in PAPER_OPACITIES {
+                    classification.style_mut(tissue).opacity = opacity;
+                }
+            }
             Preset::PostContrast => {
                 let band = classification.style(TissueClass::Pathology).window;
                 let band = band.or_else(|| Some(top_band(report, 0.8)));
