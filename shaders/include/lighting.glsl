@@ -8,13 +8,15 @@
 //
 // DEPTH_CUES: ambient occlusion and a soft shadow toward the key light, evaluated once per ray at
 // the visible surface (the sample where the accumulated opacity first reaches CUE_SURFACE_ALPHA
-// = 0.2: at 0.5 a ray that enters a gently rising edge is millimetres deep, and the cues drew
-// iso-depth rings), not per sample: 14 fetches per pixel instead of 12 per classified sample.
+// = 0.05: at 0.5 a ray that enters a gently rising edge is millimetres deep and the cues drew
+// iso-depth rings; at 0.2 a few pixels' points still lay inside the tissue and their occlusion
+// went black, a speckle on the phantom's gyral crowns), not per sample: 14 fetches per pixel instead of 12 per classified sample.
 // Both integrate the classified opacity f(v) (per mm, the windows only: matter occludes whether
 // or not it is on an edge; scaled by CUE_EXTINCTION) along a short ray from CUE_BACKOFF units back
 // along the view ray, at the middle of equal intervals (jittered offsets only added noise): the
 // occlusion along the normal's side with less matter (an obscurance along the normal: a sulcus's
-// opposite wall darkens its floor), the shadow toward the key light. Outside the volume and in
+// opposite wall darkens its floor; the ray goes halfway toward the viewer), the shadow toward the
+// key light. Outside the volume and in
 // cut-away regions nothing occludes.
 #ifndef MORPHRAY_LIGHTING_GLSL
 #define MORPHRAY_LIGHTING_GLSL
@@ -26,7 +28,7 @@ const uint SHADOW_SAMPLES = 8u;
 const float CUE_BACKOFF = 1.5;
 const float CUE_SIDE_PROBE = 1.5;
 const float CUE_EXTINCTION = 0.5;
-const float CUE_SURFACE_ALPHA = 0.2;
+const float CUE_SURFACE_ALPHA = 0.05;
 
 // x^32 by five squarings.
 float pow32(float x) {
@@ -89,7 +91,13 @@ float surface_cues(vec3 p, vec3 normal, vec3 view_direction) {
         vec3 n_index = to_index * n * (CUE_SIDE_PROBE * unit);
         outward = cue_density(p + n_index) <= cue_density(p - n_index) ? n : -n;
     }
-    float occlusion = cue_transmittance(origin, to_index * outward, params.cues.z, OCCLUSION_SAMPLES);
+    // Halfway between the open side and the viewer: along the normal alone, a crown's noisy
+    // normal sent some pixels' rays into the tissue (a speckle of black pixels); toward the
+    // viewer the ray came through empty space, so the halfway ray only meets what overhangs.
+    vec3 halfway_open = outward - view_direction;
+    float halfway_len2 = dot(halfway_open, halfway_open);
+    vec3 occlusion_direction = halfway_len2 > 1e-6 ? halfway_open * inversesqrt(halfway_len2) : -view_direction;
+    float occlusion = cue_transmittance(origin, to_index * occlusion_direction, params.cues.z, OCCLUSION_SAMPLES);
     float shadow = cue_transmittance(origin, to_index * params.key_light.xyz, params.cues.w, SHADOW_SAMPLES);
     return mix(1.0, occlusion, params.cues.x) * mix(1.0, shadow, params.cues.y);
 }

@@ -9,13 +9,14 @@
 //!   keeps its look and the shadows fall the same way in every frame.
 //! - **Depth cues once per ray, at the visible surface**: ambient occlusion along the normal and a
 //!   soft shadow toward the key light, each integrating the classified opacity f(v) over a short
-//!   ray ([`DepthCues`]), evaluated at the sample where the accumulated opacity first reaches 0.2
+//!   ray ([`DepthCues`]), evaluated at the sample where the accumulated opacity first reaches 0.05
 //!   and multiplying the ray's colour. Per sample they would cost 12 fetches for every
 //!   classified sample; per ray they cost 14 per pixel (2 pick the normal's open side), and
-//!   they are compiled out when off (free). Tuned by eye on MNI152 (lavapipe, 384x384): at 0.5
-//!   the surface point of a ray entering a gentle edge lay millimetres deep and the cues drew
-//!   iso-depth rings; without the 1.5 mm back-off and the open-side test the sulcal walls
-//!   speckled black. An approximation of global illumination, not a model of it: a cue darkens, it never
+//!   they are compiled out when off (free). Tuned by eye on MNI152 and the phantom (lavapipe,
+//!   384 and 512 px): at 0.5 the surface point of a ray entering a gentle edge lay millimetres
+//!   deep and the cues drew iso-depth rings, at 0.2 a few points still lay inside the tissue
+//!   (black pixels on the phantom's gyral crowns); without the back-off and the open-side test
+//!   the sulcal walls speckled black. An approximation of global illumination, not a model of it: a cue darkens, it never
 //!   brightens, and what lies behind the surface in a translucent ray is darkened with it.
 //! - **The cut-away is a clip plane through a point, turned 45 degrees from the view toward the
 //!   image's right** ([`Cutaway`]): it removes the near left quarter, so the cut face and the

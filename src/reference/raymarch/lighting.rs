@@ -5,7 +5,8 @@
 //! headlight fill 0.3 |n . v|, key light 0.55 max(n . l, 0), Blinn highlight 0.2 (n . h)^32,
 //! outline 1 - s (1 - |n . v|)^2, clamped to 1; the cues' transmittance
 //! exp(-CUE_EXTINCTION sum f dl) over samples at (j + 0.5) dl, j < count, from a point
-//! CUE_BACKOFF units back along the ray, the occlusion along the normal's side with less matter
+//! CUE_BACKOFF units back along the ray, the occlusion halfway between the viewer and the normal's
+//! side with less matter
 //! (probed CUE_SIDE_PROBE units away; a unit is max(1 mm, the finest voxel side)).
 
 use super::ReferenceRaymarch;
@@ -23,7 +24,7 @@ pub const CUE_SIDE_PROBE: f64 = 1.5;
 /// The density's scale in the cues' transmittance (CUE_EXTINCTION).
 pub const CUE_EXTINCTION: f64 = 0.5;
 /// The accumulated opacity at which a ray's surface is taken (CUE_SURFACE_ALPHA).
-pub const CUE_SURFACE_ALPHA: f64 = 0.2;
+pub const CUE_SURFACE_ALPHA: f64 = 0.05;
 
 /// The studio model of one sample: `key_light` is the unit world direction toward the key light,
 /// `silhouette` the outline strength, `view_direction` the unit ray direction.
@@ -104,9 +105,16 @@ impl ReferenceRaymarch<'_> {
             };
         }
         let cues = light.cues;
+        // Halfway between the open side and the viewer, as the shader.
+        let halfway_open = outward - view_direction;
+        let occlusion_direction = if halfway_open.length_squared() > 1e-6 {
+            halfway_open.normalize()
+        } else {
+            -view_direction
+        };
         let occlusion = self.cue_transmittance(
             origin,
-            to_index * outward,
+            to_index * occlusion_direction,
             f64::from(cues.occlusion_reach_mm),
             OCCLUSION_SAMPLES,
         );
