@@ -48,6 +48,10 @@ fn bright(p: [u8; 3]) -> bool {
     p[0] > 170 && p[1] > 130
 }
 
+/// The headlight without depth cues: the bone tests below count bright pixels, which the
+/// stills' studio lighting (key light, shadows) moves around without changing what is shown.
+const HEADLIGHT: [&str; 4] = ["--lighting", "headlight", "--depth-cues", "off"];
+
 #[test]
 fn the_head_phantom_as_ct_shows_its_skull_with_the_automatic_ct_preset() {
     let dir = folder("ct");
@@ -63,7 +67,11 @@ fn the_head_phantom_as_ct_shows_its_skull_with_the_automatic_ct_preset() {
         s(&nii),
     ]);
     let png = dir.join("ct.png");
-    let out = ok(&["render", s(&nii), "-o", s(&png), "--size", "96x96"]);
+    let out = ok(&[
+        &["render", s(&nii), "-o", s(&png), "--size", "96x96"][..],
+        &HEADLIGHT,
+    ]
+    .concat());
     assert!(out.contains("preset: ct (CT in Hounsfield units"), "{out}");
     // Brain extraction is for MR heads: the CT's line says it did not run, and why.
     assert!(
@@ -73,9 +81,7 @@ fn the_head_phantom_as_ct_shows_its_skull_with_the_automatic_ct_preset() {
     let ct = Picture::read(&png);
     // The skull encloses the head: the middle of the picture is bone seen from the front.
     let centre = ct.find(Some([40, 40, 16, 16]), bright).len();
-    // 168 with the stills' studio lighting (this machine, lavapipe; 200+ with the headlight):
-    // the key light leaves the bone's centre a little darker than the bright predicate.
-    assert!(centre > 120, "only {centre} of 256 centre pixels show bone");
+    assert!(centre > 200, "only {centre} of 256 centre pixels show bone");
     // The provenance names the preset.
     let text = std::fs::read(&png).unwrap();
     let text = String::from_utf8_lossy(&text);
@@ -83,19 +89,25 @@ fn the_head_phantom_as_ct_shows_its_skull_with_the_automatic_ct_preset() {
         text.contains("\"preset\":\"ct\""),
         "no preset in the provenance"
     );
-    // By hand, the MR look of the same file shows no skull in the middle of the picture.
+    // By hand, the MR look of the same file shows no skull in the middle of the picture: the
+    // paper's translucent MR tissues (with today's opaque GM and WM, a CT's bone in the WM window
+    // is as bright as the CT preset's bone, and this predicate cannot tell them apart).
     let mr_png = dir.join("mr.png");
     let out = ok(&[
-        "render",
-        s(&nii),
-        "-o",
-        s(&mr_png),
-        "--size",
-        "96x96",
-        "--preset",
-        "brain",
-    ]);
-    assert!(out.contains("preset: mr"), "{out}");
+        &[
+            "render",
+            s(&nii),
+            "-o",
+            s(&mr_png),
+            "--size",
+            "96x96",
+            "--preset",
+            "paper",
+        ][..],
+        &HEADLIGHT,
+    ]
+    .concat());
+    assert!(out.contains("preset: paper"), "{out}");
     let mr = Picture::read(&mr_png)
         .find(Some([40, 40, 16, 16]), bright)
         .len();
@@ -103,15 +115,19 @@ fn the_head_phantom_as_ct_shows_its_skull_with_the_automatic_ct_preset() {
     // With bone hidden (only the CT preset's skin band) the middle goes dark: it was the bone.
     let skin_png = dir.join("skin.png");
     ok(&[
-        "render",
-        s(&nii),
-        "-o",
-        s(&skin_png),
-        "--size",
-        "96x96",
-        "--tissues",
-        "csf",
-    ]);
+        &[
+            "render",
+            s(&nii),
+            "-o",
+            s(&skin_png),
+            "--size",
+            "96x96",
+            "--tissues",
+            "csf",
+        ][..],
+        &HEADLIGHT,
+    ]
+    .concat());
     let skin = Picture::read(&skin_png)
         .find(Some([40, 40, 16, 16]), bright)
         .len();

@@ -150,13 +150,15 @@ fn brain_and_head_switches_change_the_picture_the_outline_and_only_recompute_whe
     let after_off = &log[to_off.len()..];
     let at_auto = before(after_off, "brain auto").len();
     assert!(
-        after_off[..at_auto].contains("requesting derived volumes: gradient magnitude volume\n")
+        after_off[..at_auto]
+            .contains("requesting derived volumes: gradient magnitude + normals volume\n")
             && after_off[..at_auto].contains("brain mask not in use"),
         "{log}"
     );
     assert!(
-        after_off[at_auto..]
-            .contains("requesting derived volumes: gradient magnitude volume + brain mask"),
+        after_off[at_auto..].contains(
+            "requesting derived volumes: gradient magnitude + normals volume + brain mask"
+        ),
         "{log}"
     );
     assert_eq!(

@@ -46,6 +46,12 @@ impl Switch {
     }
 }
 
+impl From<bool> for Switch {
+    fn from(on: bool) -> Switch {
+        if on { Switch::On } else { Switch::Off }
+    }
+}
+
 /// Projection.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
@@ -181,25 +187,25 @@ pub struct SceneArgs {
     /// Emphasizes thin, folded structures; computes the Hessian.
     #[arg(long, value_enum, default_value_t = Switch::Off)]
     pub curvature: Switch,
-    /// Phong shading with gradient normals: on by default for `render`, off for the others
+    /// Phong shading with gradient normals: on for `render` and `view`, off for the measuring ones
     ///
-    /// A headlight with world-space gradient normals. A still is a shaded surface, at about 11 %
-    /// of a frame on the H100 (BENCHMARKS.md); the interactive and measuring commands leave it
-    /// off unless asked.
+    /// Lighting with world-space gradient normals. A still and the viewer's first view are a
+    /// shaded surface, at about 11 % of a frame on the H100 (BENCHMARKS.md); the measuring
+    /// commands (bench, accuracy) leave it off unless asked.
     #[arg(long, value_enum)]
     pub shading: Option<Switch>,
-    /// Lighting: studio (stills: key light, outlines, depth cues) or headlight (interactive)
+    /// Lighting: studio (render, view: key light, outlines, depth cues) or headlight (cheapest)
     ///
     /// `studio`: a key light from the upper left with a highlight, a headlight fill, dark
-    /// outlines where a surface turns away, and (with --depth-cues, on for stills) ambient
-    /// occlusion and a soft shadow at the visible surface. `headlight`: the paper renderer's
-    /// Phong with the light at the eye, the cheapest (the viewer while you interact).
+    /// outlines where a surface turns away, and (with --depth-cues, on for render and view)
+    /// ambient occlusion and a soft shadow at the visible surface. `headlight`: the paper
+    /// renderer's Phong with the light at the eye, the cheapest (`--preset paper` uses it).
     /// Costs: BENCHMARKS.md "Lighting and depth cues".
     #[arg(long, value_enum)]
     pub lighting: Option<LightingArg>,
-    /// Ambient occlusion and a soft shadow toward the key light: on for stills, off for the others
+    /// Ambient occlusion and a soft shadow toward the key light: on for render and view
     ///
-    /// Evaluated once per pixel at the visible surface (12 fetches), compiled out when off.
+    /// Evaluated once per pixel at the visible surface (14 fetches), compiled out when off.
     #[arg(long, value_enum, hide_short_help = true)]
     pub depth_cues: Option<Switch>,
     /// Strengths 0..1 of the occlusion, the shadow and the outlines [default: 0.6,0.4,0.5]
@@ -259,19 +265,25 @@ pub struct SceneArgs {
 }
 
 impl SceneArgs {
-    /// These arguments for a still (`render`, Python's `render()`): shaded, studio lighting and
-    /// depth cues unless the arguments say otherwise. The one place the stills' look is chosen.
+    /// These arguments for a still (`render`, `view`'s first view, Python's `render()`): the
+    /// look of `scene::lighting::still_effects` (shaded, studio lighting, depth cues) where the
+    /// arguments say nothing.
     /// `--preset paper` keeps the paper's look: the headlight without cues.
     pub fn as_still(&self) -> SceneArgs {
         let paper =
             super::preset_arg::PresetArg::preset(self.preset) == Some(crate::scene::Preset::Paper);
+        let still = crate::scene::lighting::still_effects(crate::scene::Effects::default());
         let (lighting, cues) = if paper {
             (LightingArg::Headlight, Switch::Off)
         } else {
-            (LightingArg::Studio, Switch::On)
+            let model = match still.lighting.model {
+                crate::scene::LightModel::Studio => LightingArg::Studio,
+                crate::scene::LightModel::Headlight => LightingArg::Headlight,
+            };
+            (model, Switch::from(still.lighting.depth_cues))
         };
         SceneArgs {
-            shading: Some(self.shading.unwrap_or(Switch::On)),
+            shading: Some(self.shading.unwrap_or(Switch::from(still.shading))),
             lighting: Some(self.lighting.unwrap_or(lighting)),
             depth_cues: Some(self.depth_cues.unwrap_or(cues)),
             ..self.clone()

@@ -75,7 +75,8 @@ pub fn run(args: &ViewArgs, global: &super::GlobalOptions) -> Result<(), super::
     let config = ViewerConfig {
         source: crate::volume::source::VolumeSource::from_paths(&args.file),
         series: super::source::read_options(0, false).series,
-        recipe: super::render::recipe_from_args(&args.scene)?,
+        // The first view is a still's look (shaded, studio lighting, depth cues), as `render`'s.
+        recipe: super::render::recipe_from_args(&args.scene.as_still())?,
         size: [width, height],
         vsync: !args.no_vsync,
         frames: args.frames,

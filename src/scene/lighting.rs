@@ -64,6 +64,15 @@ impl Lighting {
     };
 }
 
+/// The look of a still, stated once for every client (`render`, the viewer's first view,
+/// Python's `render()` and thumbnail, batch thumbnails): shaded, studio lighting, depth cues.
+/// The command line's `SceneArgs::as_still` fills unset options from it.
+pub fn still_effects(mut effects: super::Effects) -> super::Effects {
+    effects.shading = true;
+    effects.lighting = Lighting::STILL;
+    effects
+}
+
 /// Strengths and reaches of the studio outline and the depth cues (uniforms only).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct DepthCues {

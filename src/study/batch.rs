@@ -155,12 +155,14 @@ impl Worker {
     }
 }
 
-/// The scene of the thumbnails (the command line's default DVR: the brain of a head scan, or
-/// with `head` the whole head), or for peaks only a MIP scene: it needs no derived volumes, so
-/// no derivative pass runs on a scan that is never rendered.
+/// The scene of the thumbnails (a still as `render` makes it, `scene::lighting::still_effects`:
+/// the brain of a head scan, or with `head` the whole head), or for peaks only a MIP scene: it
+/// needs no derived volumes, so no derivative pass runs on a scan that is never rendered.
 fn recipe(thumbnails: bool, head: bool) -> SceneRecipe {
     let mut recipe = SceneRecipe::default();
-    if !thumbnails {
+    if thumbnails {
+        recipe.effects = crate::scene::lighting::still_effects(recipe.effects);
+    } else {
         recipe.effects.mode = crate::scene::RenderMode::Mip;
     }
     if head {
