@@ -8,13 +8,8 @@
 #   strip .gpu/morphray; cp ../shared/data/real/{chris_t1,T2w}.nii.gz .gpu/
 # then run(command="bash benches/device-brain.sh", carry=[".gl", ".gpu"]).
 set -uo pipefail
-for f in .gl/lib{vulkan1,egl1,glvnd0,opengl0,gl1,glx0,gles2}_*.deb; do dpkg -x "$f" /; done
-ldconfig
-export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
-M=.gpu/morphray
-OUT=${OUT:-/tmp/morphray-out}
-mkdir -p "$OUT"
-V=$(mktemp -d)
+# shellcheck source=benches/device-gpu-env.sh
+source benches/device-gpu-env.sh
 nvidia-smi --query-gpu=name,driver_version,clocks.sm,clocks.mem --format=csv,noheader | tee "$OUT/smi.txt"
 $M phantom -o "$V/phantom.nii.gz" > /dev/null
 bench() { # NAME FILE ARGS...

@@ -7,13 +7,8 @@
 #   strip .gpu/morphray; cp ../shared/data/mni152_t1_2009a.nii.gz .gpu/mni152.nii.gz
 # then run(command="bash benches/device-lean.sh", carry=[".gl", ".gpu"]).
 set -uo pipefail
-for f in .gl/lib{vulkan1,egl1,glvnd0,opengl0,gl1,glx0,gles2}_*.deb; do dpkg -x "$f" /; done
-ldconfig
-export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
-M=.gpu/morphray
-OUT=${OUT:-/tmp/morphray-out}
-mkdir -p "$OUT"
-V=$(mktemp -d)
+# shellcheck source=benches/device-gpu-env.sh
+source benches/device-gpu-env.sh
 nvidia-smi --query-gpu=name,driver_version --format=csv,noheader | tee "$OUT/lean.txt"
 bench() { # NAME FILE ARGS...: one line with the raymarch's frame and sample rate
     local name=$1 file=$2

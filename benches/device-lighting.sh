@@ -7,14 +7,9 @@
 #   strip .gpu/morphray; cp ../shared/data/mni152_t1_2009a.nii.gz .gpu/mni152.nii.gz
 # then run(command="bash benches/device-lighting.sh", carry=[".gl", ".gpu"]).
 set -uo pipefail
-for f in .gl/lib{vulkan1,egl1,glvnd0,opengl0,gl1,glx0,gles2}_*.deb; do dpkg -x "$f" /; done
-ldconfig
-export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
-M=.gpu/morphray
-OUT=${OUT:-/tmp/morphray-out}
-mkdir -p "$OUT"
+# shellcheck source=benches/device-gpu-env.sh
+source benches/device-gpu-env.sh
 nvidia-smi --query-gpu=name,driver_version --format=csv,noheader | tee "$OUT/lighting.txt"
-V=$(mktemp -d)
 $M phantom -o "$V/phantom.nii.gz" > /dev/null
 SIZE=1920x1080 FRAMES=50 LOG="$OUT/lighting.txt" M=$M \
     bash benches/lighting-rounds.sh .gpu/mni152.nii.gz "$V/phantom.nii.gz"
