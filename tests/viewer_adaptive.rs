@@ -5,6 +5,8 @@
 //! coarse step's picture as bright as the fine one (no brightness popping). Fails (never skips)
 //! without a Vulkan device.
 
+mod common;
+
 use ash::vk;
 use morphray::analysis::analyze;
 use morphray::engine::{Engine, EngineConfig};
@@ -58,18 +60,7 @@ fn view(volume: &Path, script: &Path, budget: &str) -> String {
         .env("MORPHRAY_VALIDATION", "required")
         .output()
         .expect("morphray runs");
-    let log = String::from_utf8_lossy(&o.stdout).into_owned();
-    let stderr = String::from_utf8_lossy(&o.stderr);
-    assert!(
-        !stderr.contains("no Vulkan") && !stderr.contains("found no device"),
-        "this test needs a Vulkan device (Debian: apt-get install mesa-vulkan-drivers libvulkan1 vulkan-validationlayers): {stderr}"
-    );
-    assert!(
-        o.status.success() && log.contains("validation layer: 0 error(s)"),
-        "exit {:?}\nstdout:\n{log}\nstderr:\n{stderr}",
-        o.status.code()
-    );
-    log
+    common::viewer::checked_log(&o)
 }
 
 /// The quality word of each frame line, in order.

@@ -2,7 +2,7 @@
 //! log returned. Fails (never skips) without a Vulkan device or with a validation error.
 
 use std::path::Path;
-use std::process::Command;
+use std::process::{Command, Output};
 
 /// Runs `morphray view --offscreen VOLUME --layout 3d --size SIZE --frames 2 --script` with
 /// `script` (written into `dir`) and returns the log (stdout).
@@ -19,6 +19,12 @@ pub fn offscreen(volume: &Path, dir: &Path, size: &str, script: &str) -> String 
         .env("MORPHRAY_VALIDATION", "required")
         .output()
         .expect("morphray runs");
+    checked_log(&o)
+}
+
+/// The log (stdout) of a finished `morphray view` run, after asserting that it found a Vulkan
+/// device (else it names what to install), exited 0 and reported no validation error.
+pub fn checked_log(o: &Output) -> String {
     let log = String::from_utf8_lossy(&o.stdout).into_owned();
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(
