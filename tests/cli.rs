@@ -507,9 +507,19 @@ fn a_tiny_accuracy_study_reports_every_knob_with_a_frontier() {
         "early termination",
         "empty-space skipping",
         "storage format",
+        "lighting",
     ] {
         assert!(knobs.contains(knob), "knob {knob} missing: {knobs:?}");
     }
+    // The lighting settings are compared within their own group (the stills' look as truth),
+    // and the frontier is drawn there too.
+    let lit: Vec<&serde_json::Value> = settings
+        .iter()
+        .filter(|s| s["group"] == "studio + cues")
+        .collect();
+    assert_eq!(lit.len(), 5, "{lit:?}");
+    assert!(lit.iter().all(|s| s["knob"] == "lighting"), "{lit:?}");
+    assert!(lit.iter().any(|s| s["frontier"] == true), "{lit:?}");
     let measured: Vec<&serde_json::Value> =
         settings.iter().filter(|s| s["skipped"].is_null()).collect();
     assert!(measured.len() >= 18, "most settings run on this device");

@@ -6,10 +6,12 @@
 //! - Truth is the f64 pipeline end to end: I_norm from the normalization twin, derivatives from
 //!   the derivative twin, the reference raymarcher at a step of 0.125 voxel with trilinear
 //!   sampling, exact opacity correction and no early termination. One reference image per view
-//!   and scene definition (curvature off, and on), computed once and reused by every setting.
-//! - Each setting changes one knob from the render/view default; the curvature knobs are compared
-//!   with the curvature-on reference, everything else with the curvature-off one, and the
-//!   frontier is computed within each of the two groups, counting differences below the
+//!   and scene definition (curvature off; on; the stills' studio lighting with depth cues),
+//!   computed once and reused by every setting.
+//! - Each setting changes one knob from the render/view default within a group
+//!   (`accuracy_settings::Group`): the curvature knobs are compared with the curvature-on
+//!   reference, the lighting settings with the lit one, everything else with the curvature-off
+//!   one, and the frontier is computed within each group, counting differences below the
 //!   measurement resolution as ties: 1 % in error; in time 5 %, or the two settings' spreads
 //!   (half their rounds' 10th..90th percentile range) together when that is larger.
 //! - Time is the median over `--frames` rounds of the mean GPU raymarch time (timestamps) of the
@@ -28,7 +30,7 @@
 //!   samples onto an Intel Xe-LP (passes/cost.rs), labelled as a model.
 
 use super::accuracy_report::{AccuracyReport, Recommendation, SettingResult, print_table};
-use super::accuracy_settings::settings;
+use super::accuracy_settings::{Group, settings};
 use super::args::AccuracyArgs;
 use super::output::{json, print_line, print_warnings};
 use super::session;
@@ -210,8 +212,9 @@ pub fn run(args: &AccuracyArgs, global: &super::GlobalOptions) -> Result<(), Err
     let geometry = VolumeGeometry::new(dims, volume.orientation.affine)
         .map_err(|e| Error::Usage(e.to_string()))?;
     eprintln!(
-        "accuracy: computing the f64 reference (normalization, derivatives, {} views x 2 definitions)",
-        views.len()
+        "accuracy: computing the f64 reference (normalization, derivatives, {} views x {} definitions)",
+        views.len(),
+        Group::ALL.len()
     );
 
     // Truth: f64 end to end.
@@ -231,11 +234,11 @@ pub fn run(args: &AccuracyArgs, global: &super::GlobalOptions) -> Result<(), Err
         max_magnitude: gmax,
         tau: DEFAULT_TAU,
     };
-    let mut references: [Vec<Vec<[f64; 4]>>; 2] = [Vec::new(), Vec::new()];
-    for (group, curvature_on) in [(0usize, false), (1, true)] {
+    let mut references: [Vec<Vec<[f64; 4]>>; Group::ALL.len()] = Default::default();
+    for (group, definition) in Group::ALL.into_iter().enumerate() {
         for &(azimuth, elevation) in views {
             let mut scene = base;
-            scene.effects.curvature = curvature_on;
+            definition.define(&mut scene);
             scene.camera.azimuth_deg = azimuth;
             scene.camera.elevation_deg = elevation;
             scene.step_voxels = REFERENCE_STEP;
@@ -269,13 +272,10 @@ pub fn run(args: &AccuracyArgs, global: &super::GlobalOptions) -> Result<(), Err
     let mut results = Vec::new();
     for (index, setting) in all.iter().enumerate() {
         eprintln!("accuracy: [{}/{}] {}", index + 1, all.len(), setting.name);
-        let group = setting.curvature as usize;
-        let group_name = if setting.curvature {
-            "curvature on"
-        } else {
-            "curvature off"
-        };
+        let group = setting.group as usize;
+        let group_name = setting.group.name();
         let mut scene = base;
+        setting.group.define(&mut scene);
         (setting.edit)(&mut scene);
         let mut result = SettingResult {
             name: setting.name,
@@ -490,7 +490,7 @@ pub fn run(args: &AccuracyArgs, global: &super::GlobalOptions) -> Result<(), Err
     }
 
     // Frontiers within each group, on measured and on projected time.
-    for group in ["curvature off", "curvature on"] {
+    for group in Group::ALL.map(Group::name) {
         let members: Vec<usize> = (0..results.len())
             .filter(|&i| {
                 results[i].group == group

@@ -1,6 +1,10 @@
 //! The knob settings `morphray accuracy` renders: each changes one knob from the render/view
-//! default (see the study's method in `accuracy.rs`).
+//! default (see the study's method in `accuracy.rs`), within one of three groups whose truth is
+//! rendered with the group's own definition: the default look, curvature on, and the stills'
+//! lighting (studio model with depth cues, issue 34: what the cues cost and what a coarser step
+//! does to them).
 
+use crate::scene::lighting::{LightModel, Lighting, still_effects};
 use crate::scene::{
     ClassificationLookup, CurvatureSource, DerivedPrecision, GradientFilter, GradientSource,
     Interpolation, OpacityCorrection, Scene,
@@ -9,11 +13,46 @@ use ash::vk;
 
 pub(super) type Edit = fn(&mut Scene);
 
+/// The scene definition a setting is compared within: its truth is the f64 reference of the
+/// group's scene, and the frontier is drawn per group.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Group {
+    /// The render/view default.
+    Plain,
+    /// Curvature modulation on.
+    Curvature,
+    /// The stills' look (`still_effects`: shaded, studio lighting, depth cues).
+    Lit,
+}
+
+impl Group {
+    pub(super) const ALL: [Group; 3] = [Group::Plain, Group::Curvature, Group::Lit];
+
+    /// The group's name in the table, the JSON and the plot.
+    pub(super) fn name(self) -> &'static str {
+        match self {
+            Group::Plain => "curvature off",
+            Group::Curvature => "curvature on",
+            Group::Lit => "studio + cues",
+        }
+    }
+
+    /// The group's definition applied to the study's base scene (the reference and every
+    /// setting of the group start from it).
+    pub(super) fn define(self, scene: &mut Scene) {
+        match self {
+            Group::Plain => {}
+            Group::Curvature => scene.effects.curvature = true,
+            Group::Lit => scene.effects = still_effects(scene.effects),
+        }
+    }
+}
+
 /// One knob setting.
 pub(super) struct Setting {
     pub(super) name: &'static str,
     pub(super) knob: &'static str,
-    pub(super) curvature: bool,
+    pub(super) group: Group,
     pub(super) format: vk::Format,
     pub(super) edit: Edit,
 }
@@ -23,7 +62,7 @@ pub(super) fn settings() -> Vec<Setting> {
     let s = |name, knob, edit: Edit| Setting {
         name,
         knob,
-        curvature: false,
+        group: Group::Plain,
         format: r16,
         edit,
     };
@@ -88,7 +127,7 @@ pub(super) fn settings() -> Vec<Setting> {
         v.push(Setting {
             name,
             knob: "storage format",
-            curvature: false,
+            group: Group::Plain,
             format,
             edit: |_| {},
         });
@@ -98,7 +137,7 @@ pub(super) fn settings() -> Vec<Setting> {
     v.push(Setting {
         name: "step 0.125, I_norm R8",
         knob: "storage format at step 0.125",
-        curvature: false,
+        group: Group::Plain,
         format: vk::Format::R8_UNORM,
         edit: |x| x.step_voxels = 0.125,
     });
@@ -113,7 +152,7 @@ pub(super) fn settings() -> Vec<Setting> {
     let c = |name, edit: Edit| Setting {
         name,
         knob: "curvature",
-        curvature: true,
+        group: Group::Curvature,
         format: r16,
         edit,
     };
@@ -130,7 +169,35 @@ pub(super) fn settings() -> Vec<Setting> {
         x.effects.curvature = true;
         x.effects.quality.derived_precision = DerivedPrecision::F32;
     }));
+    v.extend(lit_settings());
     v
+}
+
+/// The stills' lighting (issue 34 item 2): the depth cues are evaluated per frame at each ray's
+/// surface (lighting.glsl); these settings give their error against the f64 truth at the fine
+/// step, what a coarser step does to them, and what switching them off saves and changes.
+fn lit_settings() -> Vec<Setting> {
+    let l = |name, edit: Edit| Setting {
+        name,
+        knob: "lighting",
+        group: Group::Lit,
+        format: vk::Format::R16_UNORM,
+        edit,
+    };
+    vec![
+        l("studio + depth cues", |_| {}),
+        l("studio + depth cues, step 0.25", |x| x.step_voxels = 0.25),
+        l("studio + depth cues, step 1", |x| x.step_voxels = 1.0),
+        l("studio, depth cues off", |x| {
+            x.effects.lighting.depth_cues = false
+        }),
+        l("headlight, depth cues off", |x| {
+            x.effects.lighting = Lighting {
+                model: LightModel::Headlight,
+                depth_cues: false,
+            }
+        }),
+    ]
 }
 
 /// Long steps of `factor` lattice steps in bricks whose opacity bound is below `threshold_e4`
