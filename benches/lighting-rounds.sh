@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The rounds of the lighting benchmark (issue 34), shared by benches/device-lighting.sh (H200)
-# and benches/lavapipe-lighting.sh: for each volume given, `morphray bench` of five looks
+# and benches/lavapipe-lighting.sh: for each volume given, `morphray bench` of seven looks
 # alternated in one order per round, 3 rounds; one line per run with the raymarch's frame.
 # Environment: M (the binary), SIZE, FRAMES, LOG (appended to).
 set -uo pipefail
@@ -12,6 +12,8 @@ looks=(
     "studio+cues|--lighting studio --depth-cues on"
     "headlight+cues|--lighting headlight --depth-cues on"
     "cutaway|--lighting studio --depth-cues on --cutaway --azimuth 40 --elevation 25"
+    "matcap|--lighting matcap --depth-cues off"
+    "matcap+cues|--lighting matcap --depth-cues on"
 )
 for round in 1 2 3; do
     for file in "$@"; do

@@ -43,8 +43,8 @@
 // position, nearest voxel, colour and opacity per mm from a lookup table (labels.glsl); bricks
 // holding a label are occupied for skipping, so skipping stays lossless.
 //
-// Lighting (LIGHTING, DEPTH_CUES; issue 34 item 2): the studio model and the surface cues of
-// lighting.glsl. Cut faces (CAPPING by uniform, issue 34 item 3): where a ray enters through a
+// Lighting (LIGHTING, DEPTH_CUES; issue 34 item 2): the studio model, the matcap and the surface
+// cues of lighting.glsl. Cut faces (CAPPING by uniform, issue 34 item 3): where a ray enters through a
 // crop face or clip plane, the samples within params.cap.x mm of that face take the window
 // opacity f(v) instead of the gradient-modulated one, so a cut shows its tissues as solid
 // colours (cortex over white matter, the ventricles) instead of the see-through interior that
@@ -77,7 +77,7 @@ layout(constant_id = 10) const bool VESSELS = false;      // the vessel channel 
 layout(constant_id = 11) const bool LONG_STEPS = false;   // longer steps in bricks of low opacity bound
 layout(constant_id = 12) const bool BRAIN = false;        // tissues inside the brain mask, the head layer outside
 layout(constant_id = 13) const bool CLASSIFY_TABLE = false; // tissue windows from the transfer-function table
-layout(constant_id = 14) const uint LIGHTING = 0u;        // 0 headlight Phong, 1 studio (lighting.glsl)
+layout(constant_id = 14) const uint LIGHTING = 0u;        // 0 headlight Phong, 1 studio, 2 matcap (lighting.glsl)
 layout(constant_id = 15) const bool DEPTH_CUES = false;   // occlusion and shadow at the surface (lighting.glsl)
 
 layout(set = 0, binding = 0) uniform sampler3D volume;          // I_norm, trilinear
@@ -148,6 +148,9 @@ layout(set = 0, binding = 9, std430) readonly buffer LabelColours { uint rgba[];
 // 4096 of the head layer's.
 layout(set = 0, binding = 12, std430) readonly buffer TransferTable { vec4 entries[]; } transfer_table;
 
+// The matcap (LIGHTING == 2 only; src/scene/matcap.rs): MATCAP_SIDE^2 RGBA8 texels, row 0 on top.
+layout(set = 0, binding = 13, std430) readonly buffer Matcap { uint texels[]; } matcap;
+
 #include "geometry.glsl"
 #include "clip.glsl"
 #include "colormap.glsl"
@@ -205,6 +208,9 @@ vec3 shade(vec3 colour, vec3 normal, vec3 view_direction) {
 vec3 lit(vec3 colour, vec3 normal, vec3 view_direction) {
     if (LIGHTING == 1u) {
         return shade_studio(colour, normal, view_direction);
+    }
+    if (LIGHTING == 2u) {
+        return shade_matcap(colour, normal, view_direction);
     }
     return shade(colour, normal, view_direction);
 }

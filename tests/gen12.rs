@@ -151,7 +151,7 @@ fn the_gen12_profile_matches_the_limits_the_stub_tgl_reports() {
 
 #[test]
 fn every_variant_compiles_for_tgl_and_only_bricked_on_the_fly_curvature_spills() {
-    // Every variant a scene can select (384 kernels, about a minute on 2 cores). The spilling
+    // Every variant a scene can select (401 kernels, about two minutes on 2 cores). The spilling
     // family is named with its reason in BENCHMARKS.md: 19 fetches per sample through the brick
     // table keep more addresses live than SIMD8's registers hold. Since issue 34's cut-face cap
     // (one more float live across the march) the heaviest whole-volume variant spills too:

@@ -1,6 +1,6 @@
 //! Lighting, depth cues and the cut-away (issue 34 items 2 and 3) on the GPU against the f64 twin
 //! (`reference::raymarch`), at awkward sizes on an anisotropic grid: the studio model, the
-//! surface's occlusion and shadow, and the solid cap of a cut face; and what each must do to the
+//! matcap (built in and a user's image), the surface's occlusion and shadow, and the solid cap of a cut face; and what each must do to the
 //! picture (cues darken a fold and are free when off, a cut face shows its tissue).
 
 mod common;
@@ -74,6 +74,7 @@ fn gpu_matches_twin(
     assert_finite_in_range(label, &gpu, 1.0 + 1e-6);
     let cpu = reference(engine, prepared, Some(&derived), scene, W, H);
     let (psnr, p99, max) = compare(&gpu, &cpu, None);
+    eprintln!("{label}: PSNR {psnr:.1} dB, p99 {p99:.2e}, max {max:.2e}");
     assert!(
         psnr >= 60.0 && p99 <= 1e-3,
         "{label}: PSNR {psnr:.1} dB, p99 {p99:.4}, max {max:.4}"
@@ -191,5 +192,42 @@ fn a_cutaway_shows_its_cut_face_solid_and_matches_the_twin() {
     let rays = s.camera.rays(geometry.world_bounds(), W, H);
     let clip = s.frame_clip(&rays, geometry.world_bounds());
     assert_eq!(clip.planes.iter().flatten().count(), 1);
+    common::assert_no_validation_errors(&engine);
+}
+
+/// A 64-pixel matcap (as a user's PNG would be, resampled to 256): redder where the surface faces
+/// up, greener where it faces left, in smooth ramps (neighbouring texels differ by under 1/255,
+/// so a texel the GPU's f32 picks beside the twin's moves a pixel by less than that).
+fn ramp_matcap() -> morphray::scene::matcap::MatcapImage {
+    let side = 64u32;
+    let rgba: Vec<u8> = (0..side * side)
+        .flat_map(|i| {
+            let (x, y) = (i % side, i / side);
+            let up = 230 - (170 * y / side) as u8;
+            let left = 220 - (130 * x / side) as u8;
+            [up, left, 160, 255]
+        })
+        .collect();
+    morphray::scene::matcap::MatcapImage::from_rgba("ramps", side, side, &rgba).unwrap()
+}
+
+#[test]
+fn the_matcap_model_matches_the_twin_with_the_built_in_and_a_users_image() {
+    let mut engine = common::engine();
+    let prepared = folded(&mut engine);
+    let mut s = scene();
+    s.effects.lighting.model = LightModel::Matcap;
+    let clay = gpu_matches_twin(&mut engine, &prepared, &s, "matcap clay");
+    s.effects.lighting.depth_cues = true;
+    gpu_matches_twin(&mut engine, &prepared, &s, "matcap clay + cues");
+    s.effects.lighting.depth_cues = false;
+    engine.set_matcap(ramp_matcap());
+    let ramps = gpu_matches_twin(&mut engine, &prepared, &s, "matcap ramps");
+    // The image is what lights the picture: the user's matcap changes it.
+    let (_, _, max) = compare(&ramps, &clay, None);
+    assert!(
+        max > 0.1,
+        "the user's matcap changed no pixel by more than {max}"
+    );
     common::assert_no_validation_errors(&engine);
 }

@@ -359,3 +359,62 @@ fn the_paper_preset_is_the_translucent_headlight_look_of_before() {
         "the default look is not the paper's"
     );
 }
+
+/// A `side` x `side2` RGBA PNG: grey, bright in its left half (a matcap lit from the left).
+fn matcap_png(path: &Path, side: u32, side2: u32) {
+    let rgba: Vec<u8> = (0..side * side2)
+        .flat_map(|i| {
+            let v = if i % side < side / 2 { 240 } else { 70 };
+            [v, v, v, 255]
+        })
+        .collect();
+    let provenance = morphray::files::png::Provenance::default();
+    morphray::files::png::write_rgba8(path, side, side2, &rgba, &provenance).unwrap();
+}
+
+#[test]
+fn a_matcap_png_lights_the_still_and_a_bad_one_is_refused_in_one_line() {
+    // Issue 34 item 2: `--matcap FILE.png` (implies `--lighting matcap`) lights a still with a
+    // user's image; the built-in `clay` is the default matcap; a missing or non-square image is
+    // refused before the volume is read.
+    let dir = folder("matcap");
+    let png = dir.join("left.png");
+    matcap_png(&png, 40, 40);
+    let (mine, clay) = (dir.join("mine.png"), dir.join("clay.png"));
+    let size = ["--size", "48x40"];
+    ok(&[
+        "render",
+        size[0],
+        size[1],
+        "--matcap",
+        s(&png),
+        "-o",
+        s(&mine),
+    ]);
+    ok(&[
+        "render",
+        size[0],
+        size[1],
+        "--lighting",
+        "matcap",
+        "-o",
+        s(&clay),
+    ]);
+    let (a, b) = (Picture::read(&mine), Picture::read(&clay));
+    assert_ne!(a.pixels, b.pixels, "the user's matcap changed nothing");
+    assert!(
+        a.pixels.iter().any(|p| bright(*p)),
+        "the matcap still is dark"
+    );
+    let wide = dir.join("wide.png");
+    matcap_png(&wide, 40, 20);
+    for (matcap, why) in [
+        (s(&wide), "square"),
+        ("velvet", "no built-in matcap is named \"velvet\""),
+    ] {
+        let o = morphray(&["render", "--matcap", matcap, "-o", s(&dir.join("x.png"))]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && err.contains(why), "{matcap}: {err}");
+        assert_eq!(err.trim().lines().count(), 1, "{err}");
+    }
+}

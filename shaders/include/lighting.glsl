@@ -1,4 +1,4 @@
-// Studio lighting and depth cues (issue 34 item 2). The f64 twin is
+// Studio lighting, the matcap and depth cues (issue 34 item 2). The f64 twin is
 // src/reference/raymarch/lighting.rs; src/scene/lighting.rs documents the choices.
 //
 // LIGHTING == 1 (studio): per sample, the normal turned to face the viewer, an ambient term, a
@@ -59,6 +59,36 @@ vec3 shade_studio(vec3 colour, vec3 normal, vec3 view_direction) {
     float outline = 1.0 - params.key_light.w * rim * rim;
     vec3 lit = (colour * (0.3 + 0.3 * facing + 0.55 * key) + vec3(highlight)) * outline;
     return min(lit, vec3(1.0));
+}
+
+// The matcap's texel (x, y), RGB in 0..1.
+const int MATCAP_SIDE = 256;
+vec3 matcap_texel(int x, int y) {
+    return unpackUnorm4x8(matcap.texels[y * MATCAP_SIDE + x]).rgb;
+}
+
+// The matcap at camera-space normal components (x, y) = (n . right, n . up): the texel they fall
+// in, clamped to the image (twin: MatcapImage::sample). One load: bilinear (four loads) made a
+// matcap frame 1.48x the headlight's on the H200, where the raymarch waits on each dependent load.
+vec3 matcap_rgb(float x, float y) {
+    int tx = clamp(int(floor((0.5 + 0.5 * x) * float(MATCAP_SIDE))), 0, MATCAP_SIDE - 1);
+    int ty = clamp(int(floor((0.5 - 0.5 * y) * float(MATCAP_SIDE))), 0, MATCAP_SIDE - 1);
+    return matcap_texel(tx, ty);
+}
+
+// The matcap model (twin: shade_matcap): the colour times the matcap at the normal turned to face
+// the viewer, in camera coordinates.
+vec3 shade_matcap(vec3 colour, vec3 normal, vec3 view_direction) {
+    float len2 = dot(normal, normal);
+    if (len2 < 1e-6) {
+        return colour;
+    }
+    vec3 n = normal * inversesqrt(len2);
+    if (dot(n, view_direction) > 0.0) {
+        n = -n;
+    }
+    vec3 m = matcap_rgb(dot(n, params.camera_right.xyz), dot(n, params.camera_up.xyz));
+    return min(colour * m, vec3(1.0));
 }
 
 // exp(-integral of f(v) dl) over `count` samples at reach * (j + 1) / count mm from p along the

@@ -82,7 +82,7 @@ pub enum Action {
     CurvatureStrength(f32),
     /// Phong shading on or off.
     Shading(bool),
-    /// The lighting model (`lighting studio` / `lighting headlight`).
+    /// The lighting model (`lighting studio` / `lighting headlight` / `lighting matcap`).
     Lighting(crate::scene::LightModel),
     /// Depth cues on or off (`cues on`).
     DepthCues(bool),
@@ -432,9 +432,10 @@ fn parse_line(line: &str) -> Result<Action, String> {
         "lighting" => match next() {
             Some("studio") => Action::Lighting(crate::scene::LightModel::Studio),
             Some("headlight") => Action::Lighting(crate::scene::LightModel::Headlight),
+            Some("matcap") => Action::Lighting(crate::scene::LightModel::Matcap),
             w => {
                 return Err(format!(
-                    "expected `lighting studio` or `lighting headlight`, got {w:?}"
+                    "expected `lighting studio`, `lighting headlight` or `lighting matcap`, got {w:?}"
                 ));
             }
         },

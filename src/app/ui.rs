@@ -474,6 +474,8 @@ fn lighting_controls(ui: &mut Ui, scene: &mut Scene) {
                 .on_hover_text(
                     "Key light from the upper left, highlight, outlines (the stills' look)",
                 );
+            ui.selectable_value(model, LightModel::Matcap, "Matcap")
+                .on_hover_text("The colour times a matcap image (view --matcap; clay by default)");
         });
     });
     ui.checkbox(&mut scene.effects.lighting.depth_cues, "Depth cues")

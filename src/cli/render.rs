@@ -143,7 +143,7 @@ pub fn recipe_from_args(args: &SceneArgs) -> Result<SceneRecipe, Error> {
         },
         lighting: crate::scene::Lighting {
             model: args
-                .lighting
+                .light_model_arg()
                 .map_or(LightModel::Headlight, LightingArg::model),
             depth_cues: args.depth_cues.is_some_and(Switch::on),
         },

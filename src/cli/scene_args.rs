@@ -80,6 +80,8 @@ pub enum LightingArg {
     Headlight,
     /// Key light from the upper left, headlight fill, highlight, outlines.
     Studio,
+    /// The colour times a matcap image of a lit sphere (--matcap; `clay` by default).
+    Matcap,
 }
 
 impl LightingArg {
@@ -88,6 +90,7 @@ impl LightingArg {
         match self {
             LightingArg::Headlight => crate::scene::LightModel::Headlight,
             LightingArg::Studio => crate::scene::LightModel::Studio,
+            LightingArg::Matcap => crate::scene::LightModel::Matcap,
         }
     }
 }
@@ -194,15 +197,24 @@ pub struct SceneArgs {
     /// commands (bench, accuracy) leave it off unless asked.
     #[arg(long, value_enum)]
     pub shading: Option<Switch>,
-    /// Lighting: studio (render, view: key light, outlines, depth cues) or headlight (cheapest)
+    /// Lighting: studio (render, view: key light, outlines, depth cues), headlight or matcap
     ///
     /// `studio`: a key light from the upper left with a highlight, a headlight fill, dark
     /// outlines where a surface turns away, and (with --depth-cues, on for render and view)
     /// ambient occlusion and a soft shadow at the visible surface. `headlight`: the paper
     /// renderer's Phong with the light at the eye, the cheapest (`--preset paper` uses it).
-    /// Costs: BENCHMARKS.md "Lighting and depth cues".
+    /// `matcap`: the colour times a matcap (an image of a lit sphere looked up by the surface's
+    /// direction, as in NiiVue and MRIcroGL; see --matcap). Costs: BENCHMARKS.md "Lighting and
+    /// depth cues".
     #[arg(long, value_enum)]
     pub lighting: Option<LightingArg>,
+    /// The matcap of `--lighting matcap` (implies it): clay, shiny, or a square PNG file
+    ///
+    /// `clay` (the default: soft light from the upper left, a light rim) and `shiny` (with a
+    /// highlight) are built in; any matcap PNG (NiiVue's, MRIcroGL's) works, resampled to
+    /// 256x256. A grey matcap keeps the tissue colours; a tinted one tints them.
+    #[arg(long, value_name = "NAME|FILE.png", hide_short_help = true)]
+    pub matcap: Option<String>,
     /// Ambient occlusion and a soft shadow toward the key light: on for render and view
     ///
     /// Evaluated once per pixel at the visible surface (14 fetches), compiled out when off.
@@ -279,15 +291,33 @@ impl SceneArgs {
             let model = match still.lighting.model {
                 crate::scene::LightModel::Studio => LightingArg::Studio,
                 crate::scene::LightModel::Headlight => LightingArg::Headlight,
+                crate::scene::LightModel::Matcap => LightingArg::Matcap,
             };
             (model, Switch::from(still.lighting.depth_cues))
         };
         SceneArgs {
             shading: Some(self.shading.unwrap_or(Switch::from(still.shading))),
-            lighting: Some(self.lighting.unwrap_or(lighting)),
+            lighting: Some(self.light_model_arg().unwrap_or(lighting)),
             depth_cues: Some(self.depth_cues.unwrap_or(cues)),
             ..self.clone()
         }
+    }
+
+    /// The lighting asked for: `--lighting`, or the matcap model when only `--matcap` is given.
+    pub fn light_model_arg(&self) -> Option<LightingArg> {
+        self.lighting
+            .or(self.matcap.as_ref().map(|_| LightingArg::Matcap))
+    }
+
+    /// The matcap `--matcap` names, loaded (None without the option).
+    pub fn matcap_image(
+        &self,
+    ) -> Result<Option<crate::scene::matcap::MatcapImage>, crate::error::Error> {
+        self.matcap
+            .as_deref()
+            .map(crate::scene::matcap::MatcapImage::load)
+            .transpose()
+            .map_err(|e| crate::error::Error::Usage(e.to_string()))
     }
 
     /// The outline and depth-cue strengths (`--cue-strength`), the library's defaults otherwise.

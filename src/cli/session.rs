@@ -112,13 +112,21 @@ pub fn open(
         None => SceneRecipe::default(),
     };
     let image = scene_args.and_then(|a| a.size).unwrap_or((1024, 1024));
+    // Before the volume is read: a matcap that cannot be loaded fails at once.
+    let matcap = scene_args
+        .map(SceneArgs::matcap_image)
+        .transpose()?
+        .flatten();
     let options = OpenOptions {
         read: super::source::read_options(frame, want_hash),
         image: [image.0, image.1],
         recipe,
         first_frame,
     };
-    let opened = Session::open(&VolumeSource::from_paths(files), config, &options)?;
+    let mut opened = Session::open(&VolumeSource::from_paths(files), config, &options)?;
+    if let Some(matcap) = matcap {
+        opened.engine.set_matcap(matcap);
+    }
     note_rejected_cache(&opened.engine);
     note_degradations(&opened.plan);
     Ok(opened)

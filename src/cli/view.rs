@@ -91,6 +91,7 @@ pub fn run(args: &ViewArgs, global: &super::GlobalOptions) -> Result<(), super::
         frame_budget_ms: args.frame_budget,
         layout: crate::app::slices_panel::Layout::parse(&args.layout)
             .unwrap_or(crate::app::slices_panel::Layout::ThreeDAndSlices),
+        matcap: args.scene.matcap_image()?,
     };
     crate::app::run(config, args.offscreen, fail_on_validation)?;
     Ok(())

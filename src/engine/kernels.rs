@@ -108,15 +108,21 @@ fn every_effects() -> Vec<Effects> {
             }
         }
     }
-    // The stills' lighting (studio, depth cues) on the shaded default variants: its cost is the
-    // lighting's, not another axis of every quality knob.
-    for curvature in [false, true] {
-        all.push(Effects {
-            curvature,
-            shading: true,
-            lighting: crate::scene::Lighting::STILL,
-            ..Effects::default()
-        });
+    // The stills' lighting (studio, depth cues) and the matcap with cues on the shaded default
+    // variants: their cost is the lighting's, not another axis of every quality knob.
+    let matcap = crate::scene::Lighting {
+        model: crate::scene::LightModel::Matcap,
+        depth_cues: true,
+    };
+    for lighting in [crate::scene::Lighting::STILL, matcap] {
+        for curvature in [false, true] {
+            all.push(Effects {
+                curvature,
+                shading: true,
+                lighting,
+                ..Effects::default()
+            });
+        }
     }
     all
 }

@@ -22,6 +22,7 @@ pub mod kernels;
 mod labels;
 mod maps;
 pub mod mask_edge;
+pub mod matcap;
 mod occupancy;
 mod open;
 mod pipelines;
@@ -181,6 +182,8 @@ pub struct Engine {
     pipeline_times: PipelineTimes,
     /// First start and last end of the workers' pipelines that were used.
     ahead_window: Option<(std::time::Instant, std::time::Instant)>,
+    /// The image a matcap-lit frame looks its normals up in (`matcap.rs`).
+    matcap: Arc<crate::scene::matcap::MatcapImage>,
 }
 
 impl Drop for Engine {
@@ -253,6 +256,7 @@ impl Engine {
             workers_cancelled: Arc::default(),
             pipeline_times: PipelineTimes::default(),
             ahead_window: None,
+            matcap: Arc::default(),
         })
     }
 

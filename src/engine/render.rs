@@ -64,6 +64,8 @@ pub struct RenderTarget {
     pub(super) label_colours_written: [u64; FRAMES_IN_FLIGHT],
     // The transfer-function table per frame slot (transfer.rs).
     pub(super) tables: super::transfer::TableSlots,
+    // The matcap per frame slot (matcap.rs).
+    pub(super) matcaps: super::matcap::MatcapSlots,
     /// Compile in and read the benchmark counters (samples marched / classified) each frame.
     pub count_samples: bool,
     /// Copy each frame back to the host (off for frame-rate measurements: `Frame` is then
@@ -212,6 +214,7 @@ impl Engine {
             label_colour_buffers: vec![None; FRAMES_IN_FLIGHT],
             label_colours_written: [0; FRAMES_IN_FLIGHT],
             tables: Default::default(),
+            matcaps: Default::default(),
             count_samples: false,
             read_back: true,
         })
@@ -448,9 +451,11 @@ impl Engine {
         };
         let transfer_table =
             self.transfer_table_input(target, scene, frame_slot, variant.classify_table)?;
+        let matcap = self.matcap_input(target, frame_slot, variant.lighting == 2)?;
         let pass = self.raymarch_pass(variant)?;
         let inputs = RaymarchInputs {
             transfer_table: &transfer_table,
+            matcap: &matcap,
             brain_mask: &brain_mask,
             volume: &prepared.normalized,
             gradient: &gradient,

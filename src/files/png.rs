@@ -1,4 +1,5 @@
-//! PNG output with provenance: every figure carries what is needed to re-render it exactly.
+//! PNG output with provenance: every figure carries what is needed to re-render it exactly; and
+//! PNG input as 8-bit RGBA (matcap images).
 //!
 //! Decisions:
 //! - Provenance goes into tEXt chunks (readable by any PNG tool, e.g. `identify -verbose`
@@ -131,6 +132,52 @@ pub fn read_text_chunks(path: &Path) -> Result<Vec<(String, String)>, PngError> 
         .iter()
         .map(|c| (c.keyword.clone(), c.text.clone()))
         .collect())
+}
+
+/// Reads a PNG as 8-bit RGBA (grey, grey+alpha, RGB, palette and 16-bit images converted):
+/// `(width, height, pixels)`, row-major from the top. Images wider or taller than `max_side`
+/// are refused from the header, before their pixels are decoded.
+pub fn read_rgba8(path: &Path, max_side: u32) -> Result<(u32, u32, Vec<u8>), PngError> {
+    let shown = path.display().to_string();
+    let bytes = crate::files::read::read_regular(path, 1 << 30).map_err(|e| PngError::Io {
+        path: shown.clone(),
+        source: std::io::Error::other(e.to_string()),
+    })?;
+    let bad = |message: String| PngError::Encode {
+        path: shown.clone(),
+        message,
+    };
+    let mut decoder = png::Decoder::new(std::io::Cursor::new(bytes));
+    decoder.set_transformations(png::Transformations::normalize_to_color8());
+    let mut reader = decoder.read_info().map_err(|e| bad(e.to_string()))?;
+    let (width, height) = (reader.info().width, reader.info().height);
+    if width > max_side || height > max_side {
+        return Err(bad(format!(
+            "{width}x{height} pixels; at most {max_side} per side are read"
+        )));
+    }
+    let size = reader
+        .output_buffer_size()
+        .ok_or_else(|| bad("the image does not fit in memory".into()))?;
+    let mut buffer = vec![0u8; size];
+    let frame = reader
+        .next_frame(&mut buffer)
+        .map_err(|e| bad(e.to_string()))?;
+    buffer.truncate(frame.buffer_size());
+    let rgba: Vec<u8> = match frame.color_type {
+        png::ColorType::Rgba => buffer,
+        png::ColorType::Rgb => buffer
+            .chunks_exact(3)
+            .flat_map(|p| [p[0], p[1], p[2], 255])
+            .collect(),
+        png::ColorType::GrayscaleAlpha => buffer
+            .chunks_exact(2)
+            .flat_map(|p| [p[0], p[0], p[0], p[1]])
+            .collect(),
+        png::ColorType::Grayscale => buffer.iter().flat_map(|&g| [g, g, g, 255]).collect(),
+        png::ColorType::Indexed => return Err(bad("a palette image was not expanded".into())),
+    };
+    Ok((frame.width, frame.height, rgba))
 }
 
 /// SHA-256 of bytes, as lowercase hex.

@@ -50,7 +50,7 @@ pub struct RaymarchVariant {
     pub brain: bool,
     /// Tissue windows from the transfer-function table (classification.glsl).
     pub classify_table: bool,
-    /// 0 headlight Phong, 1 studio lighting (lighting.glsl; only with `shading`).
+    /// 0 headlight Phong, 1 studio lighting, 2 matcap (lighting.glsl; only with `shading`).
     pub lighting: u32,
     /// Occlusion and shadow at each ray's surface (lighting.glsl; DVR).
     pub depth_cues: bool,
@@ -87,6 +87,7 @@ impl RaymarchVariant {
             ("BRAIN", self.brain),
             ("CLASSIFY_TABLE", self.classify_table),
             ("STUDIO_LIGHTING", self.lighting == 1),
+            ("MATCAP", self.lighting == 2),
             ("DEPTH_CUES", self.depth_cues),
         ] {
             text.push_str(&format!(", {name}={}", on(value)));
@@ -143,6 +144,8 @@ pub struct RaymarchInputs<'a> {
     pub label_colours: &'a Arc<Buffer>,
     /// The transfer-function table (`scene::transfer_table`), or a placeholder.
     pub transfer_table: &'a Arc<Buffer>,
+    /// The matcap (`scene::matcap`) of a matcap-lit variant, or a placeholder.
+    pub matcap: &'a Arc<Buffer>,
     /// Clamp-to-edge sampler with the filter the interpolation needs.
     pub sampler: &'a Arc<Sampler>,
 }
@@ -243,6 +246,7 @@ impl RaymarchPass {
                     "transfer_table",
                     Resource::Buffer(inputs.transfer_table.clone()),
                 ),
+                ("matcap", Resource::Buffer(inputs.matcap.clone())),
             ],
         )?;
         // Moves the target to GENERAL for storage writes; the last frame's pixels are not needed.

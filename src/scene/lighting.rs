@@ -1,12 +1,14 @@
 //! Lighting, depth cues and the cut-away (issue 34 items 2 and 3): what a surface looks like.
 //!
 //! Decisions:
-//! - **Two lighting models, a specialization constant** ([`LightModel`]): the headlight Phong of
+//! - **Three lighting models, a specialization constant** ([`LightModel`]): the headlight Phong of
 //!   the paper's renderer (the interactive default: cheapest, and the accuracy study's reference
 //!   look) and a studio model for stills: ambient, a headlight fill, a key light from the upper
 //!   left fixed to the camera ([`key_light`]) with a Blinn highlight, and silhouette darkening
 //!   (outlines where a surface is seen edge-on). The light follows the camera so a turntable
-//!   keeps its look and the shadows fall the same way in every frame.
+//!   keeps its look and the shadows fall the same way in every frame. The third is a matcap
+//!   (`scene::matcap`): one lookup of the view-space normal in an image of a lit sphere, the
+//!   look NiiVue and MRIcroGL users know, with any matcap PNG they have.
 //! - **Depth cues once per ray, at the visible surface**: ambient occlusion along the normal and a
 //!   soft shadow toward the key light, each integrating the classified opacity f(v) over a short
 //!   ray ([`DepthCues`]), evaluated at the sample where the accumulated opacity first reaches 0.05
@@ -45,6 +47,9 @@ pub enum LightModel {
     Headlight,
     /// Ambient, headlight fill, key light from the upper left with a highlight, outlines.
     Studio,
+    /// The colour times a matcap image looked up by the view-space normal (`scene::matcap`; the
+    /// image is the engine's, `Engine::set_matcap`).
+    Matcap,
 }
 
 /// The lighting choices that select shader variants (part of `Effects`).

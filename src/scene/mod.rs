@@ -11,6 +11,7 @@ pub mod clip;
 pub mod colormap;
 pub mod geometry;
 pub mod lighting;
+pub mod matcap;
 pub mod occupancy;
 pub mod overlay;
 pub mod preset;

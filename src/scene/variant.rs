@@ -59,6 +59,7 @@ impl RaymarchVariant {
             classify_table: dvr && q.classification == ClassificationLookup::Table,
             lighting: match effects.lighting.model {
                 LightModel::Studio if dvr && effects.shading => 1,
+                LightModel::Matcap if dvr && effects.shading => 2,
                 _ => 0,
             },
             depth_cues: dvr && effects.lighting.depth_cues,

@@ -8,9 +8,7 @@ use morphray::engine::readback::read_image;
 use morphray::engine::{Derived, Engine, PreparedVolume};
 use morphray::gpu::Access;
 use morphray::passes::derivatives::DerivativeOutputs;
-use morphray::reference::raymarch::{
-    ReferenceDerived, ReferenceVolume, render as reference_render,
-};
+use morphray::reference::raymarch::{ReferenceDerived, ReferenceRaymarch, ReferenceVolume};
 use morphray::scene::uniforms::GradientStats;
 use morphray::scene::{
     Camera, Classification, Effects, Projection, Scene, TissueClass, VolumeGeometry, Window,
@@ -162,7 +160,11 @@ pub fn reference(
         },
         None => ReferenceDerived::NONE,
     };
-    reference_render(scene, &geometry, &stats, &volume, &refs, w, h).unwrap()
+    // The engine's matcap lights the twin too (it is the engine's state, not the scene's).
+    ReferenceRaymarch::new(scene, &geometry, &stats, &volume, &refs, w, h)
+        .unwrap()
+        .with_matcap(std::sync::Arc::new(engine.matcap().clone()))
+        .render()
 }
 
 /// (PSNR over RGB with peak 1, 99th-percentile abs error, max abs error) over the pixels `mask`

@@ -137,3 +137,24 @@ fn a_hash_starts_a_comment_unless_it_starts_a_colour() {
         Action::Colour(TissueClass::Wm, [1.0, 0.0, 0.0])
     );
 }
+
+#[test]
+fn lighting_steps_parse_with_every_model() {
+    use crate::scene::LightModel;
+    let steps = parse(
+        "lighting studio\nlighting headlight\nlighting matcap\n",
+        "s",
+    )
+    .unwrap();
+    let actions: Vec<_> = steps.iter().map(|s| s.action.clone()).collect();
+    assert_eq!(
+        actions,
+        vec![
+            Action::Lighting(LightModel::Studio),
+            Action::Lighting(LightModel::Headlight),
+            Action::Lighting(LightModel::Matcap),
+        ]
+    );
+    let e = parse("lighting candle", "s").unwrap_err();
+    assert!(e.message.contains("lighting matcap"), "{e}");
+}

@@ -44,4 +44,6 @@ pub struct ViewerConfig {
     pub frame_budget_ms: f64,
     /// The first layout (`--layout`; 3D + slices by default).
     pub layout: crate::app::slices_panel::Layout,
+    /// The matcap of the matcap lighting model (`--matcap`; None: the built-in `clay`).
+    pub matcap: Option<crate::scene::matcap::MatcapImage>,
 }

@@ -351,7 +351,10 @@ impl Viewer {
 
     /// Creates the GPU objects (for `window`, or offscreen) and hands the device to the loader.
     pub fn attach(&mut self, window: Option<&winit::window::Window>) -> Result<(), AppError> {
-        let gpu = Gpu::new(&self.config.engine, window, self.size, self.config.vsync)?;
+        let mut gpu = Gpu::new(&self.config.engine, window, self.size, self.config.vsync)?;
+        if let Some(matcap) = self.config.matcap.clone() {
+            gpu.engine.set_matcap(matcap);
+        }
         self.offscreen = window.is_none();
         self.status.device = gpu.device.adapter().name.clone();
         self.loader.provide_device(gpu.device.clone());

@@ -424,6 +424,12 @@ fn raymarch(ctx: &PlanContext) -> PassDeclaration {
             ))
         }));
     }
+    if variant.lighting == 2 {
+        // The matcap, one per frame in flight (engine/matcap.rs).
+        allocations.extend(
+            (0..FRAMES_IN_FLIGHT).map(|_| Declared::held(crate::engine::matcap::matcap_desc())),
+        );
+    }
     let (per_marched, per_classified) = variant.fetches();
     let cost = cost::raymarch(
         pixels,

@@ -1,5 +1,6 @@
-//! f64 twins of `shaders/include/lighting.glsl` (studio lighting, the surface's depth cues) and of
-//! the raymarch's cut-face capping (issue 34; `scene::lighting` documents the choices).
+//! f64 twins of `shaders/include/lighting.glsl` (studio lighting, the matcap, the surface's depth
+//! cues) and of the raymarch's cut-face capping (issue 34; `scene::lighting` and `scene::matcap`
+//! document the choices).
 //!
 //! The formulas are the shader's term for term: the normal turned to the viewer, ambient 0.3,
 //! headlight fill 0.3 |n . v|, key light 0.55 max(n . l, 0), Blinn highlight 0.2 (n . h)^32,
@@ -10,8 +11,11 @@
 //! (probed CUE_SIDE_PROBE units away; a unit is max(1 mm, the finest voxel side)).
 
 use super::ReferenceRaymarch;
+use crate::scene::LightModel;
 use crate::scene::lighting::DepthCues;
+use crate::scene::matcap::MatcapImage;
 use glam::DVec3;
+use std::sync::Arc;
 
 /// Samples of the occlusion ray (OCCLUSION_SAMPLES in lighting.glsl).
 pub const OCCLUSION_SAMPLES: u32 = 4;
@@ -53,11 +57,37 @@ pub fn shade_studio(
     colour.map(|c| ((c * (0.3 + 0.3 * facing + 0.55 * key) + highlight) * outline).min(1.0))
 }
 
+/// The matcap model of one sample (`shade_matcap` in lighting.glsl): the colour times the matcap
+/// at the normal turned to the viewer, in camera coordinates (`right`, `up` unit world vectors).
+pub fn shade_matcap(
+    colour: [f64; 3],
+    normal: DVec3,
+    view_direction: DVec3,
+    right: DVec3,
+    up: DVec3,
+    matcap: &MatcapImage,
+) -> [f64; 3] {
+    if normal.length_squared() < 1e-6 {
+        return colour;
+    }
+    let mut n = normal.normalize();
+    if n.dot(view_direction) > 0.0 {
+        n = -n;
+    }
+    let m = matcap.sample(n.dot(right), n.dot(up));
+    std::array::from_fn(|i| (colour[i] * m[i]).min(1.0))
+}
+
 /// What the twin needs of the scene's lighting, resolved once.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct ReferenceLighting {
-    /// Studio model (else the headlight Phong of `formulas::shade`).
-    pub studio: bool,
+    /// The model of shaded samples (the headlight Phong of `formulas::shade`, studio, matcap).
+    pub model: LightModel,
+    /// The matcap of the matcap model (the engine's: `with_matcap`; the built-in `clay` until
+    /// given).
+    pub matcap: Option<Arc<MatcapImage>>,
+    /// The camera's unit right and up vectors (world), the matcap's axes.
+    pub camera_axes: [DVec3; 2],
     /// Depth cues at each ray's surface.
     pub depth_cues: bool,
     /// Unit world direction toward the key light.
@@ -67,6 +97,15 @@ pub struct ReferenceLighting {
 }
 
 impl ReferenceRaymarch<'_> {
+    /// Lit by `matcap` (the image the engine was given by `Engine::set_matcap`) when the scene's
+    /// model is the matcap.
+    pub fn with_matcap(mut self, matcap: Arc<MatcapImage>) -> Self {
+        if self.lighting.model == LightModel::Matcap {
+            self.lighting.matcap = Some(matcap);
+        }
+        self
+    }
+
     /// The cues' occluder density at index position `p`: f(v), 0 where nothing is kept.
     fn cue_density(&self, p: DVec3) -> f64 {
         if !self.clip.keeps(p, self.volume.dims) {
@@ -131,16 +170,19 @@ impl ReferenceRaymarch<'_> {
     /// The scene's lighting model applied to one sample's colour.
     pub(super) fn lit(&self, colour: [f64; 3], normal: DVec3, view_direction: DVec3) -> [f64; 3] {
         let light = &self.lighting;
-        if light.studio {
-            shade_studio(
+        match (light.model, &light.matcap) {
+            (LightModel::Studio, _) => shade_studio(
                 colour,
                 normal,
                 view_direction,
                 light.key_light,
                 f64::from(light.cues.silhouette),
-            )
-        } else {
-            super::formulas::shade(colour, normal, view_direction)
+            ),
+            (LightModel::Matcap, Some(matcap)) => {
+                let [right, up] = light.camera_axes;
+                shade_matcap(colour, normal, view_direction, right, up, matcap)
+            }
+            _ => super::formulas::shade(colour, normal, view_direction),
         }
     }
 }

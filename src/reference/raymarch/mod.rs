@@ -339,7 +339,14 @@ impl<'a> ReferenceRaymarch<'a> {
                 .frame_clip(&rays, geometry.world_bounds())
                 .to_index(geometry),
             lighting: lighting::ReferenceLighting {
-                studio: shading && effects.lighting.model == crate::scene::LightModel::Studio,
+                model: if shading {
+                    effects.lighting.model
+                } else {
+                    crate::scene::LightModel::Headlight
+                },
+                matcap: (shading && effects.lighting.model == crate::scene::LightModel::Matcap)
+                    .then(std::sync::Arc::default),
+                camera_axes: [rays.right, rays.up],
                 depth_cues: dvr && effects.lighting.depth_cues,
                 key_light: crate::scene::lighting::key_light(&rays),
                 cues: scene.cues.sanitized(),

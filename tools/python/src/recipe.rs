@@ -8,7 +8,6 @@
 //! studio lighting and depth cues unless the options say otherwise: `SceneArgs::as_still`).
 
 use crate::errors;
-use morphray::cli::args::Switch;
 use morphray::cli::render::recipe_from_args;
 use morphray::cli::scene_args::SceneArgs;
 use morphray::cli::scene_options::{self as options, SceneOption};
@@ -25,6 +24,8 @@ pub struct SceneChoice {
     pub recipe: SceneRecipe,
     /// Width and height in pixels.
     pub size: (u32, u32),
+    /// The matcap `matcap=` names (None: the built-in `clay`).
+    pub matcap: Option<morphray::scene::matcap::MatcapImage>,
 }
 
 fn usage(error: Error) -> PyErr {
@@ -48,6 +49,7 @@ pub fn scene_choice(words: &[String]) -> PyResult<SceneChoice> {
     Ok(SceneChoice {
         recipe,
         size: args.size.unwrap_or(DEFAULT_SIZE),
+        matcap: args.matcap_image().map_err(usage)?,
     })
 }
 

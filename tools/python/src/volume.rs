@@ -419,6 +419,7 @@ impl Volume {
         let choice = recipe::scene_choice(&scene)?;
         let (width, height) = choice.size;
         let recipe = choice.recipe;
+        let matcap = choice.matcap;
         let (pixels, note) = py.detach(|| -> PyResult<(Vec<u8>, Option<String>)> {
             let mut state = state::lock();
             let mut inner = self.inner.lock().unwrap_or_else(|p| p.into_inner());
@@ -427,6 +428,12 @@ impl Volume {
             inner.reopen_if_needed(&mut state, &recipe)?;
             let scene = recipe.scene_for(&inner.report);
             let (engine, target) = state.engine_and_target(generation, [width, height])?;
+            // The engine outlives this render: a render without `matcap=` gets the built-in.
+            match matcap {
+                Some(matcap) => engine.set_matcap(matcap),
+                None if engine.matcap().name != "clay" => engine.set_matcap(Default::default()),
+                None => {}
+            }
             let mut pixels = vec![0u8; width as usize * height as usize * 4];
             engine
                 .render_twin_into(target, &mut inner.twin, &scene, &mut pixels)

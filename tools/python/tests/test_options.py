@@ -29,6 +29,7 @@ EXAMPLES = {
     "curvature": True,
     "shading": False,
     "lighting": "headlight",
+    "matcap": "shiny",
     "depth_cues": False,
     "cue_strength": "0.5,0.3,0.2",
     "cutaway": "centre",
