@@ -50,6 +50,12 @@
 // colours (cortex over white matter, the ventricles) instead of the see-through interior that
 // eq. 4 gives a flat region; the f64 twin does the same.
 //
+// Depth picking (PICK; issue 31 item 2): one invocation marches the ray of view pixel
+// params.pick.yz exactly as the picture does and writes, instead of a colour, the ray parameter
+// (mm from the ray's origin) of the first sample at which the accumulated opacity reaches
+// params.pick.x (DVR) or of the first sample holding the extreme (MIP/MinIP), -1 for none, to
+// texel (0, 0); the host turns it into a world point. Twin: ReferenceRaymarch::pick.
+//
 // Geometry: rays start in world space (mm) and are marched in index space with the parameter
 // in mm (geometry.glsl); the interval is cut to the crop box and clip planes (clip.glsl) before
 // any sample is placed; ray starts are jittered per pixel against wood-grain banding.
@@ -79,6 +85,7 @@ layout(constant_id = 12) const bool BRAIN = false;        // tissues inside the 
 layout(constant_id = 13) const bool CLASSIFY_TABLE = false; // tissue windows from the transfer-function table
 layout(constant_id = 14) const uint LIGHTING = 0u;        // 0 headlight Phong, 1 studio, 2 matcap (lighting.glsl)
 layout(constant_id = 15) const bool DEPTH_CUES = false;   // occlusion and shadow at the surface (lighting.glsl)
+layout(constant_id = 16) const bool PICK = false;         // one view pixel's first visible sample (depth picking)
 
 layout(set = 0, binding = 0) uniform sampler3D volume;          // I_norm, trilinear
 layout(set = 0, binding = 1) uniform sampler3D gradient_volume; // .r |g|, .g k (scaled, see derived_scale)
@@ -123,6 +130,8 @@ layout(set = 0, binding = 4, std140) uniform Params {
     vec4 key_light;         // xyz: unit world direction toward the key light; w: silhouette strength
     vec4 cues;              // x: occlusion strength, y: shadow strength, z: occlusion reach mm, w: shadow reach mm
     vec4 cap;               // x: depth in mm behind a cut face that is drawn solid (0: off); y: cue unit mm
+    // Depth picking (issue 31 item 2).
+    vec4 pick;              // PICK: x the accumulated opacity that counts as visible, yz the view pixel
 } params;
 
 // Benchmark counters (COUNT_SAMPLES only): samples marched and samples that passed
@@ -314,6 +323,14 @@ vec4 tissue_sample(vec3 p, float v, vec4 cls, vec3 direction_world, float r, boo
 
 void main() {
     uvec2 pixel = gl_GlobalInvocationID.xy;
+    if (PICK) {
+        // One ray: the view pixel params.pick.yz of a params.image.xy view (its own jitter
+        // included, so the pick lands on what the picture shows there), written to texel (0, 0).
+        if (pixel.x != 0u || pixel.y != 0u) {
+            return;
+        }
+        pixel = uvec2(params.pick.yz);
+    }
     bool in_image = pixel.x < params.image.x && pixel.y < params.image.y;
     if (!in_image) {
         if (COUNT_SAMPLES) {
@@ -352,8 +369,11 @@ void main() {
         bool surface_found = false;
         vec3 surface_p = vec3(0.0);
         vec3 surface_normal = vec3(0.0);
+        // PICK: the ray parameter (mm) of the first sample at which acc.a reaches params.pick.x.
+        float pick_t = -1.0;
         for (uint i = 0u; i < steps; i++) {
-            vec3 p = origin + direction * (start + float(i) * dt);
+            float t_sample = start + float(i) * dt;
+            vec3 p = origin + direction * t_sample;
             // Opacity exponent of this sample: r, or k r for a long step.
             float r = params.march.x;
             if (SKIP_EMPTY) {
@@ -410,6 +430,9 @@ void main() {
                 surface_p = p;
                 surface_normal = normal;
             }
+            if (PICK && pick_t < 0.0 && acc.a >= params.pick.x) {
+                pick_t = t_sample;
+            }
             if (acc.a > params.march.y) {
                 break;
             }
@@ -418,6 +441,9 @@ void main() {
             acc.rgb *= surface_cues(surface_p, surface_normal, direction_world);
         }
         result = vec4(acc.rgb + (1.0 - acc.a) * params.background.rgb, 1.0);
+        if (PICK) {
+            result = vec4(pick_t, acc.a, 0.0, 1.0);
+        }
     } else {
         bool found = false;
         // Plain assignments, not `?:` on MODE: glslang would emit an OpSpecConstantOp Select that
@@ -427,12 +453,21 @@ void main() {
             extreme = 0.0;
         }
         marched = steps;
+        // PICK: the ray parameter (mm) of the first sample holding the extreme.
+        float extreme_t = -1.0;
         for (uint i = 0u; i < steps; i++) {
-            float v = sample_volume(origin + direction * (start + float(i) * dt));
+            float t = start + float(i) * dt;
+            float v = sample_volume(origin + direction * t);
             if (MODE == MODE_MIP) {
+                if (PICK && v > extreme) {
+                    extreme_t = t;
+                }
                 extreme = max(extreme, v);
                 found = true;
             } else if (v >= params.intensity.z) {
+                if (PICK && v < extreme) {
+                    extreme_t = t;
+                }
                 extreme = min(extreme, v);
                 found = true;
             }
@@ -441,8 +476,15 @@ void main() {
             float grey = clamp((extreme - params.intensity.x) / max(params.intensity.y - params.intensity.x, 1e-6), 0.0, 1.0);
             result = vec4(params.crop_hi.w > 0.5 ? colormap_lookup(grey) : vec3(grey), 1.0);
         }
+        if (PICK) {
+            result = vec4(extreme_t, found ? 1.0 : 0.0, 0.0, 1.0);
+        }
     }
-    imageStore(target, ivec2(pixel), result);
+    if (PICK) {
+        imageStore(target, ivec2(0), result);
+    } else {
+        imageStore(target, ivec2(pixel), result);
+    }
     if (COUNT_SAMPLES) {
         count_samples(marched, classified);
     }

@@ -174,6 +174,27 @@ fn crop_clip_and_colour_maps_act_on_the_view() {
         .filter(|p| p[0] > 40 && p[0] as i32 > p[2] as i32 + 40)
         .count();
     assert!(reddish > 1000, "hot: {reddish} reddish pixels");
+    // The colour bar of the map (issue 31 item 1) at the view's right edge, 18-32 px in, from
+    // 10 % to 45 % of the height: hot runs from black at the bottom through red to white on top.
+    let v = [r[0] - 24, r[1] - 24, r[2] + 48, r[3] + 48];
+    let column = v[0] + v[2] - 25;
+    let at = |fraction: f64| {
+        let y = v[1] + (fraction * v[3] as f64) as u32;
+        hot.pixels([column, y, 1, 1])[0]
+    };
+    let (top, middle, bottom) = (at(0.11), at(0.30), at(0.44));
+    assert!(
+        top.iter().all(|&c| c > 200),
+        "the bar's top is white: {top:?}"
+    );
+    assert!(
+        middle[0] > 150 && middle[2] < 60,
+        "the bar's middle is red-orange: {middle:?}"
+    );
+    assert!(
+        bottom.iter().all(|&c| c < 90),
+        "the bar's bottom is dark: {bottom:?}"
+    );
     for action in ["crop 0:1,0:1,0.5:1", "clip -1 0 0 0", "colormap hot"] {
         assert!(
             log.contains(&format!("action \"{action}\"")),

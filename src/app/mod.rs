@@ -9,6 +9,7 @@
 //! histogram.rs       the I_norm histogram with peaks and draggable tissue windows
 //! camera_control.rs  mouse/keys -> camera, orientation letters (views: scene/views.rs)
 //! clip_panel.rs      crop sliders, one clip plane, colour map (edits Scene::clip/colormap)
+//! colour_bar.rs      the colour map's bar over the 3D view, its ends in the file's units
 //! loader.rs          worker thread: opens volumes the library's way (plan, whole or bricked,
 //!                    analyse, derive), derives later effects (never the UI thread)
 //! readout.rs         the crosshair's mm, voxel and value in the scanner's units (HU for CT)
@@ -39,6 +40,7 @@ pub mod brain_outline;
 pub mod brain_panel;
 pub mod camera_control;
 pub mod clip_panel;
+pub mod colour_bar;
 pub mod crosshair_3d;
 pub mod file_panel;
 pub mod frame_log;

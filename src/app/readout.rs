@@ -33,7 +33,7 @@ pub struct Readout {
     pub label: Option<(u16, Option<String>)>,
 }
 
-/// The readout of `volume` at `world`; `hounsfield`: the volume is a CT.
+/// The readout of `volume` at `world`; `hounsfield`: its values are Hounsfield units.
 pub fn readout(volume: &Volume, world: DVec3, hounsfield: bool) -> Readout {
     let a = volume.orientation.affine;
     let index_to_world = DMat4::from_cols_array_2d(&a).transpose();

@@ -129,6 +129,9 @@ pub enum Action {
     Convention(crate::scene::slice::Convention),
     /// Move the slices' crosshair to a world point (mm, RAS).
     Crosshair([f64; 3]),
+    /// A depth pick at a point of the 3D view, as fractions of its width and height from the
+    /// top left (`pick 0.5 0.5`: the centre), as a click there does.
+    Pick([f32; 2]),
     /// The slices' grey window in I_norm (black, white).
     SliceWindow(f64, f64),
     /// Show or hide one label of the overlay.
@@ -374,6 +377,16 @@ fn parse_line(line: &str) -> Result<Action, String> {
             number(next(), "y in mm")?,
             number(next(), "z in mm")?,
         ]),
+        "pick" => {
+            let x = number(next(), "x as a fraction of the view's width (0..1)")?;
+            let y = number(next(), "y as a fraction of the view's height (0..1)")?;
+            if !(0.0..=1.0).contains(&x) || !(0.0..=1.0).contains(&y) {
+                return Err(format!(
+                    "pick {x} {y}: both lie in 0..1 (fractions of the view)"
+                ));
+            }
+            Action::Pick([x as f32, y as f32])
+        }
         "label" => {
             let n = number(next(), "a label number")?;
             if !(0.0..=65535.0).contains(&n) || n.fract() != 0.0 {

@@ -136,16 +136,7 @@ impl SliceControls {
         let (lo, hi) = self.window;
         match self.units {
             Some((imin, imax, unit)) => {
-                // Whole numbers over a range of 100 and more (HU, most MR), else 2 or 4 decimals.
-                let span = (imax - imin).abs();
-                let decimals = if span >= 100.0 {
-                    0
-                } else if span >= 1.0 {
-                    2
-                } else {
-                    4
-                };
-                let raw = |v: f64| format!("{:.*}", decimals, imin + v * (imax - imin));
+                let raw = |v: f64| in_units(v, imin, imax);
                 let unit = if unit.is_empty() {
                     String::new()
                 } else {
@@ -156,6 +147,30 @@ impl SliceControls {
             None => format!("window {lo:.2}..{hi:.2} (I_norm)"),
         }
     }
+}
+
+impl SliceControls {
+    /// The grey window's low and high ends as the grey bar labels them: the file's units with
+    /// their name (`40 HU`), or I_norm.
+    pub fn window_ends(&self) -> (String, String) {
+        let (lo, hi) = self.window;
+        super::colour_bar::end_labels([lo, hi], self.units)
+    }
+}
+
+/// I_norm `v` in the file's units (I_norm 0 and 1 are `imin` and `imax`): whole numbers over a
+/// range of 100 and more (HU, most MR), else 2 or 4 decimals. The slices' window and the colour
+/// bar read values this way.
+pub fn in_units(v: f64, imin: f64, imax: f64) -> String {
+    let span = (imax - imin).abs();
+    let decimals = if span >= 100.0 {
+        0
+    } else if span >= 1.0 {
+        2
+    } else {
+        4
+    };
+    format!("{:.*}", decimals, imin + v * (imax - imin))
 }
 
 /// A label overlay resampled onto the volume's grid, with its colours.
@@ -304,7 +319,7 @@ fn slice_column(ui: &mut Ui, slices: &mut SliceControls) {
         .small()
         .weak(),
     );
-    colour_bar(ui);
+    grey_bar(ui, slices);
     if let Some(readout) = &slices.readout {
         ui.label(egui::RichText::new(readout).small());
     }
@@ -324,19 +339,38 @@ fn slice_column(ui: &mut Ui, slices: &mut SliceControls) {
 }
 
 /// The slices' grey scale under the window's numbers (`window_text`): black at its low end to
-/// white at its high end.
-fn colour_bar(ui: &mut Ui) {
-    let (rect, _) = ui.allocate_exact_size(vec2(ui.available_width(), 10.0), egui::Sense::hover());
+/// white at its high end, each end's value under it (in the file's units, as `window_text`).
+fn grey_bar(ui: &mut Ui, slices: &SliceControls) {
+    let (rect, _) = ui.allocate_exact_size(vec2(ui.available_width(), 22.0), egui::Sense::hover());
+    let bar = Rect::from_min_max(rect.left_top(), Pos2::new(rect.right(), rect.top() + 10.0));
     let mut mesh = egui::Mesh::default();
-    let (top, bottom) = (rect.top(), rect.bottom());
-    for (x, grey) in [(rect.left(), 0u8), (rect.right(), 255u8)] {
+    let (top, bottom) = (bar.top(), bar.bottom());
+    for (x, grey) in [(bar.left(), 0u8), (bar.right(), 255u8)] {
         let colour = Color32::from_gray(grey);
         mesh.colored_vertex(Pos2::new(x, top), colour);
         mesh.colored_vertex(Pos2::new(x, bottom), colour);
     }
     mesh.add_triangle(0, 1, 2);
     mesh.add_triangle(1, 2, 3);
-    ui.painter().add(egui::Shape::mesh(mesh));
+    let painter = ui.painter();
+    painter.add(egui::Shape::mesh(mesh));
+    let (lo, hi) = slices.window_ends();
+    let font = egui::FontId::proportional(11.0);
+    let colour = ui.visuals().weak_text_color();
+    painter.text(
+        bar.left_bottom(),
+        egui::Align2::LEFT_TOP,
+        lo,
+        font.clone(),
+        colour,
+    );
+    painter.text(
+        bar.right_bottom(),
+        egui::Align2::RIGHT_TOP,
+        hi,
+        font,
+        colour,
+    );
 }
 
 /// The label overlay's section of the tools panel (nothing without `--overlay`): whether it is

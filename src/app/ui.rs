@@ -76,6 +76,9 @@ pub struct Controls {
     pub files: FilePanel,
     /// A drag on the view in progress (for the script runner: a drag is one action).
     pub dragging: bool,
+    /// A depth pick asked for (a click on the 3D view, or the script's `pick`): where, as
+    /// fractions of the view's width and height from its top left (viewer/pick.rs runs it).
+    pub pick: Option<[f32; 2]>,
     /// Slice layout, crosshair, window and convention (`slices_panel.rs`).
     pub slices: super::slices_panel::SliceControls,
     /// What brain extraction decided for the volume on screen (`brain_panel.rs`).
@@ -96,6 +99,7 @@ impl Controls {
             extent_mm: 200.0,
             files: FilePanel::default(),
             dragging: false,
+            pick: None,
             slices: Default::default(),
             brain: Default::default(),
             identity: Default::default(),

@@ -1,7 +1,8 @@
 //! The 3D view's own input and overlays: orbit, pan and zoom from egui's response on the view
-//! (so egui decides who owns a drag: a slider drag never orbits the volume), keys only when no
-//! text field has focus, and the orientation letters, the empty-view message, load progress and
-//! errors drawn over the raymarched image.
+//! (so egui decides who owns a drag: a slider drag never orbits the volume), a click (no drag)
+//! asks for a depth pick (`Controls::pick`, run by viewer/pick.rs), keys only when no
+//! text field has focus, and the orientation letters, the colour map's bar, the empty-view message,
+//! load progress and errors drawn over the raymarched image.
 
 use super::camera_control::{Button, DragKind, drag_kind, edge_labels, view_for_key};
 use super::ui::{Controls, Shown, empty_view_message};
@@ -39,6 +40,12 @@ pub(super) fn view_input(ui: &mut Ui, rect: Rect, controls: &mut Controls) {
     }
     if response.double_clicked() {
         controls.camera.reset(&mut controls.scene.camera);
+    } else if response.clicked_by(egui::PointerButton::Primary)
+        && let Some(at) = response.interact_pointer_pos()
+    {
+        // A click without a drag: the crosshair goes where the picture shows something.
+        let at = at - rect.min;
+        controls.pick = Some([at.x / rect.width(), at.y / rect.height()]);
     }
     if response.hovered() {
         let scroll = ui.input(|i| i.smooth_scroll_delta.y);
@@ -118,6 +125,7 @@ pub(super) fn view_overlays(ui: &mut Ui, rect: Rect, controls: &Controls, shown:
         painter.galley(rect.center() - galley.size() / 2.0, galley, colour);
     }
     if shown.has_volume {
+        super::colour_bar::draw(&painter, rect, &controls.scene, controls.slices.units);
         let labels = edge_labels(&controls.scene.camera);
         let texts = [labels.left, labels.right, labels.top, labels.bottom];
         for ((pos, align), text) in letter_positions(rect).into_iter().zip(texts) {

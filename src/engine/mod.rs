@@ -25,6 +25,7 @@ pub mod mask_edge;
 pub mod matcap;
 mod occupancy;
 mod open;
+pub mod pick;
 mod pipelines;
 pub mod plan;
 mod prepare;
@@ -184,6 +185,8 @@ pub struct Engine {
     ahead_window: Option<(std::time::Instant, std::time::Instant)>,
     /// The image a matcap-lit frame looks its normals up in (`matcap.rs`).
     matcap: Arc<crate::scene::matcap::MatcapImage>,
+    /// The 1x1 target depth picks render into, after the first (`pick.rs`).
+    pick_target: Option<RenderTarget>,
 }
 
 impl Drop for Engine {
@@ -257,6 +260,7 @@ impl Engine {
             pipeline_times: PipelineTimes::default(),
             ahead_window: None,
             matcap: Arc::default(),
+            pick_target: None,
         })
     }
 

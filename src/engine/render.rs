@@ -66,6 +66,8 @@ pub struct RenderTarget {
     pub(super) tables: super::transfer::TableSlots,
     // The matcap per frame slot (matcap.rs).
     pub(super) matcaps: super::matcap::MatcapSlots,
+    // A picking target (pick.rs): the view pixel it marches and the view's size.
+    pub(super) pick: Option<(crate::scene::uniforms::PixelPick, [u32; 2])>,
     /// Compile in and read the benchmark counters (samples marched / classified) each frame.
     pub count_samples: bool,
     /// Copy each frame back to the host (off for frame-rate measurements: `Frame` is then
@@ -215,6 +217,7 @@ impl Engine {
             label_colours_written: [0; FRAMES_IN_FLIGHT],
             tables: Default::default(),
             matcaps: Default::default(),
+            pick: None,
             count_samples: false,
             read_back: true,
         })
@@ -356,6 +359,7 @@ impl Engine {
             }
         };
         let mut variant = RaymarchVariant::of_layout(&effects, count, atlas.brick > 0);
+        variant.pick = target.pick.is_some();
         // The brain mask is read where the derived volumes hold one the switch uses (a head).
         variant.brain = variant.mode == 0
             && effects.brain != crate::passes::brain::BrainSwitch::Off
@@ -418,13 +422,15 @@ impl Engine {
                 gradients: stats,
                 store_scale,
                 bricks,
-                width: target.width,
-                height: target.height,
+                // A picking target marches one pixel of a view of this size (pick.rs).
+                width: target.pick.map_or(target.width, |(_, view)| view[0]),
+                height: target.pick.map_or(target.height, |(_, view)| view[1]),
                 atlas,
                 brain_grid: derived
                     .and_then(|d| d.brain.as_ref())
                     .filter(|_| variant.brain)
                     .map_or([1.0; 3], |b| b.grid_extent()),
+                pick: target.pick.map(|(pick, _)| pick),
             },
         );
         let uniforms = target.uniforms[frame_slot].clone();

@@ -54,6 +54,9 @@ pub struct RaymarchVariant {
     pub lighting: u32,
     /// Occlusion and shadow at each ray's surface (lighting.glsl; DVR).
     pub depth_cues: bool,
+    /// One view pixel's first visible sample instead of a picture (depth picking; the engine's
+    /// `pick`, never a scene's frame).
+    pub pick: bool,
 }
 
 impl RaymarchVariant {
@@ -89,6 +92,7 @@ impl RaymarchVariant {
             ("STUDIO_LIGHTING", self.lighting == 1),
             ("MATCAP", self.lighting == 2),
             ("DEPTH_CUES", self.depth_cues),
+            ("PICK", self.pick),
         ] {
             text.push_str(&format!(", {name}={}", on(value)));
         }
@@ -187,6 +191,7 @@ impl RaymarchPass {
                 ("CLASSIFY_TABLE", SpecValue::Bool(variant.classify_table)),
                 ("LIGHTING", SpecValue::U32(variant.lighting)),
                 ("DEPTH_CUES", SpecValue::Bool(variant.depth_cues)),
+                ("PICK", SpecValue::Bool(variant.pick)),
             ],
             cache,
         )?;

@@ -84,6 +84,8 @@ pub struct RaymarchUniforms {
     pub cues: [f32; 4],
     /// x: depth in mm behind a cut face drawn solid; y: the depth cues' unit length in mm.
     pub cap: [f32; 4],
+    /// Depth picking: x the accumulated opacity that counts as visible, yz the view pixel.
+    pub pick: [f32; 4],
 }
 
 /// Where a bricked volume's bricks are (zeros for a whole volume).
@@ -119,6 +121,19 @@ pub struct FrameInputs {
     /// The extent in voxels the brain mask's texture spans (its working grid times the block
     /// edges); ones without a mask.
     pub brain_grid: [f32; 3],
+    /// The one view pixel a picking frame marches (`width` x `height` is then the view's size,
+    /// not the target's), None for a picture.
+    pub pick: Option<PixelPick>,
+}
+
+/// One pixel of a view to pick (depth picking, issue 31 item 2): the raymarch marches that
+/// pixel's ray as the picture does and reports where it first becomes visible.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PixelPick {
+    /// The pixel, (0, 0) at the top left of the view.
+    pub pixel: [u32; 2],
+    /// DVR: the accumulated opacity at which the ray counts as having met what is shown.
+    pub threshold: f32,
 }
 
 /// Gradient statistics of the volume the raymarch needs (from the derivative pass).
@@ -206,6 +221,9 @@ impl RaymarchUniforms {
                 0.0,
                 0.0,
             ],
+            pick: frame.pick.map_or([0.0; 4], |p| {
+                [p.threshold, p.pixel[0] as f32, p.pixel[1] as f32, 0.0]
+            }),
             brain_grid: [bx, by, bz, 0.0],
             head_window: [
                 head.window.lo as f32,

@@ -63,6 +63,7 @@ impl RaymarchVariant {
                 _ => 0,
             },
             depth_cues: dvr && effects.lighting.depth_cues,
+            pick: false,
         }
     }
 }

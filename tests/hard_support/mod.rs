@@ -138,6 +138,21 @@ pub fn reference(
     w: u32,
     h: u32,
 ) -> Vec<[f64; 4]> {
+    with_twin(engine, prepared, derived, scene, [w, h], |twin| {
+        twin.render()
+    })
+}
+
+/// `use_twin` of the f64 twin of the raymarch of `scene` at `size`, on the GPU's own I_norm and
+/// derived volumes, lit by the engine's matcap (the engine's state, not the scene's).
+pub fn with_twin<T>(
+    engine: &Engine,
+    prepared: &PreparedVolume,
+    derived: Option<&Derived>,
+    scene: &Scene,
+    size: [u32; 2],
+    use_twin: impl FnOnce(&ReferenceRaymarch<'_>) -> T,
+) -> T {
     let norm: Vec<f64> = normalized(engine, prepared)
         .iter()
         .map(|&v| v as f64)
@@ -160,11 +175,10 @@ pub fn reference(
         },
         None => ReferenceDerived::NONE,
     };
-    // The engine's matcap lights the twin too (it is the engine's state, not the scene's).
-    ReferenceRaymarch::new(scene, &geometry, &stats, &volume, &refs, w, h)
+    let twin = ReferenceRaymarch::new(scene, &geometry, &stats, &volume, &refs, size[0], size[1])
         .unwrap()
-        .with_matcap(std::sync::Arc::new(engine.matcap().clone()))
-        .render()
+        .with_matcap(std::sync::Arc::new(engine.matcap().clone()));
+    use_twin(&twin)
 }
 
 /// (PSNR over RGB with peak 1, 99th-percentile abs error, max abs error) over the pixels `mask`

@@ -158,3 +158,12 @@ fn lighting_steps_parse_with_every_model() {
     let e = parse("lighting candle", "s").unwrap_err();
     assert!(e.message.contains("lighting matcap"), "{e}");
 }
+
+#[test]
+fn a_pick_step_takes_fractions_of_the_view() {
+    let steps = parse("pick 0.5 0.25\n", "s").unwrap();
+    assert_eq!(steps[0].action, Action::Pick([0.5, 0.25]));
+    for bad in ["pick 1.5 0.5", "pick 0.5", "pick a b"] {
+        assert!(parse(bad, "s").is_err(), "{bad}");
+    }
+}

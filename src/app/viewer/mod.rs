@@ -36,7 +36,8 @@
 //!   creates a new device (and surface, swapchain) and reloads the current file, with a message.
 //!
 //! Files: this one (state, the frame loop), `steps.rs` (loader replies, script steps),
-//! `paint.rs` (the frame's GPU side, screenshots, device loss), `opening.rs` (opening files),
+//! `paint.rs` (the frame's GPU side, screenshots, device loss), `pick.rs` (depth picking),
+//! `opening.rs` (opening files),
 //! `brain.rs` (brain extraction's panel state, log lines and slice outline),
 //! `quality.rs` (adaptive quality while interacting: `app/adaptive.rs`), `config.rs` (how the
 //! viewer was started).
@@ -45,6 +46,7 @@ mod brain;
 mod config;
 mod opening;
 mod paint;
+mod pick;
 mod quality;
 mod save_view;
 mod slices;
@@ -552,6 +554,7 @@ impl Viewer {
             }
         }
         self.request_derived();
+        self.run_pick();
 
         let ppp = full.pixels_per_point;
         if let Some(delay) = full

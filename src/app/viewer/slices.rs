@@ -37,8 +37,9 @@ impl Viewer {
         let slices = &mut self.controls.slices;
         let overlay = slices.overlay.as_ref();
         let readout = slices.crosshair.map(|world| {
-            let ct = current.loaded.report.modality.modality == crate::analysis::Modality::Ct;
-            let r = crate::app::readout::readout(&current.loaded.host, world, ct);
+            // HU only for values in Hounsfield units (a rescaled CT's are not), as the windows.
+            let hu = crate::scene::preset::values_are_hu(&current.loaded.report);
+            let r = crate::app::readout::readout(&current.loaded.host, world, hu);
             match overlay {
                 // The labels are on this volume's grid once the overlay is set up below.
                 Some(o) if o.labels.dims == current.loaded.host.dims => {

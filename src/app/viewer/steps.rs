@@ -208,6 +208,10 @@ impl Viewer {
                 c.slices.crosshair = Some(glam::DVec3::from_array(*p));
                 watch = false;
             }
+            Action::Pick(at) => {
+                c.pick = Some(*at);
+                watch = false;
+            }
             Action::Label(label, on) => {
                 if *on {
                     c.slices.hidden.remove(label);

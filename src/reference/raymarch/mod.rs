@@ -517,7 +517,14 @@ impl<'a> ReferenceRaymarch<'a> {
     }
 
     fn dvr(&self, plan: &RayPlan) -> [f64; 4] {
+        self.dvr_picking(plan, None).0
+    }
+
+    /// The DVR pixel and, with `pick` (an opacity threshold), the ray parameter of the first
+    /// sample at which the accumulated opacity reaches it (the shader's PICK).
+    fn dvr_picking(&self, plan: &RayPlan, pick: Option<f64>) -> ([f64; 4], Option<f64>) {
         let mut acc = [0.0; 4];
+        let mut picked = None;
         // Where the depth cues are evaluated: the sample at which acc.a first reaches 0.5.
         let mut surface: Option<(DVec3, DVec3)> = None;
         let mut next = 0;
@@ -559,6 +566,12 @@ impl<'a> ReferenceRaymarch<'a> {
             {
                 surface = Some((p, normal));
             }
+            if let Some(threshold) = pick
+                && picked.is_none()
+                && acc[3] >= threshold
+            {
+                picked = Some(plan.parameter(i));
+            }
             // After compositing, like the shader: the sample that crosses the threshold counts.
             if acc[3] > self.early_termination {
                 break;
@@ -570,33 +583,59 @@ impl<'a> ReferenceRaymarch<'a> {
                 *c *= factor;
             }
         }
-        self.with_background(acc)
+        (self.with_background(acc), picked)
     }
 
     fn projection(&self, plan: &RayPlan) -> [f64; 4] {
+        self.projection_picking(plan).0
+    }
+
+    /// The MIP/MinIP pixel and the ray parameter of the first sample holding the extreme (the
+    /// shader's PICK).
+    fn projection_picking(&self, plan: &RayPlan) -> ([f64; 4], Option<f64>) {
         let mip = self.mode == RenderMode::Mip;
         let mut found = false;
         let mut extreme: f64 = if mip { 0.0 } else { 1.0 };
+        let mut at = None;
         for i in 0..plan.count {
             let v = self.value(plan.position(i));
             if mip {
+                if v > extreme {
+                    at = Some(plan.parameter(i));
+                }
                 extreme = extreme.max(v);
                 found = true;
             } else if v >= self.minip_floor {
+                if v < extreme {
+                    at = Some(plan.parameter(i));
+                }
                 extreme = extreme.min(v);
                 found = true;
             }
         }
         if !found {
-            return self.with_background([0.0; 4]);
+            return (self.with_background([0.0; 4]), at);
         }
         let grey = self.display_position(extreme);
-        match self.colormap {
+        let colour = match self.colormap {
             Some(map) => {
                 let [r, g, b] = map.lookup(grey);
                 [r, g, b, 1.0]
             }
             None => [grey, grey, grey, 1.0],
+        };
+        (colour, at)
+    }
+
+    /// Twin of the raymarch's PICK variant at pixel (x, y): the ray parameter (mm from the ray's
+    /// origin) of the first sample at which the accumulated opacity reaches `threshold` (DVR),
+    /// or of the first sample holding the ray's extreme (MIP/MinIP); None where the shader
+    /// writes -1.
+    pub fn pick(&self, x: u32, y: u32, threshold: f64) -> Option<f64> {
+        let plan = self.ray(x, y);
+        match self.mode {
+            RenderMode::Dvr => self.dvr_picking(&plan, Some(threshold)).1,
+            RenderMode::Mip | RenderMode::MinIp => self.projection_picking(&plan).1,
         }
     }
 
