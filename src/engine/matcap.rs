@@ -2,24 +2,22 @@
 //! (`scene::matcap`, set by [`Engine::set_matcap`]) in a host-visible buffer per frame slot, for
 //! variants lit by a matcap.
 //!
-//! Decisions: as the transfer-function table (engine/transfer.rs): one buffer per frame slot,
-//! created on first use (a scene never lit by a matcap allocates nothing), rewritten only when
-//! the engine's matcap is not the one that slot holds (compared by identity: `set_matcap` makes
-//! a new `Arc`), so a frame in flight never sees its matcap change and an orbit uploads nothing.
+//! Decisions: as the transfer-function table, one buffer per frame slot (engine/host_slots.rs),
+//! rewritten only when the engine's matcap is not the one that slot holds (compared by identity:
+//! `set_matcap` makes a new `Arc`), so a frame in flight never sees its matcap change and an
+//! orbit uploads nothing.
 //! Every matcap is [`MATCAP_BYTES`] (resampled on the host), so the buffer and the plan's entry
 //! have one size.
 
 use super::Engine;
+use super::host_slots::HostSlots;
 use super::render::RenderTarget;
 use crate::gpu::{Buffer, BufferDesc, GpuResult};
 use crate::scene::matcap::{MATCAP_BYTES, MatcapImage};
 use std::sync::Arc;
 
 /// A render target's matcap buffers, per frame slot, and the image each holds.
-#[derive(Default)]
-pub struct MatcapSlots {
-    slots: Vec<Option<(Arc<Buffer>, Arc<MatcapImage>)>>,
-}
+pub type MatcapSlots = HostSlots<Arc<MatcapImage>>;
 
 /// The plan's description of one frame slot's matcap buffer.
 pub fn matcap_desc() -> BufferDesc {
@@ -48,23 +46,14 @@ impl Engine {
         if !used {
             return Ok(self.placeholders.occupancy.clone());
         }
-        let slots = &mut target.matcaps.slots;
-        if slots.len() <= frame_slot {
-            slots.resize(frame_slot + 1, None);
-        }
-        if let Some((buffer, held)) = &slots[frame_slot]
-            && Arc::ptr_eq(held, &self.matcap)
-        {
-            return Ok(buffer.clone());
-        }
-        let buffer = match slots[frame_slot].take() {
-            Some((buffer, _)) => buffer,
-            None => Buffer::new(&self.device, matcap_desc())?,
-        };
-        // Host writes before the submission that reads them; the other slot's buffer, which a
-        // frame in flight may read, is untouched.
-        buffer.write(0, self.matcap.bytes())?;
-        slots[frame_slot] = Some((buffer.clone(), self.matcap.clone()));
-        Ok(buffer)
+        let matcap = self.matcap.clone();
+        target.matcaps.current(
+            &self.device,
+            frame_slot,
+            matcap_desc,
+            |held| Arc::ptr_eq(held, &matcap),
+            matcap.clone(),
+            |buffer| buffer.write(0, matcap.bytes()),
+        )
     }
 }

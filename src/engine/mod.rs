@@ -18,6 +18,7 @@ mod brain_fit;
 mod bricked;
 mod denoise;
 mod derive;
+mod host_slots;
 pub mod kernels;
 mod labels;
 mod maps;

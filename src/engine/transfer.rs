@@ -1,13 +1,13 @@
 //! The transfer-function table of a render target (issue 33 item 1): the raymarch's tissue
 //! windows as one lookup (`scene::transfer_table`), for variants with CLASSIFY_TABLE.
 //!
-//! Decisions: one host-visible buffer per frame slot, created on first use (a scene that never
-//! uses the table allocates nothing), rewritten only when the classification differs from what
-//! that slot holds, so a frame in flight never sees its table change and an orbit rebuilds
-//! nothing. Building the 8192 entries costs about as much as one smoothstep per entry and
-//! window on the host, once per classification change.
+//! Decisions: one host-visible buffer per frame slot (engine/host_slots.rs), rewritten only when
+//! the classification differs from what that slot holds, so a frame in flight never sees its
+//! table change and an orbit rebuilds nothing. Building the 8192 entries costs about as much as
+//! one smoothstep per entry and window on the host, once per classification change.
 
 use super::Engine;
+use super::host_slots::HostSlots;
 use super::render::RenderTarget;
 use crate::gpu::{Buffer, BufferDesc, GpuResult};
 use crate::scene::Scene;
@@ -15,10 +15,7 @@ use crate::scene::transfer_table::{TABLE_BYTES, TransferTable};
 use std::sync::Arc;
 
 /// A render target's tables, per frame slot, and the classification each holds.
-#[derive(Default)]
-pub struct TableSlots {
-    slots: Vec<Option<(Arc<Buffer>, crate::scene::Classification)>>,
-}
+pub type TableSlots = HostSlots<crate::scene::Classification>;
 
 impl Engine {
     /// The table buffer the raymarch binds this frame: `scene`'s table in `frame_slot` when
@@ -33,26 +30,14 @@ impl Engine {
         if !used {
             return Ok(self.placeholders.occupancy.clone());
         }
-        let slots = &mut target.tables.slots;
-        if slots.len() <= frame_slot {
-            slots.resize(frame_slot + 1, None);
-        }
-        if let Some((buffer, held)) = &slots[frame_slot]
-            && *held == scene.classification
-        {
-            return Ok(buffer.clone());
-        }
-        let buffer = match slots[frame_slot].take() {
-            Some((buffer, _)) => buffer,
-            None => Buffer::new(
-                &self.device,
-                BufferDesc::host_storage("transfer-function table", TABLE_BYTES),
-            )?,
-        };
-        // Host writes before the submission that reads them; the other slot's buffer, which a
-        // frame in flight may read, is untouched.
-        buffer.write(0, TransferTable::new(&scene.classification).bytes())?;
-        slots[frame_slot] = Some((buffer.clone(), scene.classification));
-        Ok(buffer)
+        let classification = scene.classification;
+        target.tables.current(
+            &self.device,
+            frame_slot,
+            || BufferDesc::host_storage("transfer-function table", TABLE_BYTES),
+            |held| *held == classification,
+            classification,
+            |buffer| buffer.write(0, TransferTable::new(&classification).bytes()),
+        )
     }
 }
