@@ -65,10 +65,13 @@ def _number(value) -> str:
 
 
 def _item(value) -> str:
-    """One value as the command line writes it: a str as it is, a number, or a tuple of
-    numbers joined the way its option expects (pairs LO:HI, everything else by commas)."""
+    """One value as the command line writes it: a str as it is, a path as its str (`matcap`),
+    a number, or a tuple of numbers joined the way its option expects (pairs LO:HI, everything
+    else by commas)."""
     if isinstance(value, str):
         return value
+    if isinstance(value, os.PathLike):
+        return os.fspath(value)
     if isinstance(value, (tuple, list, np.ndarray)):
         parts = [_number(v) for v in value]
         return ":".join(parts) if len(parts) == 2 else ",".join(parts)

@@ -153,3 +153,29 @@ def test_the_type_hints_name_every_scene_option():
     render = stub[stub.index("def render("):stub.index("def derive(")]
     missing = [name for name, *_ in morphray.scene_options() if f"        {name}:" not in render]
     assert not missing, f"__init__.pyi's render() lacks {missing}"
+
+
+def _grey_png(path, side, left, right):
+    """A side x side 8-bit grey PNG, `left` in its left half and `right` in its right half."""
+    import struct
+    import zlib
+
+    def chunk(kind, data):
+        body = kind + data
+        return struct.pack(">I", len(data)) + body + struct.pack(">I", zlib.crc32(body))
+
+    row = bytes([0] + [left] * (side // 2) + [right] * (side - side // 2))
+    header = struct.pack(">IIBBBBB", side, side, 8, 0, 0, 0, 0)
+    path.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header)
+                     + chunk(b"IDAT", zlib.compress(row * side)) + chunk(b"IEND", b""))
+    return path
+
+
+def test_a_matcap_file_by_path_or_str_lights_the_picture(phantom, tmp_path):
+    png = _grey_png(tmp_path / "left-lit.png", 32, 240, 60)
+    by_path = phantom.render(size=32, no_jitter=True, matcap=png)
+    np.testing.assert_array_equal(by_path, phantom.render(size=32, no_jitter=True, matcap=str(png)))
+    assert not np.array_equal(by_path, phantom.render(size=32, no_jitter=True, lighting="matcap")), \
+        "the file's matcap is not the built-in clay"
+    with pytest.raises(ValueError, match="2 to 4096 pixels"):
+        phantom.render(size=8, matcap=_grey_png(tmp_path / "dot.png", 1, 0, 0))
