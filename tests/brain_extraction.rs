@@ -486,3 +486,128 @@ fn skipping_leaves_out_the_head_around_the_brain_and_changes_no_pixel() {
     assert_eq!(off, on);
     common::assert_no_validation_errors(&engine);
 }
+
+/// A T2 head as the clinical T2w one is: CSF brighter than GM and WM, a thin dark skull, and a
+/// scalp of fat as bright as the CSF (15 mm, thick enough for the coarse pool to keep it
+/// joined) reached through a 10 mm plug of fat in the skull (the orbits' and the vertex's
+/// partial volume on the real scan). Returns the samples and, per voxel, whether it is the
+/// brain's tissue (parenchyma or ventricle, not the outer CSF).
+fn bright_csf_head(dims: [usize; 3], spacing: [f64; 3]) -> (Vec<u16>, Vec<bool>) {
+    let mut rng = Rng(17);
+    let centre = dims.map(|n| (n as f64 - 1.0) / 2.0);
+    // Shells (outer radius in mm, signal); neighbours blend over 2 mm (partial volume).
+    let shells = [
+        (46.0, 600.0),
+        (52.0, 900.0),
+        (56.0, 1450.0),
+        (60.0, 60.0),
+        (67.0, 1450.0),
+    ];
+    let shell_signal = |r: f64, plug: bool| {
+        let mut value = 0.0;
+        for (index, &(outer, signal)) in shells.iter().enumerate().rev() {
+            let signal = if index == 3 && plug { 1450.0 } else { signal };
+            let weight = ((outer + 1.0 - r) / 2.0).clamp(0.0, 1.0);
+            value = value * (1.0 - weight) + signal * weight;
+        }
+        value
+    };
+    let (mut out, mut truth) = (Vec::new(), Vec::new());
+    for k in 0..dims[2] {
+        for j in 0..dims[1] {
+            for i in 0..dims[0] {
+                let x = [i, j, k].map(|v| v as f64);
+                let mm: [f64; 3] = std::array::from_fn(|a| (x[a] - centre[a]) * spacing[a]);
+                let r = (mm[0] * mm[0] / 0.9 + mm[1] * mm[1] + mm[2] * mm[2] / 0.8).sqrt();
+                let ventricle =
+                    (mm[0] / 8.0).powi(2) + (mm[1] / 20.0).powi(2) + (mm[2] / 8.0).powi(2);
+                let plug = mm[1] > 0.0 && (mm[0] * mm[0] + mm[2] * mm[2]).sqrt() < 10.0;
+                let signal = if ventricle < 1.0 {
+                    1450.0
+                } else {
+                    shell_signal(r, plug)
+                };
+                let noise = (rng.unit() + rng.unit() + rng.unit() - 1.5) * 150.0;
+                out.push((signal + noise).clamp(0.0, 4095.0) as u16);
+                truth.push(r <= 52.0);
+            }
+        }
+    }
+    (out, truth)
+}
+
+#[test]
+fn a_t2_head_is_extracted_with_its_band_closed_between_gm_and_csf() {
+    use morphray::analysis::{ContrastChoice, Identity, ModalityChoice};
+    let mut engine = common::engine();
+    let spacing: [f64; 3] = [1.1, 1.3, 2.1];
+    let dims = spacing.map(|h| (190.0 / h).ceil() as usize | 1);
+    let (samples, truth) = bright_csf_head(dims, spacing);
+    let v = volume(dims, spacing, Samples::from_u16(&samples));
+    let mut prepared = engine.prepare(&v).unwrap();
+    prepared.identity = Identity::from_choices(ModalityChoice::Auto, ContrastChoice::T2);
+    let (lo, hi) = band_for(&prepared.histogram, Contrast::T2).expect("a band");
+    let working = |engine: &Engine, mask: &morphray::engine::BrainMask| {
+        let image = mask.image.as_ref().expect("a mask");
+        let values: Vec<f64> = read_image(engine.device(), image, Access::ComputeSampled)
+            .unwrap()
+            .values
+            .iter()
+            .map(|&x| f64::from(x))
+            .collect();
+        morphray::reference::brain_mask::WorkingMask {
+            values: &values,
+            dims: image.extent().map(|d| d as usize),
+            factors: mask.factors,
+        }
+        .export(dims)
+    };
+    // The band open above (CSF is brain on a T2) runs into the scalp through the plug.
+    let open = engine
+        .brain_mask(&prepared, &BrainParams::for_band(lo, hi))
+        .unwrap();
+    let open_mask = working(&engine, &open);
+    let at = |mask: &[u8], mm: [f64; 3]| {
+        let q: [usize; 3] =
+            std::array::from_fn(|a| (mm[a] / spacing[a] + (dims[a] as f64 - 1.0) / 2.0) as usize);
+        mask[q[0] + dims[0] * (q[1] + dims[1] * q[2])]
+    };
+    let scalp = [0.0, 64.0, 0.0];
+    assert_eq!(
+        at(&open_mask, scalp),
+        1,
+        "the open band reaches the scalp: {:?}",
+        open.report
+    );
+    // The second band ends between the fitted GM and CSF, and its mask is the brain's tissue.
+    let mask = engine
+        .extract_brain(&prepared, morphray::passes::brain::BrainSwitch::Auto)
+        .unwrap();
+    let report = &mask.report;
+    assert!(report.band_from_fit, "{report:?}");
+    let upper = report.params.hi;
+    let (imin, imax) = (
+        prepared.normalization.imin.unwrap(),
+        prepared.normalization.imax.unwrap(),
+    );
+    let norm = |raw: f64| (raw - imin) / (imax - imin);
+    assert!(
+        upper > norm(900.0) && upper < norm(1450.0),
+        "upper end {upper}"
+    );
+    assert_eq!(report.decision, BrainDecision::Head);
+    assert!(mask.used && mask.fit_mask.is_some());
+    let values = working(&engine, &mask);
+    assert_eq!(at(&values, scalp), 0, "the scalp is left out");
+    assert_eq!(at(&values, [0.0, 0.0, 0.0]), 1);
+    let (d_open, d) = (dice(&open_mask, &truth), dice(&values, &truth));
+    println!(
+        "Dice against the brain's tissue: open band {d_open:.3} ({:.0} cm^3), closed {d:.3}; {report:?}",
+        open.report.brain_cm3
+    );
+    assert!(
+        d >= 0.9 && d > d_open + 0.05,
+        "Dice {d} (open band {d_open})"
+    );
+    common::assert_no_validation_errors(&engine);
+}

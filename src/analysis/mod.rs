@@ -39,6 +39,7 @@
 pub mod assign;
 pub mod background;
 pub mod brain_band;
+pub mod brain_band_csf;
 pub mod contrast;
 pub mod fallback;
 pub mod fit_windows;

@@ -17,17 +17,20 @@
 
 use super::Engine;
 use super::prepare::{PreparedVolume, VolumeLayout};
+use super::readback::read_image;
 use crate::gpu::{Access, Buffer, GpuError, GpuResult, Image, PassTiming, Recording};
 use crate::passes::brain::{
     BrainGrid, BrainPass, BrainSwitch, PoolMode, StepMode, Tracked, brain_descs, cells_desc,
     working_extent, working_factors,
 };
 use crate::passes::occupancy::OCCUPANCY_HALO;
+use crate::reference::BINS;
 use crate::reference::brain_components::{hole_fill_cells, largest_component_selection, slab_axis};
 use crate::reference::brain_depth::head_cells;
 use crate::reference::brain_mask::BrainCells;
 use crate::reference::brain_params::{BrainParams, close_threshold, spacing_mm};
 use crate::reference::brain_report::{BrainDecision, BrainReport, DecisionCells};
+use crate::reference::histogram::bin_of;
 use crate::scene::occupancy::BrickRanges;
 use std::sync::{Arc, OnceLock};
 use std::time::Instant;
@@ -50,6 +53,10 @@ pub struct BrainMask {
     /// The brain's coarse cells (closed or filled), for empty-space skipping; None without a
     /// mask.
     pub cells: Option<BrainCells>,
+    /// The working-grid mask (0 or 1, x fastest) the tissue fit reads instead of `image`, kept
+    /// on the host: a bright-CSF head's first, open-band mask, the brain with its CSF
+    /// (`brain_extract.rs`). None: the fit reads `image`.
+    pub fit_mask: Option<Vec<u8>>,
     /// The volume's brick ranges restricted to the bricks the mask reaches, made on first use
     /// ([`BrainMask::ranges_inside`]).
     skipping: OnceLock<Arc<BrickRanges>>,
@@ -86,7 +93,7 @@ impl ClosingRound {
 
 impl BrainMask {
     /// No mask (nothing brain-like, or not a head scan), with the GPU time spent finding out.
-    fn none(params: &BrainParams, gpu_timings: Vec<PassTiming>) -> Self {
+    pub(super) fn none(params: &BrainParams, gpu_timings: Vec<PassTiming>) -> Self {
         BrainMask {
             image: None,
             factors: [1, 1, 1],
@@ -94,6 +101,7 @@ impl BrainMask {
             report: BrainReport::not_found(params, std::time::Duration::ZERO),
             gpu_timings,
             cells: None,
+            fit_mask: None,
             skipping: OnceLock::new(),
         }
     }
@@ -138,40 +146,6 @@ impl BrainMask {
 }
 
 impl Engine {
-    /// Brain extraction as a scene's `switch` asks for it (not `Off`): the band from the
-    /// histogram and the analysed contrast, then [`Engine::brain_mask`]; `used` set by the switch.
-    pub fn extract_brain(
-        &mut self,
-        prepared: &PreparedVolume,
-        switch: BrainSwitch,
-    ) -> GpuResult<BrainMask> {
-        if matches!(prepared.layout, VolumeLayout::Bricked(_)) {
-            // The plan turns extraction off for bricked volumes; a caller asking anyway gets
-            // nothing masked rather than an error.
-            return Ok(BrainMask::none(&BrainParams::default(), Vec::new()));
-        }
-        let identity = &prepared.identity;
-        // Brain extraction is for MR heads: not CT, PET, angiography or the EPI series.
-        let not_a_head_scan =
-            identity.modality.modality != crate::analysis::Modality::Mr || identity.kind.is_some();
-        let contrast = self
-            .analyze_identified(prepared, identity)
-            .contrast
-            .contrast;
-        if not_a_head_scan {
-            let mut none = BrainMask::none(&BrainParams::default(), Vec::new());
-            none.report = BrainReport::not_a_head_scan();
-            return Ok(none);
-        }
-        let band = crate::analysis::brain_band::band_for(&prepared.histogram, contrast);
-        let Some((lo, hi)) = band else {
-            return Ok(BrainMask::none(&BrainParams::default(), Vec::new()));
-        };
-        let mut mask = self.brain_mask(prepared, &BrainParams::for_band(lo, hi))?;
-        mask.used = mask.use_for(switch);
-        Ok(mask)
-    }
-
     /// Extracts the brain of `prepared` with `params` (module decisions). The caller chooses the
     /// band (`reference::brain::band_for`) from the histogram and the contrast.
     pub fn brain_mask(
@@ -179,6 +153,18 @@ impl Engine {
         prepared: &PreparedVolume,
         params: &BrainParams,
     ) -> GpuResult<BrainMask> {
+        Ok(self.brain_chain(prepared, params, false)?.0)
+    }
+
+    /// [`Engine::brain_mask`], and with `keep_inside` the histogram of the smoothed volume inside
+    /// the mask (`brain_extract.rs` chooses a bright-CSF band's upper end from it); None without
+    /// a mask.
+    pub(super) fn brain_chain(
+        &mut self,
+        prepared: &PreparedVolume,
+        params: &BrainParams,
+        keep_inside: bool,
+    ) -> GpuResult<(BrainMask, Option<[u32; BINS]>)> {
         let _span = crate::files::trace::span("brain extraction", "prepare");
         if matches!(prepared.layout, VolumeLayout::Bricked(_)) {
             return Err(GpuError::InvalidRequest(
@@ -204,7 +190,7 @@ impl Engine {
         let Some(whole) = largest_component_selection(&eroded, coarse) else {
             let mut none = BrainMask::none(params, timings);
             none.report.total_ms = started.elapsed().as_secs_f64() * 1e3;
-            return Ok(none);
+            return Ok((none, None));
         };
         host_ms += host.elapsed().as_secs_f64() * 1e3;
 
@@ -262,7 +248,12 @@ impl Engine {
             .zip(&round.fill)
             .map(|(&c, &f)| c | f)
             .collect();
-        Ok(BrainMask {
+        let inside = if keep_inside {
+            Some(smoothed_inside(&device, &work)?)
+        } else {
+            None
+        };
+        let mask = BrainMask {
             image: Some(work.mask.image.clone()),
             factors: work.grid.factors,
             used: false,
@@ -274,8 +265,10 @@ impl Engine {
                 factors: work.grid.factors,
                 set,
             }),
+            fit_mask: None,
             skipping: OnceLock::new(),
-        })
+        };
+        Ok((mask, inside))
     }
 
     /// Submission 1: smoothing, band, erosion and the coarse cells of each.
@@ -551,6 +544,21 @@ fn after_host_cells(
         &[],
     );
     Ok(rec)
+}
+
+/// The 256-bin histogram of the smoothed volume (I_norm) over the working voxels inside the mask:
+/// two working-grid readbacks (4 + 1 bytes a working voxel, an eighth of a 0.9 mm volume's).
+fn smoothed_inside(device: &crate::gpu::Device, work: &Work) -> GpuResult<[u32; BINS]> {
+    let mask = read_image(device, &work.mask.image, work.mask.state)?.values;
+    let smoothed = read_image(device, &work.smoothed.image, work.smoothed.state)?.values;
+    let mut bins = [0u32; BINS];
+    for (&m, &v) in mask.iter().zip(&smoothed) {
+        if m >= 0.5 && v.is_finite() {
+            let b = bin_of(v);
+            bins[b] = bins[b].saturating_add(1);
+        }
+    }
+    Ok(bins)
 }
 
 fn read_cells(buffer: &Arc<Buffer>) -> GpuResult<Vec<u8>> {

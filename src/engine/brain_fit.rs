@@ -9,6 +9,8 @@
 //!   pixel on this machine, and differs only in a half-block rim), and each voxel inside is normalized with the
 //!   volume's own `imin`/`imax` (eq. 1 in f64, then f32 and the kernel's binning, as
 //!   `reference::histogram_of_samples` does). No new GPU pass, no volume-sized readback.
+//! - A bright-CSF head's mask leaves the outer CSF out; the fit then reads the first, open-band
+//!   mask, kept on the host (`BrainMask::fit_mask`, `engine/brain_extract.rs` says why).
 //! - Frame 0 of the stored samples (what the histogram kernel saw); a denoised volume's
 //!   histogram is still the raw one inside the mask, which differs only by the filter's noise.
 //! - The fit replaces the windows only when it is sound (`analysis::tissue_fit::is_sound`); the
@@ -77,11 +79,14 @@ impl Engine {
             return Ok(false);
         };
         let _span = crate::files::trace::span("tissue fit in the brain mask", "prepare");
-        let values: Vec<f64> = read_image(self.device(), image, Access::ComputeSampled)?
-            .values
-            .iter()
-            .map(|&v| f64::from(v))
-            .collect();
+        let values: Vec<f64> = match &brain.fit_mask {
+            Some(fit_mask) => fit_mask.iter().map(|&v| f64::from(v)).collect(),
+            None => read_image(self.device(), image, Access::ComputeSampled)?
+                .values
+                .iter()
+                .map(|&v| f64::from(v))
+                .collect(),
+        };
         let mask = WorkingMask {
             values: &values,
             dims: image.extent().map(|d| d as usize),

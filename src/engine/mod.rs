@@ -14,6 +14,7 @@
 //!   passes put the right barrier in front of it.
 
 mod brain;
+mod brain_extract;
 mod brain_fit;
 mod bricked;
 mod denoise;

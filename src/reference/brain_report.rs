@@ -68,6 +68,9 @@ pub struct BrainReport {
     pub decision: BrainDecision,
     /// Whether the component step cut a bridge into the scalp (`reference::brain_depth`).
     pub bridge_cut: bool,
+    /// Whether the band's upper end came from the tissue fit inside a first, open-band mask
+    /// (bright CSF: `analysis::brain_band_csf`).
+    pub band_from_fit: bool,
     /// Host time of the coarse-grid steps, ms.
     pub host_ms: f64,
     /// Wall time of the whole extraction, ms.
@@ -86,8 +89,13 @@ impl BrainReport {
         } else {
             ""
         };
+        let fitted = if self.band_from_fit {
+            "; the band's upper end from the tissue fit inside a first mask"
+        } else {
+            ""
+        };
         format!(
-            "brain: {} ({:.0} cm^3, {:.0} % of the tissue band I_norm {:.3}..{:.3} outside it{cut})",
+            "brain: {} ({:.0} cm^3, {:.0} % of the tissue band I_norm {:.3}..{:.3} outside it{fitted}{cut})",
             self.decision.describe(),
             self.brain_cm3,
             100.0 * self.outside_fraction,
@@ -112,6 +120,7 @@ impl BrainReport {
             outside_fraction: 0.0,
             decision: BrainDecision::NotFound,
             bridge_cut: false,
+            band_from_fit: false,
             host_ms: 0.0,
             total_ms: elapsed.as_secs_f64() * 1e3,
         }
@@ -142,6 +151,7 @@ impl BrainReport {
             outside_fraction,
             decision,
             bridge_cut,
+            band_from_fit: false,
             host_ms: 0.0,
             total_ms: elapsed.as_secs_f64() * 1e3,
         }
