@@ -10,6 +10,8 @@
 #   morphray default   `morphray render VOL --size SIZE` (no scene flag: its default view is
 #                      anterior, azimuth 0 elevation 0, perspective 30 degrees)
 #   morphray best      the same plus $BEST_FLAGS (default --step 0.25 --derived-precision f16)
+#   morphray matcap    the default plus $MATCAP_FLAGS (default --lighting matcap: the built-in
+#                      clay matcap, the lighting NiiVue and MRIcroGL offer; README "Lighting")
 #   NiiVue defaults    its default 3D render (benches/niivue/page.html: sliceType RENDER, default
 #                      volume shader, orthographic camera), camera at NiiVue's azimuth 180
 #                      elevation 0, which is its anterior view (its azimuth 0 is posterior)
@@ -25,6 +27,7 @@ ROOT=$(cd "$HERE/../.." && pwd)
 OUT=${1:-$HERE/side-by-side}
 SIZE=${SIZE:-512x512}
 BEST_FLAGS=${BEST_FLAGS:---step 0.25 --derived-precision f16}
+MATCAP_FLAGS=${MATCAP_FLAGS:---lighting matcap}
 MNI=${MNI:-/work/shared/data/mni152_t1_2009a.nii.gz}
 REAL=${REAL:-/work/shared/data/real}
 PY=${PY:-/tmp/proto/bin/python}
@@ -60,8 +63,9 @@ done
 
 METRICS=$OUT/metrics.txt
 read -r -a best <<< "$BEST_FLAGS"
+read -r -a matcap <<< "$MATCAP_FLAGS"
 {
-  echo "command: BEST_FLAGS='$BEST_FLAGS' SIZE=$SIZE tools/figures/side-by-side.sh ${1:-}"
+  echo "command: BEST_FLAGS='$BEST_FLAGS' MATCAP_FLAGS='$MATCAP_FLAGS' SIZE=$SIZE tools/figures/side-by-side.sh ${1:-}"
   echo "machine: $(uname -n), $(nproc) cores, $(date -u +%FT%TZ)"
   echo "morphray: $("$MORPHRAY" --version) ($MORPHRAY, built $(date -u -r "$MORPHRAY" +%FT%TZ)); $("$MORPHRAY" devices 2>&1 | head -1)"
   echo "niivue: $(niivue_versions)"
@@ -74,6 +78,7 @@ for i in "${!NAMES[@]}"; do
   echo "== $v" >&2
   "$MORPHRAY" render "$f" -o "$p-morphray-default.png" --size "$SIZE" 2>&1 | sed 's/^/  default: /' >&2
   "$MORPHRAY" render "$f" -o "$p-morphray-best.png" --size "$SIZE" "${best[@]}" 2>&1 | sed 's/^/  best: /' >&2
+  "$MORPHRAY" render "$f" -o "$p-morphray-matcap.png" --size "$SIZE" "${matcap[@]}" 2>&1 | sed 's/^/  matcap: /' >&2
   niivue_add "$v" "$f"
   rm -f "$p-niivue.png"
   niivue_run "$v" "$SIZE" "$p-niivue.png" "$NV_AZ" "$NV_EL" > "$p-niivue.json"
@@ -86,6 +91,7 @@ for i in "${!NAMES[@]}"; do
   "$PY" "$ROOT/benches/niivue/sheet.py" "$OUT/sheet-$v.png" \
     "$p-morphray-default.png" "morphray default: render --size $SIZE (Vulkan, ${DEVICE:-?})" \
     "$p-morphray-best.png" "morphray best: render --size $SIZE $BEST_FLAGS" \
+    "$p-morphray-matcap.png" "morphray matcap: render --size $SIZE $MATCAP_FLAGS" \
     "$p-niivue.png" "NiiVue $NIIVUE_VERSION defaults, azimuth $NV_AZ elevation $NV_EL (WebGL2, ANGLE llvmpipe)" >&2
 done
 [ ${#DONE[@]} -gt 0 ] || die "NiiVue showed no volume (see $NV_LOG)"

@@ -3,7 +3,7 @@
 
     python tools/figures/side_by_side_metrics.py PICTURES_DIR VOLUME [VOLUME ...]
 
-Reads PICTURES_DIR/VOLUME-{morphray-default,morphray-best,niivue}.png. Prints one row per
+Reads PICTURES_DIR/VOLUME-{morphray-default,morphray-best,morphray-matcap,niivue}.png. Prints one row per
 picture: surface_metrics.py's edge_px, rms, local, px; the silhouette's width in pixels and
 edge_%w = 100 * edge_px / width (the two renderers frame a volume differently: morphray's
 perspective fit against NiiVue's orthographic one); local3 = `local` on the luminance smoothed by
@@ -21,7 +21,7 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from surface_metrics import erode, luminance, metrics  # noqa: E402
 
-COLUMNS = ["morphray-default", "morphray-best", "niivue"]
+COLUMNS = ["morphray-default", "morphray-best", "morphray-matcap", "niivue"]
 
 
 def silhouette_width(path):
@@ -81,7 +81,7 @@ def main(argv):
           "contrast, larger = more")
     for v in volumes:
         ne, nl, nl3 = rows[v, "niivue"]
-        for c in COLUMNS[:2]:
+        for c in COLUMNS[:-1]:
             e, loc, loc3 = rows[v, c]
             name = c.replace("morphray-", "morphray ")
             print(f"{v}, {name} vs NiiVue: edge {e:.2f} vs {ne:.2f} px ({verdict_edge(e, ne)}); "
