@@ -43,6 +43,9 @@ pub enum Error {
     /// No plan of the scene fits the memory budget, even fully degraded.
     #[error(transparent)]
     DoesNotFit(#[from] crate::engine::plan::DoesNotFit),
+    /// A scene document that cannot be read or written.
+    #[error(transparent)]
+    SceneDocument(#[from] crate::scene::document::SceneDocError),
     /// Arguments that parse but do not make sense together.
     #[error("{0}")]
     Usage(String),

@@ -75,7 +75,7 @@ impl WindowsFrom {
 }
 
 /// One classification window in `I_norm`.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Window {
     /// Lower boundary (weight 0.5 there).
     pub lo: f64,

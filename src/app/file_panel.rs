@@ -1,5 +1,5 @@
-//! The file panel: Open..., Open folder..., Phantom, Save PNG..., the series picker of a DICOM
-//! input, and files dropped on the window.
+//! The file panel: Open..., Open folder..., Phantom, Save PNG..., Save 3D view..., Save scene...,
+//! the series picker of a DICOM input, and files dropped on the window.
 //!
 //! Decisions:
 //! - What to open is a [`VolumeSource`], as for every other client of the library: a dropped
@@ -33,6 +33,7 @@ enum Purpose {
     Open,
     Save,
     SaveView,
+    SaveScene,
 }
 
 impl Default for FilePanel {
@@ -101,6 +102,17 @@ impl FilePanel {
                 self.purpose = Purpose::SaveView;
                 self.dialog.save_file();
             }
+            if ui
+                .button("Save scene...")
+                .on_hover_text(
+                    "The scene as a .json document (camera, tissues, windows, colours, clip, \
+                     layout): view --scene or render --scene opens it again",
+                )
+                .clicked()
+            {
+                self.purpose = Purpose::SaveScene;
+                self.dialog.save_file();
+            }
             let max = super::viewer::MAX_VIEW_SIDE;
             ui.add(egui::DragValue::new(&mut self.view_size[0]).range(1..=max));
             ui.label("x");
@@ -120,6 +132,7 @@ impl FilePanel {
                 Purpose::Open => Request::Open(VolumeSource::File(path)),
                 Purpose::Save => Request::Screenshot(path),
                 Purpose::SaveView => Request::SaveView(path, self.view_size),
+                Purpose::SaveScene => Request::SaveScene(path),
             });
         }
         let dropped: Vec<PathBuf> = ctx.input(|i| {

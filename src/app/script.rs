@@ -108,6 +108,8 @@ pub enum Action {
     /// Save the 3D view alone at a size (`save-view PATH 2048x2048`; default the view's size
     /// in pixels is not known to a script, so 1024x1024).
     SaveView(PathBuf, [u32; 2]),
+    /// Save the scene on screen as a scene document (`save-scene PATH.json`).
+    SaveScene(PathBuf),
     /// Let this many frames pass.
     Wait(u32),
     /// Let this many milliseconds of wall time pass, frames going on as in an interactive
@@ -514,6 +516,9 @@ fn parse_line(line: &str) -> Result<Action, String> {
             }
             Action::Frame(n as usize)
         }
+        "save-scene" => Action::SaveScene(PathBuf::from(
+            next().ok_or("expected a scene document path (.json)")?,
+        )),
         "save-view" => {
             let path = PathBuf::from(next().ok_or("expected a PNG path")?);
             let size = match next() {

@@ -43,6 +43,8 @@ pub enum Request {
     Frame(usize),
     /// Save the 3D view alone, rendered at this size (width, height), as PNG.
     SaveView(PathBuf, [u32; 2]),
+    /// Save the scene on screen as a scene document (.json).
+    SaveScene(PathBuf),
     /// Open the volume on screen again taken as this modality, contrast and preset.
     Identity(super::identity_panel::IdentityChoice),
 }

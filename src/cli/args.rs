@@ -369,6 +369,9 @@ pub struct RenderArgs {
     /// Label overlay, drawn in 3D (DVR).
     #[command(flatten)]
     pub overlay: super::overlay::OverlayArgs,
+    /// Scene documents: `--scene`, `--scene-from`, `--save-scene`.
+    #[command(flatten)]
+    pub scene_file: super::scene_file::SceneFileArgs,
 }
 
 /// Options of `view`.
@@ -417,6 +420,9 @@ pub struct ViewArgs {
     /// `V` or the buttons at the view's top left switch it later.
     #[arg(long, default_value = "slices", value_parser = ["slices", "3d", "axial", "coronal", "sagittal"])]
     pub layout: String,
+    /// Scene documents: `--scene`, `--scene-from` (`--save-scene` is render's).
+    #[command(flatten)]
+    pub scene_file: super::scene_file::SceneFileArgs,
     /// Initial scene (--size is the window size, default 1280x800).
     #[command(flatten)]
     pub scene: SceneArgs,

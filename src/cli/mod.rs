@@ -28,6 +28,7 @@ pub mod preset_arg;
 mod progress;
 pub mod render;
 pub mod scene_args;
+pub mod scene_file;
 pub mod scene_options;
 pub mod session;
 mod slice;

@@ -17,7 +17,7 @@ use clap::Args;
 use std::path::PathBuf;
 
 /// Overlay options.
-#[derive(Debug, Args, serde::Serialize)]
+#[derive(Clone, Debug, Args, serde::Serialize)]
 pub struct OverlayArgs {
     /// Integer label map drawn in colour on slices and in 3D (label 0 is not drawn)
     ///

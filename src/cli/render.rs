@@ -24,6 +24,7 @@ use super::args::{
 };
 use super::output::{ms, print_line, print_warnings};
 use super::scene_args::{Channel, LightingArg};
+use super::scene_file::folder_of;
 use super::session;
 use crate::analysis::{Contrast, ContrastBasis, TissueReport};
 use crate::error::Error;
@@ -298,11 +299,11 @@ fn frame_path(output: &Path, index: u32) -> PathBuf {
 /// (`scan.nii.gz` -> `scan.png`, a DICOM folder's name, `phantom.png` without an input). The
 /// default never replaces a file without `--force`: it was not named, so it may be another
 /// scan's picture.
-fn output_path(args: &RenderArgs) -> Result<PathBuf, Error> {
+fn output_path(args: &RenderArgs, files: &[PathBuf]) -> Result<PathBuf, Error> {
     if let Some(path) = &args.output {
         return Ok(path.clone());
     }
-    let stem = super::derive::base_name(args.file.first().map(PathBuf::as_path));
+    let stem = super::derive::base_name(files.first().map(PathBuf::as_path));
     let path = PathBuf::from(format!("{stem}.png"));
     let taken = if args.turntable.is_some() {
         frame_path(&path, 0).exists()
@@ -322,17 +323,25 @@ fn output_path(args: &RenderArgs) -> Result<PathBuf, Error> {
 /// Runs the command.
 pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error> {
     let validation = global.validation;
-    let output = output_path(args)?;
+    // A scene document replaces the scene options (src/cli/scene_file.rs).
+    let loaded = args.scene_file.load(&args.scene)?;
+    let files = loaded
+        .as_ref()
+        .map_or_else(|| args.file.clone(), |l| l.files(&args.file));
+    let overlay_args = loaded
+        .as_ref()
+        .map_or_else(|| args.overlay.clone(), |l| l.overlay(&args.overlay));
+    let output = output_path(args, &files)?;
     // 1..=10000 frames (clap checks): the paths below are held, and checked, all at once.
     let frames = args.turntable.unwrap_or(1);
     let paths: Vec<PathBuf> = match args.turntable {
         Some(_) => (0..frames).map(|i| frame_path(&output, i)).collect(),
         None => vec![output.clone()],
     };
-    let mut inputs: Vec<&Path> = args.file.iter().map(|p| p.as_path()).collect();
-    inputs.extend(args.overlay.inputs());
+    let mut inputs: Vec<&Path> = files.iter().map(|p| p.as_path()).collect();
+    inputs.extend(overlay_args.inputs());
     // The label map and its table before any GPU work: a bad one fails at once.
-    let overlay = args.overlay.load()?;
+    let overlay = overlay_args.load()?;
     // A turntable's -o names no file of its own, but `-o orbit.jpg` would still be a mistake.
     if args.turntable.is_some() && !OutputKind::Png.accepts(&output) {
         check_output(&output, OutputKind::Png, &inputs, false)?;
@@ -341,6 +350,9 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
         check_output(path, OutputKind::Png, &inputs, false)?;
     }
     args.movie.check(&paths, &inputs)?;
+    if let Some(path) = &args.scene_file.save_scene {
+        check_output(path, OutputKind::Json, &inputs, false)?;
+    }
     // A still is shaded unless asked otherwise (see --shading).
     let scene_args = args.scene.as_still();
     // On a terminal the spinner shows from the start: reading, extraction and the derived
@@ -348,19 +360,32 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
     let mut progress = super::progress::Progress::new(u64::from(frames), "frames");
     progress.message(&format!(
         "opening {} (read, prepare, analyse, derived volumes)",
-        args.file
+        files
             .first()
             .map_or("the phantom".to_string(), |p| p.display().to_string())
     ));
-    let mut opened = session::open_frame(
-        args.file.as_slice(),
-        args.frame,
-        true,
-        global.engine_config(),
-        Some(&scene_args),
-        true,
-    )?;
+    let mut opened = match &loaded {
+        Some(l) => l.open(
+            &files,
+            (args.frame, args.scene.size),
+            global.engine_config(),
+        )?,
+        None => session::open_frame(
+            files.as_slice(),
+            args.frame,
+            true,
+            global.engine_config(),
+            Some(&scene_args),
+            true,
+        )?,
+    };
     print_warnings(&opened.source.volume.warnings);
+    if let Some(warning) = loaded
+        .as_ref()
+        .and_then(|l| l.hash_warning(opened.source.sha256.as_deref()))
+    {
+        eprintln!("morphray: warning: {warning}");
+    }
     // The planned scene: the arguments' scene with any degradation the budget required.
     let base = opened.scene;
     let classified = base.effects.mode == RenderMode::Dvr;
@@ -382,11 +407,20 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
     }
     let chosen = recipe_from_args(&scene_args)?.preset_for(&opened.report);
     let preset = chosen.label(&opened.report);
-    let why = chosen
-        .why(&opened.report)
-        .filter(|_| scene_args.preset.is_none())
-        .map_or(String::new(), |why| format!(": {why}"));
-    print_line(&format!("preset: {preset} ({}){why}", chosen.summary()));
+    match &loaded {
+        Some(l) => print_line(&format!(
+            "scene: {} (scene document version {})",
+            l.origin.display(),
+            l.doc.version
+        )),
+        None => {
+            let why = chosen
+                .why(&opened.report)
+                .filter(|_| scene_args.preset.is_none())
+                .map_or(String::new(), |why| format!(": {why}"));
+            print_line(&format!("preset: {preset} ({}){why}", chosen.summary()));
+        }
+    }
     let mean_of_frames = opened.source.header.as_ref().and_then(|h| h.mean_of_frames);
     if let Some(n) = mean_of_frames {
         print_line(&epi_mean_line(n));
@@ -402,7 +436,10 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
             r.imax
         ));
     }
-    let (width, height) = args.scene.size.unwrap_or((1024, 1024));
+    let (width, height) = match &loaded {
+        Some(l) => l.size(args.scene.size),
+        None => args.scene.size.unwrap_or((1024, 1024)),
+    };
     let mut target = opened
         .engine
         .render_target(width, height, vk::Format::R8G8B8A8_UNORM)?;
@@ -425,6 +462,15 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
         }
     }
     let command = std::env::args().collect::<Vec<_>>().join(" ");
+    // What the pictures' scene documents record besides the scene.
+    let frame_index = args
+        .frame
+        .or(loaded.as_ref().map(|l| l.doc.input.frame))
+        .unwrap_or(0);
+    let matcap = match &loaded {
+        Some(l) => l.doc.matcap_source(&l.origin),
+        None => args.scene.matcap.clone(),
+    };
     let mut said_empty = false;
     let mut movie = super::movie::Movie::default();
     progress.message(&format!("rendering {width}x{height}"));
@@ -473,7 +519,25 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
             "degradations": opened.plan.degradations,
             "overlay": args.overlay,
         });
+        let parts = super::scene_file::PictureParts {
+            input: (&files, frame_index, opened.source.sha256.as_deref()),
+            matcap: matcap.as_deref(),
+            denoise: loaded
+                .as_ref()
+                .map_or(scene_args.denoise, |l| l.doc.denoise),
+            overlay: &overlay_args,
+            size: (width, height),
+        };
+        let document = super::scene_file::picture_document(&scene, &parts, &folder_of(path));
+        if index == 0
+            && let Some(save) = &args.scene_file.save_scene
+        {
+            let doc = super::scene_file::picture_document(&scene, &parts, &folder_of(save));
+            doc.write(save, &inputs)?;
+            print_line(&format!("wrote {} (scene document)", save.display()));
+        }
         let provenance = Provenance {
+            scene: Some(document.to_json()),
             input: opened.source.label.clone(),
             input_sha256: opened.source.sha256.clone().unwrap_or_default(),
             command: command.clone(),

@@ -117,6 +117,41 @@ pub fn open(
         .map(SceneArgs::matcap_image)
         .transpose()?
         .flatten();
+    let how = OpenHow {
+        want_hash,
+        first_frame,
+        image,
+        matcap,
+    };
+    open_recipe_with(files, frame, config, recipe, how)
+}
+
+/// How [`open_recipe_with`] opens a volume besides its recipe.
+pub struct OpenHow {
+    /// Hash the input (for provenance).
+    pub want_hash: bool,
+    /// A frame will be rendered: its pipelines are started ahead of time.
+    pub first_frame: bool,
+    /// The picture's size.
+    pub image: (u32, u32),
+    /// The matcap image, when the lighting needs one.
+    pub matcap: Option<crate::scene::matcap::MatcapImage>,
+}
+
+/// [`open`] with a recipe made elsewhere (a scene document's), frame `frame` of `files`.
+pub fn open_recipe_with(
+    files: &[PathBuf],
+    frame: usize,
+    config: EngineConfig,
+    recipe: SceneRecipe,
+    how: OpenHow,
+) -> Result<Opened, Error> {
+    let OpenHow {
+        want_hash,
+        first_frame,
+        image,
+        matcap,
+    } = how;
     let options = OpenOptions {
         read: super::source::read_options(frame, want_hash),
         image: [image.0, image.1],

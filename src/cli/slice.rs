@@ -220,6 +220,7 @@ pub fn run(args: &SliceArgs, global: &super::GlobalOptions) -> Result<(), Error>
         "device": session.engine.device().adapter().name,
     });
     let provenance = Provenance {
+        scene: None,
         input: session.source.label.clone(),
         input_sha256: session.source.sha256.clone().unwrap_or_default(),
         command: std::env::args().collect::<Vec<_>>().join(" "),

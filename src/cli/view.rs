@@ -34,14 +34,15 @@ pub fn run(args: &ViewArgs, global: &super::GlobalOptions) -> Result<(), super::
     let mut inputs: Vec<&std::path::Path> = args.file.iter().map(|p| p.as_path()).collect();
     inputs.extend(args.overlay.inputs());
     for step in &steps {
-        if let script::Action::Screenshot(path) | script::Action::SaveView(path, _) = &step.action {
-            crate::files::write::check_output(
-                path,
-                crate::files::write::OutputKind::Png,
-                &inputs,
-                false,
-            )
-            .map_err(|e| {
+        let (path, kind) = match &step.action {
+            script::Action::Screenshot(path) | script::Action::SaveView(path, _) => {
+                (path, crate::files::write::OutputKind::Png)
+            }
+            script::Action::SaveScene(path) => (path, crate::files::write::OutputKind::Json),
+            _ => continue,
+        };
+        {
+            crate::files::write::check_output(path, kind, &inputs, false).map_err(|e| {
                 let script = args
                     .script
                     .as_deref()
@@ -67,16 +68,16 @@ pub fn run(args: &ViewArgs, global: &super::GlobalOptions) -> Result<(), super::
         )
         .map_err(Error::from)?;
     }
-    let overlay = args.overlay.load()?;
+    let document = super::scene_file::ViewDocument::load(args)?;
+    let overlay = document.overlay.load()?;
     let engine = global.engine_config();
     let fail_on_validation = engine.device.validation == Validation::Required;
-    let (width, height) = args.scene.size.unwrap_or((1280, 800));
+    let (width, height) = document.size;
     let scripted = args.frames.is_some() || !steps.is_empty();
     let config = ViewerConfig {
-        source: crate::volume::source::VolumeSource::from_paths(&args.file),
+        source: crate::volume::source::VolumeSource::from_paths(&document.files),
         series: super::source::read_options(0, false).series,
-        // The first view is a still's look (shaded, studio lighting, depth cues), as `render`'s.
-        recipe: super::render::recipe_from_args(&args.scene.as_still())?,
+        recipe: document.recipe,
         size: [width, height],
         vsync: !args.no_vsync,
         frames: args.frames,
@@ -87,11 +88,16 @@ pub fn run(args: &ViewArgs, global: &super::GlobalOptions) -> Result<(), super::
         command: std::env::args().collect::<Vec<_>>().join(" "),
         started,
         overlay,
-        frame: args.frame,
+        frame: document.frame,
         frame_budget_ms: args.frame_budget,
-        layout: crate::app::slices_panel::Layout::parse(&args.layout)
-            .unwrap_or(crate::app::slices_panel::Layout::ThreeDAndSlices),
-        matcap: args.scene.matcap_image()?,
+        layout: document.layout,
+        matcap: document.matcap,
+        matcap_spec: document.matcap_spec,
+        overlay_files: (document.overlay.overlay.clone()).map(|labels| {
+            let o = &document.overlay;
+            (labels, o.overlay_lut.clone(), o.overlay_opacity)
+        }),
+        crosshair_mm: document.crosshair_mm,
     };
     crate::app::run(config, args.offscreen, fail_on_validation)?;
     Ok(())

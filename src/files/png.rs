@@ -8,7 +8,9 @@
 //!   phantom's samples), `morphray:command` (the command line), `morphray:parameters` (all
 //!   resolved parameters as JSON, including defaults the user did not type), and
 //!   `morphray:warnings` (the loader's repairs and warnings about the input, a JSON list of
-//!   sentences, `[]` when there were none: an image of a repaired file says so).
+//!   sentences, `[]` when there were none: an image of a repaired file says so), and from
+//!   `render` and the viewer `morphray:scene` (the scene document that reproduces the picture:
+//!   `render --scene-from PICTURE.png`).
 //! - The file is written through [`AtomicFile`]: a failure (a full disk included) leaves any
 //!   previous image intact and no partial file.
 
@@ -28,6 +30,9 @@ pub struct Provenance {
     pub parameters: String,
     /// The loader's repairs and warnings about the input, one sentence each.
     pub warnings: Vec<String>,
+    /// The scene document (`scene::document`, JSON) that reproduces the picture, when the
+    /// writer has one; written as `morphray:scene`.
+    pub scene: Option<String>,
 }
 
 impl Provenance {
@@ -45,6 +50,11 @@ impl Provenance {
         ]
         .into_iter()
         .map(|(k, v)| (k.to_string(), v))
+        .chain(
+            self.scene
+                .iter()
+                .map(|scene| ("morphray:scene".to_string(), scene.clone())),
+        )
         .collect()
     }
 }
@@ -62,6 +72,14 @@ pub enum PngError {
         path: String,
         /// Cause.
         source: std::io::Error,
+    },
+    /// The file read is not a PNG this decoder can read.
+    #[error("cannot read {path} as a PNG: {message}")]
+    Decode {
+        /// The file.
+        path: String,
+        /// Decoder message.
+        message: String,
     },
     /// The encoder rejected the data.
     #[error("cannot encode {path} as PNG: {message}")]
@@ -122,7 +140,7 @@ pub fn read_text_chunks(path: &Path) -> Result<Vec<(String, String)>, PngError> 
         source: std::io::Error::other(e.to_string()),
     })?;
     let decoder = png::Decoder::new(std::io::Cursor::new(bytes));
-    let reader = decoder.read_info().map_err(|e| PngError::Encode {
+    let reader = decoder.read_info().map_err(|e| PngError::Decode {
         path: shown.clone(),
         message: e.to_string(),
     })?;
@@ -143,7 +161,7 @@ pub fn read_rgba8(path: &Path, max_side: u32) -> Result<(u32, u32, Vec<u8>), Png
         path: shown.clone(),
         source: std::io::Error::other(e.to_string()),
     })?;
-    let bad = |message: String| PngError::Encode {
+    let bad = |message: String| PngError::Decode {
         path: shown.clone(),
         message,
     };
@@ -202,6 +220,7 @@ mod tests {
             command: "morphray render scan.nii.gz -o x.png".into(),
             parameters: "{\"step\":0.5}".into(),
             warnings: vec!["pixdim[1] was 0; 1 mm used".into()],
+            scene: Some("{\"format\":\"morphray-scene\"}".into()),
         };
         write_rgba8(&path, 2, 1, &[255, 0, 0, 255, 0, 255, 0, 255], &provenance).unwrap();
         let chunks = read_text_chunks(&path).unwrap();
@@ -212,6 +231,10 @@ mod tests {
                 .map(|(_, v)| v.clone())
         };
         assert_eq!(get("morphray:input").as_deref(), Some("scan.nii.gz"));
+        assert_eq!(
+            get("morphray:scene").as_deref(),
+            Some("{\"format\":\"morphray-scene\"}")
+        );
         assert_eq!(
             get("morphray:input-sha256").as_deref(),
             Some("ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad")

@@ -33,7 +33,9 @@ use ash::vk;
 use std::sync::Arc;
 
 /// Whether a scene's brain tissues are classified inside an extracted brain only.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize)]
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize,
+)]
 #[serde(rename_all = "snake_case")]
 pub enum BrainSwitch {
     /// Never extract.

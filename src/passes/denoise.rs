@@ -29,7 +29,7 @@ use std::sync::Arc;
 pub const MAX_BILATERAL_RADIUS: u32 = 5;
 
 /// A denoising filter, as `--denoise` names it.
-#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Denoise {
     /// No filter.

@@ -24,7 +24,9 @@ use glam::DMat3;
 use std::sync::Arc;
 
 /// Precision of stored derived volumes (gradient magnitude and curvature).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize)]
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize,
+)]
 #[serde(rename_all = "snake_case")]
 pub enum DerivedPrecision {
     /// 32-bit float (R32F / RG32F).

@@ -15,7 +15,7 @@
 use glam::DVec3;
 
 /// Perspective or orthographic projection.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Projection {
     /// Pinhole camera with this vertical field of view in degrees.
@@ -28,7 +28,7 @@ pub enum Projection {
 }
 
 /// Where the camera is, relative to the volume.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Camera {
     /// Rotation about the superior axis, degrees (0 = anterior view, 90 = from the right).
     pub azimuth_deg: f64,

@@ -78,7 +78,7 @@ pub fn smoothstep(edge0: f64, edge1: f64, x: f64) -> f64 {
 }
 
 /// How one tissue is drawn.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct TissueStyle {
     /// Window in I_norm; None when the tissue was not found (never drawn).
     pub window: Option<Window>,
@@ -93,7 +93,7 @@ pub struct TissueStyle {
 /// How the vessel channel is drawn (issue 15 item 3): like a tissue, but its window is on the
 /// vesselness (0..1, `passes::vesselness`) instead of I_norm. Whether it is drawn is
 /// `Effects::vessels` (it decides a derived volume and a shader variant).
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct VesselStyle {
     /// Window on the vesselness.
     pub window: Window,
@@ -127,7 +127,7 @@ impl Default for VesselStyle {
 /// intensity (I_norm) as the tissues, weighted by `1 - b` where `b` is the brain mask at the
 /// sample, while the tissues are weighted by `b`. Drawn only where a brain mask is in use
 /// (`Effects::brain` and a head); hidden by default, so a head scan shows its brain.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct HeadStyle {
     /// Window in I_norm (skin, fat, muscle: everything above the background).
     pub window: Window,
@@ -197,7 +197,7 @@ impl Default for HeadStyle {
 }
 
 /// The four tissue styles, indexed by [`TissueClass`], the vessel channel's and the head's.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Classification {
     /// Styles in [`TissueClass::ALL`] order.
     pub tissues: [TissueStyle; 4],

@@ -28,7 +28,7 @@ use glam::{DMat3, DVec3, DVec4};
 pub const MAX_CLIP_PLANES: usize = 4;
 
 /// One clip plane in world mm: keeps the points with `normal . x + offset_mm >= 0`.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ClipPlane {
     /// Normal (any non-zero length), world axes.
     pub normal: [f64; 3],
@@ -37,7 +37,7 @@ pub struct ClipPlane {
 }
 
 /// The crop box and clip planes of a scene.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Clip {
     /// Per voxel axis i, j, k: the kept range as fractions `[lo, hi]`, `0 <= lo < hi <= 1`.
     pub crop: [[f64; 2]; 3],

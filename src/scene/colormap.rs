@@ -19,7 +19,7 @@
 pub const COLORMAP_POINTS: usize = 16;
 
 /// A colour map by name.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Colormap {
     /// Black to white.

@@ -39,7 +39,9 @@ use glam::DVec3;
 pub const CAP_MM: f64 = 1.0;
 
 /// The lighting model of shaded DVR.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize)]
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize,
+)]
 #[serde(rename_all = "snake_case")]
 pub enum LightModel {
     /// Ambient + two-sided diffuse + highlight from a light at the eye (the paper's look).
@@ -53,7 +55,9 @@ pub enum LightModel {
 }
 
 /// The lighting choices that select shader variants (part of `Effects`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize)]
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize,
+)]
 pub struct Lighting {
     /// The model of shaded samples (only with shading on).
     pub model: LightModel,
@@ -79,7 +83,7 @@ pub fn still_effects(mut effects: super::Effects) -> super::Effects {
 }
 
 /// Strengths and reaches of the studio outline and the depth cues (uniforms only).
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct DepthCues {
     /// Silhouette darkening at grazing angles, 0..1 (studio model).
     pub silhouette: f32,
@@ -166,7 +170,7 @@ pub fn key_light(rays: &CameraRays) -> DVec3 {
 
 /// The "open the brain" view: a clip plane through `point_mm` (None: the centre of the volume's
 /// world box) facing the camera, keeping the far side.
-#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Cutaway {
     /// World point the plane passes through, mm.
     pub point_mm: Option<[f64; 3]>,

@@ -9,6 +9,7 @@ pub mod camera;
 pub mod classification;
 pub mod clip;
 pub mod colormap;
+pub mod document;
 pub mod geometry;
 pub mod lighting;
 pub mod matcap;
@@ -37,7 +38,7 @@ pub use recipe::{RecipeError, SceneRecipe, WindowSet};
 pub const REFERENCE_LENGTH_MM: f64 = 1.0;
 
 /// What a ray computes.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum RenderMode {
     /// Emission-absorption compositing of classified samples (the paper).
@@ -49,7 +50,7 @@ pub enum RenderMode {
 }
 
 /// Where the gradient-magnitude term of eq. 4 (and normals, curvature) comes from.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum GradientSource {
     /// Read from volumes computed once by the derivative pass.
@@ -59,7 +60,7 @@ pub enum GradientSource {
 }
 
 /// How volumes are interpolated at sample positions.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Interpolation {
     /// The nearest voxel.
@@ -71,7 +72,7 @@ pub enum Interpolation {
 }
 
 /// The finite-difference filter of on-the-fly gradients.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum GradientFilter {
     /// Central differences (6 fetches).
@@ -81,7 +82,7 @@ pub enum GradientFilter {
 }
 
 /// Where the curvature term comes from when curvature weighting is on.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum CurvatureSource {
     /// Stored by the derivative pass (needs precomputed gradients).
@@ -93,7 +94,7 @@ pub enum CurvatureSource {
 pub use crate::passes::derivatives::DerivedPrecision;
 
 /// How opacity is corrected for the step length.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum OpacityCorrection {
     /// `-expm1(r * log1p(-a))`, accurate for tiny opacities.
@@ -103,7 +104,7 @@ pub enum OpacityCorrection {
 }
 
 /// How a sample's tissue windows are evaluated (issue 33 item 1).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum ClassificationLookup {
     /// Every window's two smoothsteps per sample (paper eq. 4 as written).
@@ -113,7 +114,7 @@ pub enum ClassificationLookup {
 }
 
 /// The quality knobs: what accuracy costs in time (the accuracy study varies each).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 pub struct Quality {
     /// Interpolation of every volume fetch.
     pub interpolation: Interpolation,
@@ -158,7 +159,7 @@ impl Default for Quality {
 }
 
 /// The parts of a scene that select shader variants and derived volumes.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 pub struct Effects {
     /// Composite, MIP or MinIP.
     pub mode: RenderMode,
@@ -245,7 +246,7 @@ impl Default for Effects {
 }
 
 /// Everything that determines one image of one prepared volume.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Scene {
     /// Camera.
     pub camera: Camera,

@@ -42,7 +42,7 @@ fn support(window: &super::Window) -> (f64, f64) {
 /// `factor` lattice samples (never past the brick's exit), composited with the opacity of that
 /// length. An approximation (the accuracy study measures it: `morphray accuracy`, ACCURACY.md),
 /// so off by default. Integers so [`super::Quality`] stays a hashable pipeline key.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 pub struct LongSteps {
     /// Lattice samples one long step stands for (1: off).
     pub factor: u32,

@@ -234,6 +234,7 @@ fn process(
             ));
             let before = Instant::now();
             let provenance = Provenance {
+                scene: None,
                 input: scan.relative.clone(),
                 input_sha256: String::new(),
                 command: format!("morphray batch participant ({view} thumbnail)"),

@@ -46,4 +46,10 @@ pub struct ViewerConfig {
     pub layout: crate::app::slices_panel::Layout,
     /// The matcap of the matcap lighting model (`--matcap`; None: the built-in `clay`).
     pub matcap: Option<crate::scene::matcap::MatcapImage>,
+    /// `--matcap`'s word (a built-in's name or a PNG's path), for scene documents.
+    pub matcap_spec: Option<String>,
+    /// The overlay's label map, table and opacity as given, for scene documents.
+    pub overlay_files: Option<(PathBuf, Option<PathBuf>, f64)>,
+    /// Where the crosshair starts on the first volume (a scene document's), world mm.
+    pub crosshair_mm: Option<[f64; 3]>,
 }

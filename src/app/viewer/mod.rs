@@ -48,6 +48,7 @@ mod opening;
 mod paint;
 mod pick;
 mod quality;
+mod save_scene;
 mod save_view;
 mod slices;
 mod steps;
@@ -549,6 +550,7 @@ impl Viewer {
                 Request::Series(index) => self.open_series(index, None),
                 Request::Screenshot(path) => self.screenshot_requests.push(path),
                 Request::SaveView(path, size) => self.save_view(&path, size),
+                Request::SaveScene(path) => self.save_scene(&path),
                 Request::Frame(index) => self.open_frame(index, None),
                 Request::Identity(choice) => self.reidentify(choice, None),
             }

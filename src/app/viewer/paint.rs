@@ -272,7 +272,7 @@ impl Viewer {
         };
         self.flush_completed();
         for path in std::mem::take(&mut self.screenshot_requests) {
-            let provenance = self.provenance();
+            let provenance = self.provenance(&folder_of(&path));
             // The same rules as `render -o` (right extension, never over the open file); the
             // write itself is atomic.
             let input = self.current.as_ref().map(|c| c.loaded.source.clone());
@@ -299,7 +299,7 @@ impl Viewer {
         Ok(())
     }
 
-    pub(super) fn provenance(&self) -> Provenance {
+    pub(super) fn provenance(&self, folder: &std::path::Path) -> Provenance {
         let (input, sha, warnings) = match &self.current {
             Some(c) => (
                 c.loaded.label.clone(),
@@ -322,6 +322,7 @@ impl Viewer {
             command: self.config.command.clone(),
             parameters: parameters.to_string(),
             warnings,
+            scene: self.scene_document(folder).map(|d| d.to_json()),
         }
     }
 
@@ -365,5 +366,13 @@ impl Viewer {
                 self.exit = true;
             }
         }
+    }
+}
+
+/// The folder of a file the viewer writes (the working directory for a bare name).
+pub(super) fn folder_of(path: &std::path::Path) -> std::path::PathBuf {
+    match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => std::path::PathBuf::from("."),
     }
 }

@@ -44,7 +44,7 @@ impl Viewer {
         let scene = self
             .rendered_scene()
             .ok_or("no volume is open, so there is no view to save")?;
-        let provenance = self.provenance();
+        let provenance = self.provenance(&super::paint::folder_of(path));
         let (Some(gpu), Some(current)) = (&mut self.gpu, &self.current) else {
             return Err("the GPU is not ready".into());
         };

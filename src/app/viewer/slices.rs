@@ -59,7 +59,13 @@ impl Viewer {
         }
         if slices.volume != current.loaded.id {
             match geometry_of(prepared) {
-                Ok(geometry) => slices.set_volume(current.loaded.id, geometry),
+                Ok(geometry) => {
+                    slices.set_volume(current.loaded.id, geometry);
+                    // A scene document's crosshair, on the first volume only.
+                    if let Some(mm) = self.config.crosshair_mm.take() {
+                        slices.crosshair = Some(glam::DVec3::from_array(mm));
+                    }
+                }
                 Err(e) => {
                     self.status.error = Some(format!("slices: {e}"));
                     return;

@@ -173,6 +173,10 @@ impl Viewer {
                 self.save_view(path, *size);
                 watch = false;
             }
+            Action::SaveScene(path) => {
+                self.save_scene(path);
+                watch = false;
+            }
             Action::Screenshot(path) => {
                 self.screenshot_requests.push(path.clone());
                 watch = false;
