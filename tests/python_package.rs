@@ -96,6 +96,8 @@ fn the_python_package_builds_as_an_abi3_wheel_and_its_pytest_suite_passes() {
             .args(["-m", "pytest", "-q", "-p", "no:cacheprovider"])
             .arg(root.join("tools/python/tests"))
             .env("PYTHONPATH", &site)
+            // For the tests that check a document Python wrote with the command line.
+            .env("MORPHRAY_BIN", env!("CARGO_BIN_EXE_morphray"))
             .current_dir(&out),
     );
     // pytest exits 0 with nothing collected only with options we do not pass; still, say it.

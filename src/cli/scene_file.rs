@@ -248,6 +248,7 @@ pub fn folder_of(path: &Path) -> PathBuf {
 }
 
 /// What `view` opens: the command line's choices, or a scene document's where one is given.
+#[cfg(feature = "viewer")]
 pub struct ViewDocument {
     /// The files (none: the phantom).
     pub files: Vec<PathBuf>,
@@ -269,6 +270,7 @@ pub struct ViewDocument {
     pub crosshair_mm: Option<[f64; 3]>,
 }
 
+#[cfg(feature = "viewer")]
 impl ViewDocument {
     /// `view`'s arguments resolved against `--scene` / `--scene-from` when given.
     pub fn load(args: &super::args::ViewArgs) -> Result<ViewDocument, Error> {

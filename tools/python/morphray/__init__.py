@@ -325,8 +325,12 @@ class Volume:
             raise ValueError(f"data of shape {array.shape} is not on the volume's grid {self.shape}")
         return nibabel.Nifti1Image(array, self.affine)
 
-    def render(self, **options) -> np.ndarray:
+    def render(self, scene=None, **options) -> np.ndarray:
         """Renders one frame; returns an (H, W, 4) uint8 RGBA array (rows top to bottom).
+
+        scene="view.json" renders a scene document's scene (written by save_scene(),
+        `morphray render --save-scene` or the viewer's File > Save scene...) on this volume;
+        only size= may be given with it.
 
         The options are `morphray render`'s scene options by the same names and units
         (underscores for dashes; `morphray.scene_options()` lists them, `morphray render
@@ -342,10 +346,26 @@ class Volume:
         ValueError with the command line's message. A picture that shows only the background
         raises a warning (warnings.warn) saying why and what to try.
         """
-        image, note = self._native.render(_scene_words("render", options))
+        if scene is not None:
+            size = options.pop("size", None)
+            if options:
+                raise TypeError(f"render(scene=...) takes only size= besides the document; got "
+                                f"{', '.join(sorted(options))} (the document holds the whole scene)")
+            # The command line's parser checks the size (1..16384 a side), as render(size=)'s.
+            words = [] if size is None else _scene_words("render", {"size": size})
+            image, note = self._native.render(words, document=os.fspath(scene))
+        else:
+            image, note = self._native.render(_scene_words("render", options))
         if note:
             warnings.warn(f"morphray: {note}", stacklevel=2)
         return image
+
+    def save_scene(self, path, **options) -> None:
+        """Writes the scene the options describe (render()'s, by the same names) on this volume
+        as a scene document: `morphray render --scene PATH`, `morphray view --scene PATH` and
+        render(scene=PATH) show it again. The volume must have been opened from a file (the
+        document names its scan by path, relative to the document's folder)."""
+        self._native.save_scene(os.fspath(path), _scene_words("save_scene", options))
 
     def derive(self, maps=("gradient", "curvature"), denoise="none", vessel_scales=None) -> dict:
         """The derived maps as (i, j, k) arrays on the input grid, computed on the GPU, by

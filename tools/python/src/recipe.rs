@@ -26,6 +26,8 @@ pub struct SceneChoice {
     pub size: (u32, u32),
     /// The matcap `matcap=` names (None: the built-in `clay`).
     pub matcap: Option<morphray::scene::matcap::MatcapImage>,
+    /// `matcap=`'s word (a built-in's name or a PNG's path), for scene documents.
+    pub matcap_word: Option<String>,
 }
 
 fn usage(error: Error) -> PyErr {
@@ -50,6 +52,27 @@ pub fn scene_choice(words: &[String]) -> PyResult<SceneChoice> {
         recipe,
         size: args.size.unwrap_or(DEFAULT_SIZE),
         matcap: args.matcap_image().map_err(usage)?,
+        matcap_word: args.matcap.clone(),
+    })
+}
+
+/// The scene of the scene document at `path` (`morphray render --scene`'s), at `size` when
+/// given, else the document's; its errors are ValueErrors naming the file.
+pub fn document_choice(path: &std::path::Path, size: Option<(u32, u32)>) -> PyResult<SceneChoice> {
+    use morphray::scene::document::SceneDocument;
+    let doc = SceneDocument::read(path).map_err(|e| errors::usage(e.to_string()))?;
+    let matcap_word = doc.matcap_source(path);
+    let matcap = (matcap_word.as_deref())
+        .map(morphray::scene::matcap::MatcapImage::load)
+        .transpose()
+        .map_err(|e| errors::usage(e.to_string()))?;
+    Ok(SceneChoice {
+        recipe: doc.recipe(),
+        size: size
+            .or(doc.size.map(|[w, h]| (w, h)))
+            .unwrap_or(DEFAULT_SIZE),
+        matcap,
+        matcap_word,
     })
 }
 

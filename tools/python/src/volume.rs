@@ -64,6 +64,8 @@ pub struct Volume {
     label: String,
     /// The file it was read from (never replaced by `to_nifti`).
     path: Option<PathBuf>,
+    /// The frame of a 4-D file it holds.
+    frame: usize,
     dims: [u32; 3],
     warnings: Vec<String>,
     inner: Mutex<Inner>,
@@ -152,6 +154,7 @@ fn open_host(
     Ok(Volume {
         label,
         path: None,
+        frame: 0,
         dims,
         warnings: volume.warnings.clone(),
         inner: Mutex::new(Inner {
@@ -206,6 +209,7 @@ pub fn open_file(
     };
     let mut volume = open_source(py, VolumeSource::File(path.clone()), read, choice)?;
     volume.path = Some(path);
+    volume.frame = frame;
     Ok(volume)
 }
 
@@ -411,12 +415,24 @@ impl Volume {
     /// render`'s scene options; the Python side writes them from its keyword arguments);
     /// returns an (H, W, 4) uint8 array (RGBA, rows top to bottom) and, when the picture shows
     /// only the background, why and what to try.
+    /// With `document` (a scene document's path), its scene instead, at the size `scene`
+    /// gives (`--size` only) or its own.
+    #[pyo3(signature = (scene, document=None))]
     fn render<'py>(
         &self,
         py: Python<'py>,
         scene: Vec<String>,
+        document: Option<PathBuf>,
     ) -> PyResult<(Bound<'py, PyArray3<u8>>, Option<String>)> {
-        let choice = recipe::scene_choice(&scene)?;
+        let choice = match &document {
+            Some(path) => {
+                let size = (!scene.is_empty())
+                    .then(|| recipe::scene_choice(&scene).map(|c| c.size))
+                    .transpose()?;
+                recipe::document_choice(path, size)?
+            }
+            None => recipe::scene_choice(&scene)?,
+        };
         let (width, height) = choice.size;
         let recipe = choice.recipe;
         let matcap = choice.matcap;
@@ -505,6 +521,48 @@ impl Volume {
             }
         }
         Ok(out)
+    }
+
+    /// Writes the scene the command-line words `scene` describe on this volume as a scene
+    /// document (`morphray render --scene`, `view --scene` open it). Volumes read from a file
+    /// only: the document names its input by path.
+    fn save_scene(&self, py: Python<'_>, path: PathBuf, scene: Vec<String>) -> PyResult<()> {
+        use morphray::scene::document::{SceneDocument, SceneInput, recorded_path};
+        let Some(input) = &self.path else {
+            return Err(errors::usage(format!(
+                "save_scene: {} was not read from a file, and a scene document names its scan by \
+                 path: write it with to_nifti() and open that file",
+                self.label
+            )));
+        };
+        let choice = recipe::scene_choice(&scene)?;
+        let folder = match path.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        py.detach(|| -> PyResult<()> {
+            let inner = self.inner.lock().unwrap_or_else(|p| p.into_inner());
+            let scene = choice.recipe.scene_for(&inner.report);
+            let mut doc = SceneDocument::new(
+                SceneInput {
+                    paths: vec![recorded_path(input, &folder)],
+                    sha256: String::new(),
+                    frame: self.frame,
+                },
+                scene,
+            );
+            doc.denoise = choice.recipe.denoise;
+            doc.size = Some([choice.size.0, choice.size.1]);
+            doc.matcap = choice.matcap_word.map(|m| {
+                if morphray::scene::matcap::BUILT_IN.contains(&m.as_str()) {
+                    m
+                } else {
+                    recorded_path(std::path::Path::new(&m), &folder)
+                }
+            });
+            doc.write(&path, &[input.as_path()])
+                .map_err(|e| errors::usage(e.to_string()))
+        })
     }
 
     /// What brain extraction decides for this volume, as JSON text (the Python
