@@ -8,6 +8,7 @@ mod common;
 use morphray::scene::document::{
     FORMAT, OverlayRef, SceneDocError, SceneDocument, SceneInput, VERSION, ViewerLayout,
 };
+use morphray::scene::measure::Measurement;
 use morphray::scene::{ClipPlane, Colormap, Cutaway, Scene};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -23,6 +24,17 @@ const SCHEMA_V1: &[&str] = &[
     "input.paths",
     "input.sha256",
     "matcap",
+    "measurements",
+    "measurements[].angle",
+    "measurements[].angle.points",
+    "measurements[].box",
+    "measurements[].box.a",
+    "measurements[].box.b",
+    "measurements[].distance",
+    "measurements[].distance.points",
+    "measurements[].sphere",
+    "measurements[].sphere.centre",
+    "measurements[].sphere.radius_mm",
     "overlay",
     "overlay.labels",
     "overlay.lut",
@@ -145,6 +157,22 @@ fn full_document() -> SceneDocument {
         opacity: 0.25,
     });
     doc.size = Some([320, 240]);
+    doc.measurements = vec![
+        Measurement::Distance {
+            points: [[0.0, 1.0, 2.0], [3.0, 4.0, 5.0]],
+        },
+        Measurement::Angle {
+            points: [[1.0, 0.0, 0.0], [0.0; 3], [0.0, 1.0, 0.0]],
+        },
+        Measurement::Sphere {
+            centre: [1.0, 2.0, 3.0],
+            radius_mm: 4.5,
+        },
+        Measurement::Box {
+            a: [0.0; 3],
+            b: [5.0, 6.0, 7.0],
+        },
+    ];
     doc.viewer = Some(ViewerLayout {
         layout: "3d".into(),
         crosshair_mm: Some([1.5, -2.0, 3.0]),
@@ -167,11 +195,10 @@ fn key_paths(value: &serde_json::Value, prefix: &str, out: &mut Vec<String>) {
             }
         }
         serde_json::Value::Array(items) => {
-            if let Some(first) = items.iter().find(|i| i.is_object()) {
-                let stem = format!("{prefix}[]");
-                let mut inner = Vec::new();
-                key_paths(first, &stem, &mut inner);
-                out.extend(inner);
+            // The union over the items: a list of measurements holds every kind.
+            let stem = format!("{prefix}[]");
+            for item in items.iter().filter(|i| i.is_object()) {
+                key_paths(item, &stem, out);
             }
         }
         _ => {}

@@ -23,6 +23,15 @@ pub fn decorate_view(
     }
     layout_buttons(ui, view, &mut controls.slices);
     mark_in_3d(ui, view, &controls.slices, &controls.scene.camera);
+    if let Some(geometry) = &controls.slices.geometry {
+        let (camera, bounds) = (&controls.scene.camera, geometry.world_bounds());
+        super::measure_panel::draw_marks(
+            &ui.painter_at(view),
+            &controls.slices.measures,
+            |w| project(camera, bounds, view, w).map(|(x, y)| Pos2::new(x, y)),
+            |_| true,
+        );
+    }
 }
 
 /// The layout buttons, floating at the top right of the 3D view.

@@ -34,6 +34,7 @@ enum Purpose {
     Save,
     SaveView,
     SaveScene,
+    ExportMeasures,
 }
 
 impl Default for FilePanel {
@@ -56,6 +57,12 @@ impl FilePanel {
     pub fn open_dialog(&mut self) {
         self.purpose = Purpose::Open;
         self.dialog.pick_file();
+    }
+
+    /// Opens the file dialog for exporting the measurements (.csv or .json).
+    pub fn export_measures_dialog(&mut self) {
+        self.purpose = Purpose::ExportMeasures;
+        self.dialog.save_file();
     }
 
     /// True while the file dialog is open.
@@ -133,6 +140,7 @@ impl FilePanel {
                 Purpose::Save => Request::Screenshot(path),
                 Purpose::SaveView => Request::SaveView(path, self.view_size),
                 Purpose::SaveScene => Request::SaveScene(path),
+                Purpose::ExportMeasures => Request::ExportMeasures(path),
             });
         }
         let dropped: Vec<PathBuf> = ctx.input(|i| {

@@ -48,6 +48,7 @@ pub mod histogram;
 pub mod histogram_fit;
 pub mod identity_panel;
 pub mod loader;
+pub mod measure_panel;
 pub mod readout;
 pub mod script;
 pub mod slices_panel;

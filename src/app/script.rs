@@ -110,6 +110,8 @@ pub enum Action {
     SaveView(PathBuf, [u32; 2]),
     /// Save the scene on screen as a scene document (`save-scene PATH.json`).
     SaveScene(PathBuf),
+    /// A measurement step (`measure distance ...`, `measure export FILE`; measure_panel.rs).
+    Measure(crate::app::measure_panel::MeasureStep),
     /// Let this many frames pass.
     Wait(u32),
     /// Let this many milliseconds of wall time pass, frames going on as in an interactive
@@ -515,6 +517,10 @@ fn parse_line(line: &str) -> Result<Action, String> {
                 return Err(format!("frame {n} must be a whole number from 0"));
             }
             Action::Frame(n as usize)
+        }
+        "measure" => {
+            let rest: Vec<&str> = std::iter::from_fn(&mut next).collect();
+            Action::Measure(crate::app::measure_panel::MeasureStep::parse(&rest)?)
         }
         "save-scene" => Action::SaveScene(PathBuf::from(
             next().ok_or("expected a scene document path (.json)")?,

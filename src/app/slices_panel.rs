@@ -128,6 +128,8 @@ pub struct SliceControls {
     pub units: Option<(f64, f64, &'static str)>,
     /// The crosshair's readout (`app::readout`), drawn under the slices.
     pub readout: Option<String>,
+    /// Distances, angles and regions, drawn on the slices and in 3D (`measure_panel.rs`).
+    pub measures: super::measure_panel::Measures,
 }
 
 impl SliceControls {
@@ -451,6 +453,12 @@ fn slice_cell(ui: &mut Ui, slices: &mut SliceControls, plane: Plane, cell: Rect)
             stroke,
         );
     }
+    super::measure_panel::draw_marks(
+        &painter,
+        &slices.measures,
+        |w| Some(to_screen(grid.pixel_of_world(w))),
+        |w| grid.is_on_plane(w),
+    );
     let letters = edge_letters(plane, slices.convention);
     let m = 4.0;
     let places = [
@@ -482,7 +490,14 @@ fn slice_cell(ui: &mut Ui, slices: &mut SliceControls, plane: Plane, cell: Rect)
         let y = ((p.y - rect.top()) / rect.height()) as f64 * grid.height as f64 - 0.5;
         grid.world_of_pixel(x, y)
     };
-    if (response.clicked() || response.dragged_by(egui::PointerButton::Primary))
+    let shift = ui.input(|i| i.modifiers.shift);
+    if response.clicked()
+        && shift
+        && let Some(p) = response.interact_pointer_pos()
+    {
+        // A measurement point; a failure (a full list) shows in the panel's count.
+        let _ = slices.measures.add_point(from_screen(p));
+    } else if (response.clicked() || response.dragged_by(egui::PointerButton::Primary))
         && let Some(p) = response.interact_pointer_pos()
     {
         slices.crosshair = Some(from_screen(p));

@@ -45,6 +45,8 @@ pub enum Request {
     SaveView(PathBuf, [u32; 2]),
     /// Save the scene on screen as a scene document (.json).
     SaveScene(PathBuf),
+    /// Export the measurements as .csv or .json.
+    ExportMeasures(PathBuf),
     /// Open the volume on screen again taken as this modality, contrast and preset.
     Identity(super::identity_panel::IdentityChoice),
 }
@@ -81,6 +83,8 @@ pub struct Controls {
     /// A depth pick asked for (a click on the 3D view, or the script's `pick`): where, as
     /// fractions of the view's width and height from its top left (viewer/pick.rs runs it).
     pub pick: Option<[f32; 2]>,
+    /// The pick places a measurement point instead of moving the crosshair (Shift+click).
+    pub pick_measures: bool,
     /// Slice layout, crosshair, window and convention (`slices_panel.rs`).
     pub slices: super::slices_panel::SliceControls,
     /// What brain extraction decided for the volume on screen (`brain_panel.rs`).
@@ -102,6 +106,7 @@ impl Controls {
             files: FilePanel::default(),
             dragging: false,
             pick: None,
+            pick_measures: false,
             slices: Default::default(),
             brain: Default::default(),
             identity: Default::default(),
@@ -262,6 +267,12 @@ pub fn draw(ui: &mut Ui, controls: &mut Controls, shown: &Shown) -> Outcome {
                 rendering_panel(ui, controls);
                 super::clip_panel::clip_panel(ui, &mut controls.scene, controls.extent_mm);
                 super::slices_panel::label_panel(ui, &mut controls.slices);
+                ui.collapsing("Measure", |ui| {
+                    let asked = super::measure_panel::panel(ui, &mut controls.slices.measures);
+                    if asked.is_some() {
+                        controls.files.export_measures_dialog();
+                    }
+                });
                 ui.separator();
                 camera_panel(ui, controls);
                 ui.separator();

@@ -46,6 +46,8 @@ pub(super) fn view_input(ui: &mut Ui, rect: Rect, controls: &mut Controls) {
         // A click without a drag: the crosshair goes where the picture shows something.
         let at = at - rect.min;
         controls.pick = Some([at.x / rect.width(), at.y / rect.height()]);
+        // With Shift the picked point is a measurement point instead of the crosshair.
+        controls.pick_measures = ui.input(|i| i.modifiers.shift);
     }
     if response.hovered() {
         let scroll = ui.input(|i| i.smooth_scroll_delta.y);

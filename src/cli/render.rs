@@ -527,6 +527,7 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
                 .map_or(scene_args.denoise, |l| l.doc.denoise),
             overlay: &overlay_args,
             size: (width, height),
+            measurements: loaded.as_ref().map_or(&[], |l| &l.doc.measurements),
         };
         let document = super::scene_file::picture_document(&scene, &parts, &folder_of(path));
         if index == 0

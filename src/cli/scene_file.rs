@@ -140,6 +140,8 @@ pub struct PictureParts<'a> {
     pub overlay: &'a super::overlay::OverlayArgs,
     /// The picture's size.
     pub size: (u32, u32),
+    /// Measurements carried over from the document the picture was rendered from.
+    pub measurements: &'a [crate::scene::measure::Measurement],
 }
 
 /// The scene document of one picture, its paths recorded relative to `folder` (where the
@@ -149,6 +151,7 @@ pub fn picture_document(scene: &Scene, parts: &PictureParts<'_>, folder: &Path) 
     let mut doc = document_for(scene, (files, frame, sha256), folder);
     doc.denoise = parts.denoise;
     doc.size = Some([parts.size.0, parts.size.1]);
+    doc.measurements = parts.measurements.to_vec();
     doc.matcap = parts.matcap.map(|m| {
         if crate::scene::matcap::BUILT_IN.contains(&m) {
             m.to_string()
@@ -268,6 +271,8 @@ pub struct ViewDocument {
     pub overlay: super::overlay::OverlayArgs,
     /// Where the crosshair starts.
     pub crosshair_mm: Option<[f64; 3]>,
+    /// The measurements the first volume starts with.
+    pub measurements: Vec<crate::scene::measure::Measurement>,
 }
 
 #[cfg(feature = "viewer")]
@@ -296,6 +301,7 @@ impl ViewDocument {
                 matcap_spec: args.scene.matcap.clone(),
                 overlay: args.overlay.clone(),
                 crosshair_mm: None,
+                measurements: Vec::new(),
             });
         };
         let doc = &loaded.doc;
@@ -326,6 +332,7 @@ impl ViewDocument {
             matcap_spec,
             overlay: loaded.overlay(&args.overlay),
             crosshair_mm: viewer.and_then(|v| v.crosshair_mm),
+            measurements: doc.measurements.clone(),
         })
     }
 }

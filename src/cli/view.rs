@@ -39,6 +39,11 @@ pub fn run(args: &ViewArgs, global: &super::GlobalOptions) -> Result<(), super::
                 (path, crate::files::write::OutputKind::Png)
             }
             script::Action::SaveScene(path) => (path, crate::files::write::OutputKind::Json),
+            script::Action::Measure(crate::app::measure_panel::MeasureStep::Export(path)) => {
+                let csv = crate::files::write::OutputKind::Csv;
+                let json = crate::files::write::OutputKind::Json;
+                (path, if csv.accepts(path) { csv } else { json })
+            }
             _ => continue,
         };
         {
@@ -98,6 +103,7 @@ pub fn run(args: &ViewArgs, global: &super::GlobalOptions) -> Result<(), super::
             (labels, o.overlay_lut.clone(), o.overlay_opacity)
         }),
         crosshair_mm: document.crosshair_mm,
+        measurements: document.measurements,
     };
     crate::app::run(config, args.offscreen, fail_on_validation)?;
     Ok(())

@@ -45,6 +45,8 @@ pub enum OutputKind {
     Json,
     /// An SVG plot.
     Svg,
+    /// A CSV table.
+    Csv,
 }
 
 impl OutputKind {
@@ -55,6 +57,7 @@ impl OutputKind {
             OutputKind::Nifti => &[".nii.gz", ".nii"],
             OutputKind::Json => &[".json"],
             OutputKind::Svg => &[".svg"],
+            OutputKind::Csv => &[".csv"],
         }
     }
 
@@ -65,6 +68,7 @@ impl OutputKind {
             OutputKind::Nifti => "a NIfTI volume",
             OutputKind::Json => "a JSON report",
             OutputKind::Svg => "an SVG plot",
+            OutputKind::Csv => "a CSV table",
         }
     }
 

@@ -98,6 +98,9 @@ pub struct SceneDocument {
     /// The viewer's layout and crosshair.
     #[serde(default)]
     pub viewer: Option<ViewerLayout>,
+    /// Distances, angles and regions placed on the scan (`scene::measure`), world mm.
+    #[serde(default)]
+    pub measurements: Vec<super::measure::Measurement>,
 }
 
 /// Why a scene document could not be read or written.
@@ -158,6 +161,7 @@ impl SceneDocument {
             overlay: None,
             size: None,
             viewer: None,
+            measurements: Vec::new(),
         }
     }
 
@@ -197,6 +201,7 @@ impl SceneDocument {
         let doc: SceneDocument =
             serde_json::from_value(value).map_err(|e| invalid(e.to_string()))?;
         check_scene(&doc.scene).map_err(invalid)?;
+        check_measurements(&doc.measurements).map_err(invalid)?;
         Ok(doc)
     }
 
@@ -329,4 +334,22 @@ pub fn check_scene(scene: &Scene) -> Result<(), String> {
         return Err("a number in its scene is not finite (or too large for 32 bits)".into());
     }
     Ok(())
+}
+
+/// Why `measurements` cannot be a document's: too many, or a number that is not finite.
+fn check_measurements(measurements: &[super::measure::Measurement]) -> Result<(), String> {
+    use super::measure::MAX_MEASUREMENTS;
+    if measurements.len() > MAX_MEASUREMENTS {
+        return Err(format!(
+            "it holds {} measurements; at most {MAX_MEASUREMENTS}",
+            measurements.len()
+        ));
+    }
+    match measurements.iter().position(|m| !m.is_finite()) {
+        Some(i) => Err(format!(
+            "measurement {} has a number that is not finite",
+            i + 1
+        )),
+        None => Ok(()),
+    }
 }

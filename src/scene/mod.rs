@@ -13,6 +13,7 @@ pub mod document;
 pub mod geometry;
 pub mod lighting;
 pub mod matcap;
+pub mod measure;
 pub mod occupancy;
 pub mod overlay;
 pub mod preset;

@@ -272,6 +272,12 @@ impl SliceGrid {
         self.corner + x * self.u + y * self.v
     }
 
+    /// Whether world point `p` lies within one pixel's size of the slice's plane.
+    pub fn is_on_plane(&self, p: DVec3) -> bool {
+        let pixel = self.u.length().max(self.v.length());
+        (p[self.plane.normal_axis()] - self.position_mm).abs() <= pixel
+    }
+
     /// Pixel coordinates (x, y) of the projection of world point `p` onto the slice.
     pub fn pixel_of_world(&self, p: DVec3) -> (f64, f64) {
         let d = p - self.corner;

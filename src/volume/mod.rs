@@ -23,6 +23,7 @@ pub mod phantom_head;
 mod phantom_math;
 mod phantom_tissue;
 pub mod phantom_vessels;
+pub mod roi;
 pub mod samples;
 pub mod source;
 pub mod stats;

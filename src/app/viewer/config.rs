@@ -52,4 +52,6 @@ pub struct ViewerConfig {
     pub overlay_files: Option<(PathBuf, Option<PathBuf>, f64)>,
     /// Where the crosshair starts on the first volume (a scene document's), world mm.
     pub crosshair_mm: Option<[f64; 3]>,
+    /// The measurements the first volume starts with (a scene document's).
+    pub measurements: Vec<crate::scene::measure::Measurement>,
 }

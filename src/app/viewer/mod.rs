@@ -44,6 +44,7 @@
 
 mod brain;
 mod config;
+mod measures;
 mod opening;
 mod paint;
 mod pick;
@@ -551,12 +552,14 @@ impl Viewer {
                 Request::Screenshot(path) => self.screenshot_requests.push(path),
                 Request::SaveView(path, size) => self.save_view(&path, size),
                 Request::SaveScene(path) => self.save_scene(&path),
+                Request::ExportMeasures(path) => self.export_measures(&path),
                 Request::Frame(index) => self.open_frame(index, None),
                 Request::Identity(choice) => self.reidentify(choice, None),
             }
         }
         self.request_derived();
         self.run_pick();
+        self.update_measures();
 
         let ppp = full.pixels_per_point;
         if let Some(delay) = full

@@ -92,6 +92,14 @@ impl Viewer {
             loaded,
             shown: false,
         });
+        // A scene document's measurements, with the first volume (world mm: they stay when
+        // another frame or file is opened, until Clear).
+        let measurements = std::mem::take(&mut self.config.measurements);
+        if !measurements.is_empty() {
+            let measures = &mut self.controls.slices.measures;
+            measures.items = measurements;
+            measures.changed = true;
+        }
         self.request_derived();
     }
 

@@ -44,7 +44,13 @@ impl Viewer {
                 self.log.say(&format!(
                     "pick: {at_text} -> {x:.1},{y:.1},{z:.1} mm (world)"
                 ));
-                self.controls.slices.crosshair = Some(hit.world_mm);
+                if std::mem::take(&mut self.controls.pick_measures) {
+                    if let Err(e) = self.controls.slices.measures.add_point(hit.world_mm) {
+                        self.status.error = Some(format!("Measure: {e}"));
+                    }
+                } else {
+                    self.controls.slices.crosshair = Some(hit.world_mm);
+                }
             }
             Ok(None) => self
                 .log

@@ -46,6 +46,7 @@ impl Viewer {
                 opacity: *opacity,
             });
         let slices = &self.controls.slices;
+        doc.measurements.clone_from(&slices.measures.items);
         doc.viewer = Some(ViewerLayout {
             layout: slices.layout.name().to_string(),
             crosshair_mm: slices.crosshair.map(|c| c.to_array()),

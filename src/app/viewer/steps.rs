@@ -177,6 +177,10 @@ impl Viewer {
                 self.save_scene(path);
                 watch = false;
             }
+            Action::Measure(step) => {
+                self.measure_step(step);
+                watch = false;
+            }
             Action::Screenshot(path) => {
                 self.screenshot_requests.push(path.clone());
                 watch = false;
