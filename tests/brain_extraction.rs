@@ -27,34 +27,64 @@ fn fov(spacing: [f64; 3]) -> [usize; 3] {
 /// shell, a bright scalp joined to the brain by a thin bridge, Gaussian-like noise; 12-bit
 /// values. `scalp` false gives the brain alone on a dark background (skull-stripped).
 fn head(dims: [usize; 3], spacing: [f64; 3], scalp: bool, seed: u64) -> Vec<u16> {
-    let mut rng = Rng(seed);
-    let centre = dims.map(|n| (n as f64 - 1.0) / 2.0);
-    let mut out = Vec::with_capacity(dims.iter().product());
-    for k in 0..dims[2] {
-        for j in 0..dims[1] {
-            for i in 0..dims[0] {
-                let x = [i, j, k].map(|v| v as f64);
-                let mm: [f64; 3] = std::array::from_fn(|a| (x[a] - centre[a]) * spacing[a]);
-                let r = (mm[0] * mm[0] / 0.9 + mm[1] * mm[1] + mm[2] * mm[2] / 0.8).sqrt();
-                let ventricle =
-                    (mm[0] / 8.0).powi(2) + (mm[1] / 20.0).powi(2) + (mm[2] / 8.0).powi(2);
-                let bridge = mm[1] > 0.0 && (mm[0] * mm[0] + mm[2] * mm[2]).sqrt() < 2.0;
-                let signal = match r {
-                    _ if ventricle < 1.0 => 300.0,
-                    r if r <= 54.0 => 850.0,
-                    r if r <= 60.0 => 600.0,
-                    _ if !scalp => 0.0,
-                    r if r <= 66.0 && bridge => 600.0,
-                    r if r <= 66.0 => 60.0,
-                    r if r <= 72.0 => 1000.0,
-                    _ => 0.0,
-                };
-                let noise = (rng.unit() + rng.unit() + rng.unit() - 1.5) * 40.0;
-                out.push((signal + noise).clamp(0.0, 4095.0) as u16);
-            }
+    synthetic((dims, spacing), (seed, 40.0), |p| {
+        let mm = p.mm;
+        let bridge = mm[1] > 0.0 && (mm[0] * mm[0] + mm[2] * mm[2]).sqrt() < 2.0;
+        match p.r {
+            _ if p.ventricle < 1.0 => 300.0,
+            r if r <= 54.0 => 850.0,
+            r if r <= 60.0 => 600.0,
+            _ if !scalp => 0.0,
+            r if r <= 66.0 && bridge => 600.0,
+            r if r <= 66.0 => 60.0,
+            r if r <= 72.0 => 1000.0,
+            _ => 0.0,
         }
-    }
-    out
+    })
+}
+
+/// Where a voxel is in a synthetic head: its offset from the grid's centre in mm, its radius in
+/// the heads' ellipsoid metric (x squeezed by 0.9, z by 0.8), and the ventricle's metric (< 1
+/// inside).
+struct Place {
+    mm: [f64; 3],
+    r: f64,
+    ventricle: f64,
+}
+
+/// One 12-bit sample per voxel (x fastest): `signal(place)` plus triangular noise of
+/// half-width `1.5 * noise`, clamped to 0..4095.
+fn synthetic(
+    (dims, spacing): ([usize; 3], [f64; 3]),
+    (seed, noise): (u64, f64),
+    signal: impl Fn(&Place) -> f64,
+) -> Vec<u16> {
+    let mut rng = Rng(seed);
+    places(dims, spacing)
+        .map(|place| {
+            let n = (rng.unit() + rng.unit() + rng.unit() - 1.5) * noise;
+            (signal(&place) + n).clamp(0.0, 4095.0) as u16
+        })
+        .collect()
+}
+
+/// Every voxel's [`Place`], x fastest.
+fn places(dims: [usize; 3], spacing: [f64; 3]) -> impl Iterator<Item = Place> {
+    let centre = dims.map(|n| (n as f64 - 1.0) / 2.0);
+    (0..dims[0] * dims[1] * dims[2]).map(move |index| {
+        let x = [
+            index % dims[0],
+            (index / dims[0]) % dims[1],
+            index / (dims[0] * dims[1]),
+        ]
+        .map(|v| v as f64);
+        let mm: [f64; 3] = std::array::from_fn(|a| (x[a] - centre[a]) * spacing[a]);
+        Place {
+            mm,
+            r: (mm[0] * mm[0] / 0.9 + mm[1] * mm[1] + mm[2] * mm[2] / 0.8).sqrt(),
+            ventricle: (mm[0] / 8.0).powi(2) + (mm[1] / 20.0).powi(2) + (mm[2] / 8.0).powi(2),
+        }
+    })
 }
 
 /// The GPU's mask (working grid) and the twin's, with both decisions, for `v`.
@@ -147,33 +177,21 @@ fn the_gpu_chain_matches_its_twin_at_awkward_sizes() {
 /// erosion, with four detached blobs of band tissue in the lower corners (a face and a neck
 /// the first try leaves outside: about 8 % of the band, an ambiguous share). A 190 mm field.
 fn bridged_head(dims: [usize; 3], spacing: [f64; 3]) -> Vec<u16> {
-    let mut rng = Rng(3);
-    let centre = dims.map(|n| (n as f64 - 1.0) / 2.0);
-    let mut out = Vec::with_capacity(dims.iter().product());
-    for k in 0..dims[2] {
-        for j in 0..dims[1] {
-            for i in 0..dims[0] {
-                let x = [i, j, k].map(|v| v as f64);
-                let mm: [f64; 3] = std::array::from_fn(|a| (x[a] - centre[a]) * spacing[a]);
-                let r = (mm[0] * mm[0] / 0.9 + mm[1] * mm[1] + mm[2] * mm[2] / 0.8).sqrt();
-                let bridge = mm[1] > 0.0 && (mm[0] * mm[0] + mm[2] * mm[2]).sqrt() < 14.0;
-                let corner = mm.map(|v| v.abs() - 72.0);
-                let blob = corner.iter().map(|v| v * v).sum::<f64>() < 22.0 * 22.0 && mm[2] < 0.0;
-                let signal = match r {
-                    r if r <= 49.0 => 850.0,
-                    r if r <= 55.0 => 600.0,
-                    r if r <= 60.0 && bridge => 850.0,
-                    r if r <= 60.0 => 60.0,
-                    r if r <= 85.0 => 850.0,
-                    _ if blob => 850.0,
-                    _ => 0.0,
-                };
-                let noise = (rng.unit() + rng.unit() + rng.unit() - 1.5) * 40.0;
-                out.push((signal + noise).clamp(0.0, 4095.0) as u16);
-            }
+    synthetic((dims, spacing), (3, 40.0), |p| {
+        let mm = p.mm;
+        let bridge = mm[1] > 0.0 && (mm[0] * mm[0] + mm[2] * mm[2]).sqrt() < 14.0;
+        let corner = mm.map(|v| v.abs() - 72.0);
+        let blob = corner.iter().map(|v| v * v).sum::<f64>() < 22.0 * 22.0 && mm[2] < 0.0;
+        match p.r {
+            r if r <= 49.0 => 850.0,
+            r if r <= 55.0 => 600.0,
+            r if r <= 60.0 && bridge => 850.0,
+            r if r <= 60.0 => 60.0,
+            r if r <= 85.0 => 850.0,
+            _ if blob => 850.0,
+            _ => 0.0,
         }
-    }
-    out
+    })
 }
 
 #[test]
@@ -493,8 +511,6 @@ fn skipping_leaves_out_the_head_around_the_brain_and_changes_no_pixel() {
 /// partial volume on the real scan). Returns the samples and, per voxel, whether it is the
 /// brain's tissue (parenchyma or ventricle, not the outer CSF).
 fn bright_csf_head(dims: [usize; 3], spacing: [f64; 3]) -> (Vec<u16>, Vec<bool>) {
-    let mut rng = Rng(17);
-    let centre = dims.map(|n| (n as f64 - 1.0) / 2.0);
     // Shells (outer radius in mm, signal); neighbours blend over 2 mm (partial volume).
     let shells = [
         (46.0, 600.0),
@@ -503,37 +519,21 @@ fn bright_csf_head(dims: [usize; 3], spacing: [f64; 3]) -> (Vec<u16>, Vec<bool>)
         (60.0, 60.0),
         (67.0, 1450.0),
     ];
-    let shell_signal = |r: f64, plug: bool| {
+    let samples = synthetic((dims, spacing), (17, 150.0), |p| {
+        let plug = p.mm[1] > 0.0 && (p.mm[0] * p.mm[0] + p.mm[2] * p.mm[2]).sqrt() < 10.0;
+        if p.ventricle < 1.0 {
+            return 1450.0;
+        }
         let mut value = 0.0;
         for (index, &(outer, signal)) in shells.iter().enumerate().rev() {
             let signal = if index == 3 && plug { 1450.0 } else { signal };
-            let weight = ((outer + 1.0 - r) / 2.0).clamp(0.0, 1.0);
+            let weight = ((outer + 1.0 - p.r) / 2.0).clamp(0.0, 1.0);
             value = value * (1.0 - weight) + signal * weight;
         }
         value
-    };
-    let (mut out, mut truth) = (Vec::new(), Vec::new());
-    for k in 0..dims[2] {
-        for j in 0..dims[1] {
-            for i in 0..dims[0] {
-                let x = [i, j, k].map(|v| v as f64);
-                let mm: [f64; 3] = std::array::from_fn(|a| (x[a] - centre[a]) * spacing[a]);
-                let r = (mm[0] * mm[0] / 0.9 + mm[1] * mm[1] + mm[2] * mm[2] / 0.8).sqrt();
-                let ventricle =
-                    (mm[0] / 8.0).powi(2) + (mm[1] / 20.0).powi(2) + (mm[2] / 8.0).powi(2);
-                let plug = mm[1] > 0.0 && (mm[0] * mm[0] + mm[2] * mm[2]).sqrt() < 10.0;
-                let signal = if ventricle < 1.0 {
-                    1450.0
-                } else {
-                    shell_signal(r, plug)
-                };
-                let noise = (rng.unit() + rng.unit() + rng.unit() - 1.5) * 150.0;
-                out.push((signal + noise).clamp(0.0, 4095.0) as u16);
-                truth.push(r <= 52.0);
-            }
-        }
-    }
-    (out, truth)
+    });
+    let truth = places(dims, spacing).map(|p| p.r <= 52.0).collect();
+    (samples, truth)
 }
 
 #[test]

@@ -10,6 +10,7 @@ use morphray::scene::document::{
 };
 use morphray::scene::measure::Measurement;
 use morphray::scene::{ClipPlane, Colormap, Cutaway, Scene};
+use morphray::volume::roi::Region;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -164,14 +165,14 @@ fn full_document() -> SceneDocument {
         Measurement::Angle {
             points: [[1.0, 0.0, 0.0], [0.0; 3], [0.0, 1.0, 0.0]],
         },
-        Measurement::Sphere {
+        Measurement::Region(Region::Sphere {
             centre: [1.0, 2.0, 3.0],
             radius_mm: 4.5,
-        },
-        Measurement::Box {
+        }),
+        Measurement::Region(Region::Box {
             a: [0.0; 3],
             b: [5.0, 6.0, 7.0],
-        },
+        }),
     ];
     doc.viewer = Some(ViewerLayout {
         layout: "3d".into(),

@@ -14,6 +14,7 @@
 //!   the slice's plane.
 
 use crate::scene::measure::{MAX_MEASUREMENTS, Measurement};
+use crate::volume::roi::Region;
 use egui::{Color32, Pos2, Stroke, Ui};
 use glam::DVec3;
 
@@ -88,14 +89,14 @@ impl Measures {
             MeasureMode::Angle => Measurement::Angle {
                 points: [pts[0], pts[1], pts[2]],
             },
-            MeasureMode::Sphere => Measurement::Sphere {
+            MeasureMode::Sphere => Measurement::Region(Region::Sphere {
                 centre: pts[0],
                 radius_mm: DVec3::from_array(pts[0]).distance(DVec3::from_array(pts[1])),
-            },
-            MeasureMode::Box => Measurement::Box {
+            }),
+            MeasureMode::Box => Measurement::Region(Region::Box {
                 a: pts[0],
                 b: pts[1],
-            },
+            }),
         };
         self.push(m)?;
         Ok(Some(m))
@@ -186,17 +187,17 @@ impl MeasureStep {
                         v[3]
                     ));
                 }
-                MeasureStep::Add(Measurement::Sphere {
+                MeasureStep::Add(Measurement::Region(Region::Sphere {
                     centre: p(&v, 0),
                     radius_mm: v[3],
-                })
+                }))
             }
             "box" => {
                 let v = numbers(6)?;
-                MeasureStep::Add(Measurement::Box {
+                MeasureStep::Add(Measurement::Region(Region::Box {
                     a: p(&v, 0),
                     b: p(&v, 3),
-                })
+                }))
             }
             "point" => MeasureStep::Point(DVec3::from_array(p(&numbers(3)?, 0))),
             "pick" => {
@@ -312,7 +313,7 @@ pub fn draw_marks(
                     }
                 }
             }
-            Measurement::Sphere { centre, radius_mm } => {
+            Measurement::Region(Region::Sphere { centre, radius_mm }) => {
                 // The radius on screen: the longest of the projected radii along the world
                 // axes (on a slice, the in-plane ones; in 3D about the silhouette's).
                 let c = DVec3::from_array(*centre);
@@ -326,7 +327,7 @@ pub fn draw_marks(
                     .fold(0.0f32, f32::max);
                 painter.circle_stroke(sc, r, stroke);
             }
-            Measurement::Box { a, b } => {
+            Measurement::Region(Region::Box { a, b }) => {
                 let (a, b) = (DVec3::from_array(*a), DVec3::from_array(*b));
                 for (p, q) in box_edges(a, b) {
                     if let (Some(p), Some(q)) = (to_screen(p), to_screen(q)) {
@@ -384,10 +385,10 @@ mod tests {
         let s = m.add_point(DVec3::new(0.0, 0.0, 2.5)).unwrap().unwrap();
         assert_eq!(
             s,
-            Measurement::Sphere {
+            Measurement::Region(Region::Sphere {
                 centre: [0.0; 3],
                 radius_mm: 2.5
-            }
+            })
         );
         assert!(m.add_point(DVec3::NAN).is_err());
         assert_eq!(m.items.len(), 3);
@@ -403,10 +404,10 @@ mod tests {
     fn measure_steps_parse_and_bad_ones_say_why() {
         assert_eq!(
             MeasureStep::parse(&["sphere", "1", "2", "3", "4.5"]),
-            Ok(MeasureStep::Add(Measurement::Sphere {
+            Ok(MeasureStep::Add(Measurement::Region(Region::Sphere {
                 centre: [1.0, 2.0, 3.0],
                 radius_mm: 4.5
-            }))
+            })))
         );
         assert_eq!(
             MeasureStep::parse(&["mode", "box"]),

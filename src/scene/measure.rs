@@ -32,20 +32,10 @@ pub enum Measurement {
         /// The three points, the vertex in the middle.
         points: [[f64; 3]; 3],
     },
-    /// A sphere: its voxel count, volume and the statistics of the values inside.
-    Sphere {
-        /// Centre, world mm.
-        centre: [f64; 3],
-        /// Radius, mm.
-        radius_mm: f64,
-    },
-    /// A box between two opposite corners (world axes), with the same statistics.
-    Box {
-        /// One corner.
-        a: [f64; 3],
-        /// The opposite corner.
-        b: [f64; 3],
-    },
+    /// A sphere or a box: its voxel count, volume and the statistics of the values inside.
+    /// Written as the region itself (`{"sphere": {"centre": ..., "radius_mm": ...}}`).
+    #[serde(untagged)]
+    Region(Region),
 }
 
 impl Measurement {
@@ -55,16 +45,15 @@ impl Measurement {
         match self {
             Measurement::Distance { points } => points.iter().map(v).collect(),
             Measurement::Angle { points } => points.iter().map(v).collect(),
-            Measurement::Sphere { centre, .. } => vec![v(centre)],
-            Measurement::Box { a, b } => vec![v(a), v(b)],
+            Measurement::Region(Region::Sphere { centre, .. }) => vec![v(centre)],
+            Measurement::Region(Region::Box { a, b }) => vec![v(a), v(b)],
         }
     }
 
     /// The region it encloses (spheres and boxes).
     pub fn region(&self) -> Option<Region> {
         match *self {
-            Measurement::Sphere { centre, radius_mm } => Some(Region::Sphere { centre, radius_mm }),
-            Measurement::Box { a, b } => Some(Region::Box { a, b }),
+            Measurement::Region(region) => Some(region),
             _ => None,
         }
     }
@@ -74,8 +63,8 @@ impl Measurement {
         match self {
             Measurement::Distance { .. } => "distance",
             Measurement::Angle { .. } => "angle",
-            Measurement::Sphere { .. } => "sphere",
-            Measurement::Box { .. } => "box",
+            Measurement::Region(Region::Sphere { .. }) => "sphere",
+            Measurement::Region(Region::Box { .. }) => "box",
         }
     }
 
@@ -128,16 +117,12 @@ impl MeasureRow {
         let (value, unit, stats) = match m {
             Measurement::Distance { .. } => (Some(distance_mm(points[0], points[1])), "mm", None),
             Measurement::Angle { .. } => (angle_deg(points[0], points[1], points[2]), "deg", None),
-            Measurement::Sphere { radius_mm, centre } => {
-                let region = Region::Sphere {
-                    centre: *centre,
-                    radius_mm: *radius_mm,
+            Measurement::Region(region) => {
+                let radius = match region {
+                    Region::Sphere { radius_mm, .. } => Some(*radius_mm),
+                    Region::Box { .. } => None,
                 };
-                (Some(*radius_mm), "mm", Some(roi_stats(volume, &region)))
-            }
-            Measurement::Box { a, b } => {
-                let region = Region::Box { a: *a, b: *b };
-                (None, "mm", Some(roi_stats(volume, &region)))
+                (radius, "mm", Some(roi_stats(volume, region)))
             }
         };
         MeasureRow {
