@@ -289,6 +289,15 @@ fn hostile_documents_are_refused_in_one_line() {
             "invalid type",
         ),
         (
+            edit(&|v| v["size"] = serde_json::json!([0, 5])),
+            "1 to 16384 pixels",
+        ),
+        (edit(&|v| v["overlay"]["opacity"] = 2.0.into()), "opacity 2"),
+        (
+            edit(&|v| v["viewer"]["crosshair_mm"] = serde_json::json!([1, 2])),
+            "invalid length",
+        ),
+        (
             edit(&|v| v["scene"]["effects"]["mode"] = "hologram".into()),
             "unknown variant",
         ),

@@ -202,6 +202,7 @@ impl SceneDocument {
             serde_json::from_value(value).map_err(|e| invalid(e.to_string()))?;
         check_scene(&doc.scene).map_err(invalid)?;
         check_measurements(&doc.measurements).map_err(invalid)?;
+        check_extras(&doc).map_err(invalid)?;
         Ok(doc)
     }
 
@@ -352,4 +353,31 @@ fn check_measurements(measurements: &[super::measure::Measurement]) -> Result<()
         )),
         None => Ok(()),
     }
+}
+
+/// Largest picture side a document may ask for, pixels (as `render --size`).
+pub const MAX_SIDE: u32 = 16384;
+
+/// Why the picture size, the crosshair or the overlay's opacity cannot be a document's.
+fn check_extras(doc: &SceneDocument) -> Result<(), String> {
+    if let Some([w, h]) = doc.size
+        && (w == 0 || h == 0 || w > MAX_SIDE || h > MAX_SIDE)
+    {
+        return Err(format!(
+            "its size {w}x{h} must be 1 to {MAX_SIDE} pixels a side"
+        ));
+    }
+    let crosshair = doc.viewer.as_ref().and_then(|v| v.crosshair_mm);
+    if crosshair.is_some_and(|c| !c.iter().all(|v| v.is_finite())) {
+        return Err("its viewer crosshair is not a finite position".into());
+    }
+    if let Some(o) = &doc.overlay
+        && !(0.0..=1.0).contains(&o.opacity)
+    {
+        return Err(format!(
+            "its overlay opacity {} must lie in 0..1",
+            o.opacity
+        ));
+    }
+    Ok(())
 }
