@@ -2,14 +2,17 @@
 
 use super::*;
 
+/// The actions of a script that must parse.
+fn actions_of(text: &str) -> Vec<Action> {
+    let steps = parse(text, "s").unwrap_or_else(|e| panic!("{e}"));
+    steps.iter().map(|s| s.action.clone()).collect()
+}
+
 #[test]
 fn the_brief_s_examples_parse() {
-    let steps = parse(
-        "toggle gm\norbit 30 0\nset window wm 0.7 0.9  # drag the band\n\nview superior\nmode mip\ncurvature on\nwait 10\nidle 2\n",
-        "s.txt",
-    )
-    .unwrap();
-    let actions: Vec<_> = steps.iter().map(|s| s.action.clone()).collect();
+    let text = "toggle gm\norbit 30 0\nset window wm 0.7 0.9  # drag the band\n\nview superior\nmode mip\ncurvature on\nwait 10\nidle 2\n";
+    let actions = actions_of(text);
+    let steps = parse(text, "s.txt").unwrap();
     assert_eq!(
         actions,
         vec![
@@ -93,12 +96,9 @@ toggle wm
 
 #[test]
 fn brain_and_head_steps_parse() {
-    let steps = parse(
+    let actions = actions_of(
         "brain off\nbrain AUTO\nbrain on\nshow head\nhide head\nset opacity head 0.4\nset colour head #ff8000\nset opacity gm 0.5\n",
-        "s",
-    )
-    .unwrap();
-    let actions: Vec<_> = steps.iter().map(|s| s.action.clone()).collect();
+    );
     assert_eq!(
         actions,
         vec![
@@ -141,12 +141,7 @@ fn a_hash_starts_a_comment_unless_it_starts_a_colour() {
 #[test]
 fn lighting_steps_parse_with_every_model() {
     use crate::scene::LightModel;
-    let steps = parse(
-        "lighting studio\nlighting headlight\nlighting matcap\n",
-        "s",
-    )
-    .unwrap();
-    let actions: Vec<_> = steps.iter().map(|s| s.action.clone()).collect();
+    let actions = actions_of("lighting studio\nlighting headlight\nlighting matcap\n");
     assert_eq!(
         actions,
         vec![
