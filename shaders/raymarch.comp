@@ -43,6 +43,10 @@
 // position, nearest voxel, colour and opacity per mm from a lookup table (labels.glsl); bricks
 // holding a label are occupied for skipping, so skipping stays lossless.
 //
+// Layers (LAYERS; issue 31 item 4): up to two intensity volumes on their own grids, sampled
+// through the composed affines, coloured by their thresholds and maps and composited after the
+// tissue and the label at each sample (layers.glsl); bricks they may draw in are occupied.
+//
 // Lighting (LIGHTING, DEPTH_CUES; issue 34 item 2): the studio model, the matcap and the surface
 // cues of lighting.glsl. Cut faces (CAPPING by uniform, issue 34 item 3): where a ray enters through a
 // crop face or clip plane, the samples within params.cap.x mm of that face take the window
@@ -86,6 +90,7 @@ layout(constant_id = 13) const bool CLASSIFY_TABLE = false; // tissue windows fr
 layout(constant_id = 14) const uint LIGHTING = 0u;        // 0 headlight Phong, 1 studio, 2 matcap (lighting.glsl)
 layout(constant_id = 15) const bool DEPTH_CUES = false;   // occlusion and shadow at the surface (lighting.glsl)
 layout(constant_id = 16) const bool PICK = false;         // one view pixel's first visible sample (depth picking)
+layout(constant_id = 17) const uint LAYERS = 0u;          // intensity layers drawn, 0..2 (layers.glsl)
 
 layout(set = 0, binding = 0) uniform sampler3D volume;          // I_norm, trilinear
 layout(set = 0, binding = 1) uniform sampler3D gradient_volume; // .r |g|, .g k (scaled, see derived_scale)
@@ -132,6 +137,10 @@ layout(set = 0, binding = 4, std140) uniform Params {
     vec4 cap;               // x: depth in mm behind a cut face that is drawn solid (0: off); y: cue unit mm
     // Depth picking (issue 31 item 2).
     vec4 pick;              // PICK: x the accumulated opacity that counts as visible, yz the view pixel
+    // Intensity layers (issue 31 item 4; LAYERS > 0): per layer base index -> texture coordinates,
+    mat4 layer_to_texture[2];
+    vec4 layer_window[2];   // lo, hi, threshold, opacity per mm
+    vec4 layer_decode[2];   // value of code 0, value span of the codes, negative side drawn, 0
 } params;
 
 // Benchmark counters (COUNT_SAMPLES only): samples marched and samples that passed
@@ -160,6 +169,12 @@ layout(set = 0, binding = 12, std430) readonly buffer TransferTable { vec4 entri
 // The matcap (LIGHTING == 2 only; src/scene/matcap.rs): MATCAP_SIDE^2 RGBA8 texels, row 0 on top.
 layout(set = 0, binding = 13, std430) readonly buffer Matcap { uint texels[]; } matcap;
 
+// Intensity layers (LAYERS > 0; layers.glsl): 16-bit codes on each layer's own grid, trilinear,
+// and per layer 256 RGBA8 entries of the positive map, then 256 of the negative map.
+layout(set = 0, binding = 14) uniform sampler3D layer_volume_0;
+layout(set = 0, binding = 15) uniform sampler3D layer_volume_1;
+layout(set = 0, binding = 16, std430) readonly buffer LayerColours { uint rgba[]; } layer_colours;
+
 #include "geometry.glsl"
 #include "clip.glsl"
 #include "colormap.glsl"
@@ -169,6 +184,7 @@ layout(set = 0, binding = 13, std430) readonly buffer Matcap { uint texels[]; } 
 #include "sampling.glsl"
 #include "gradients.glsl"
 #include "labels.glsl"
+#include "layers.glsl"
 
 // The classification of the sample at p with I_norm v, as the march sees it: the brain mask and
 // the vessel channel when their variants are on.
@@ -405,7 +421,17 @@ void main() {
                 label = label_at(nearest_voxel(p));
                 label_colour = label_style(label);
             }
-            if (cls.a <= 0.0 && label_colour.a <= 0.0) {
+            // Each layer's value and style here (one fetch each; layers.glsl).
+            float layer_v[2] = float[2](0.0, 0.0);
+            vec4 layer_colour[2] = vec4[2](vec4(0.0), vec4(0.0));
+            bool layer_drawn = false;
+            for (uint l = 0u; l < LAYERS; l++) {
+                if (layer_value(l, p, layer_v[l])) {
+                    layer_colour[l] = layer_style(l, layer_v[l]);
+                    layer_drawn = layer_drawn || layer_colour[l].a > 0.0;
+                }
+            }
+            if (cls.a <= 0.0 && label_colour.a <= 0.0 && !layer_drawn) {
                 continue;
             }
             vec3 normal = vec3(0.0);
@@ -424,6 +450,20 @@ void main() {
                     normal = cls.a > 0.0 ? normal : label_n;
                 }
                 composite(acc, lc, opacity_correct(label_colour.a, r));
+            }
+            // Each layer's medium after the tissue and the label at the same position.
+            bool drew = cls.a > 0.0 || label_colour.a > 0.0;
+            for (uint l = 0u; l < LAYERS; l++) {
+                if (layer_colour[l].a > 0.0) {
+                    vec3 lc = layer_colour[l].rgb;
+                    if (SHADING) {
+                        vec3 layer_n = layer_normal(l, p, layer_v[l] >= 0.0 ? 1.0 : -1.0);
+                        lc = lit(lc, layer_n, direction_world);
+                        normal = drew ? normal : layer_n;
+                    }
+                    composite(acc, lc, opacity_correct(layer_colour[l].a, r));
+                    drew = true;
+                }
             }
             if (DEPTH_CUES && !surface_found && acc.a >= CUE_SURFACE_ALPHA) {
                 surface_found = true;

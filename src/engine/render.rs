@@ -62,6 +62,8 @@ pub struct RenderTarget {
     pub(super) labels: Option<super::labels::AttachedLabels>,
     pub(super) label_colour_buffers: Vec<Option<Arc<Buffer>>>,
     pub(super) label_colours_written: [u64; FRAMES_IN_FLIGHT],
+    // Intensity layers drawn in 3D, their colour tables and brick bits (layers.rs).
+    pub(super) layers: super::layers::AttachedLayers,
     // The transfer-function table per frame slot (transfer.rs).
     pub(super) tables: super::transfer::TableSlots,
     // The matcap per frame slot (matcap.rs).
@@ -215,6 +217,7 @@ impl Engine {
             labels: None,
             label_colour_buffers: vec![None; FRAMES_IN_FLIGHT],
             label_colours_written: [0; FRAMES_IN_FLIGHT],
+            layers: Default::default(),
             tables: Default::default(),
             matcaps: Default::default(),
             pick: None,
@@ -376,6 +379,10 @@ impl Engine {
         let (label_values, label_colours, label_bits) =
             self.label_inputs(target, prepared, scene, frame_slot)?;
         variant.labels = label_bits.is_some();
+        let dvr = scene.effects.mode == crate::scene::RenderMode::Dvr;
+        let layers = self.layer_inputs(target, prepared, dvr, frame_slot)?;
+        variant.layers = layers.count;
+        let label_bits = target.extra_brick_bits(label_bits, prepared.dims, layers.count > 0);
         // Skipping with vessels needs the vesselness's brick ranges (lossless only with them).
         if variant.vessels && derived.and_then(|d| d.vessel_ranges.as_ref()).is_none() {
             variant.skip_empty = false;
@@ -433,6 +440,10 @@ impl Engine {
                 pick: target.pick.map(|(pick, _)| pick),
             },
         );
+        let mut block = block;
+        block.layer_to_texture = layers.uniforms.to_texture;
+        block.layer_window = layers.uniforms.window;
+        block.layer_decode = layers.uniforms.decode;
         let uniforms = target.uniforms[frame_slot].clone();
         uniforms.write(0, bytemuck::bytes_of(&block))?;
 
@@ -471,6 +482,8 @@ impl Engine {
             brick_table: &brick_table,
             label_values: &label_values,
             label_colours: &label_colours,
+            layers: [&layers.images[0], &layers.images[1]],
+            layer_colours: &layers.colours,
             sampler: &linear,
         };
         if count {

@@ -42,6 +42,8 @@ pub struct RaymarchVariant {
     pub bricked: bool,
     /// A label overlay is drawn (labels.glsl).
     pub labels: bool,
+    /// Intensity layers drawn, 0..=2 (layers.glsl).
+    pub layers: u32,
     /// The vessel channel is drawn (classification.glsl).
     pub vessels: bool,
     /// Longer steps in bricks of low opacity bound (needs `skip_empty`).
@@ -79,6 +81,9 @@ impl RaymarchVariant {
                 .get(self.interpolation as usize)
                 .unwrap_or(&"?"),
         );
+        if self.layers > 0 {
+            text.push_str(&format!(", LAYERS={}", self.layers));
+        }
         for (name, value) in [
             ("NAIVE_OPACITY", self.naive_opacity),
             ("SKIP_EMPTY", self.skip_empty),
@@ -146,6 +151,11 @@ pub struct RaymarchInputs<'a> {
     pub label_values: &'a Arc<Buffer>,
     /// The overlay's RGBA8 colour per label, or a placeholder.
     pub label_colours: &'a Arc<Buffer>,
+    /// The layers' codes on their own grids (`engine::layers`), or placeholders.
+    pub layers: [&'a Arc<Image>; 2],
+    /// The layers' colour tables (positive then negative, 256 RGBA8 each, per layer), or a
+    /// placeholder.
+    pub layer_colours: &'a Arc<Buffer>,
     /// The transfer-function table (`scene::transfer_table`), or a placeholder.
     pub transfer_table: &'a Arc<Buffer>,
     /// The matcap (`scene::matcap`) of a matcap-lit variant, or a placeholder.
@@ -192,6 +202,7 @@ impl RaymarchPass {
                 ("LIGHTING", SpecValue::U32(variant.lighting)),
                 ("DEPTH_CUES", SpecValue::Bool(variant.depth_cues)),
                 ("PICK", SpecValue::Bool(variant.pick)),
+                ("LAYERS", SpecValue::U32(variant.layers)),
             ],
             cache,
         )?;
@@ -252,6 +263,18 @@ impl RaymarchPass {
                     Resource::Buffer(inputs.transfer_table.clone()),
                 ),
                 ("matcap", Resource::Buffer(inputs.matcap.clone())),
+                (
+                    "layer_volume_0",
+                    Resource::CombinedImageSampler(inputs.layers[0].clone(), s.clone()),
+                ),
+                (
+                    "layer_volume_1",
+                    Resource::CombinedImageSampler(inputs.layers[1].clone(), s.clone()),
+                ),
+                (
+                    "layer_colours",
+                    Resource::Buffer(inputs.layer_colours.clone()),
+                ),
             ],
         )?;
         // Moves the target to GENERAL for storage writes; the last frame's pixels are not needed.

@@ -11,6 +11,8 @@ pub mod clip;
 pub mod colormap;
 pub mod document;
 pub mod geometry;
+pub mod layer;
+pub mod layer_grid;
 pub mod lighting;
 pub mod matcap;
 pub mod measure;

@@ -86,6 +86,13 @@ pub struct RaymarchUniforms {
     pub cap: [f32; 4],
     /// Depth picking: x the accumulated opacity that counts as visible, yz the view pixel.
     pub pick: [f32; 4],
+    /// Intensity layers (issue 31 item 4, `engine::layers`): base index position -> layer
+    /// texture coordinates, column-major, per layer.
+    pub layer_to_texture: [[[f32; 4]; 4]; 2],
+    /// Per layer: lo, hi, threshold, opacity.
+    pub layer_window: [[f32; 4]; 2],
+    /// Per layer: value of code 0, value span of the codes, negative side drawn (1/0), unused.
+    pub layer_decode: [[f32; 4]; 2],
 }
 
 /// Where a bricked volume's bricks are (zeros for a whole volume).
@@ -225,6 +232,10 @@ impl RaymarchUniforms {
                 [p.threshold, p.pixel[0] as f32, p.pixel[1] as f32, 0.0]
             }),
             brain_grid: [bx, by, bz, 0.0],
+            // Set by the engine where layers are attached to the render target.
+            layer_to_texture: [[[0.0; 4]; 4]; 2],
+            layer_window: [[0.0; 4]; 2],
+            layer_decode: [[0.0; 4]; 2],
             head_window: [
                 head.window.lo as f32,
                 head.window.hi as f32,

@@ -52,6 +52,8 @@ impl RaymarchVariant {
             bricked,
             // Set by the engine where a label overlay is attached to the render target.
             labels: false,
+            // Set by the engine where intensity layers are attached to the render target.
+            layers: 0,
             vessels: dvr && effects.vessels,
             long_steps: dvr && q.empty_space_skipping && q.long_steps.is_on(),
             // Set by the engine where the derived volumes hold a brain mask in use.

@@ -13,6 +13,7 @@
 //! - Non-finite voxels stay in the data (only f32 samples can hold them); every consumer counts and
 //!   excludes them.
 
+pub mod clusters;
 pub mod facts;
 pub mod host_memory;
 pub mod nifti;

@@ -65,6 +65,7 @@ mod dvr_sample;
 mod formulas;
 mod inputs;
 mod labels;
+mod layers;
 mod lighting;
 mod long_steps;
 mod projection;
@@ -76,6 +77,7 @@ pub use dvr_sample::DvrSample;
 pub use formulas::*;
 pub use inputs::{ReferenceDerived, ReferenceError, ReferenceVolume};
 pub use labels::ReferenceLabels;
+pub use layers::ReferenceLayer;
 pub use long_steps::ReferenceLongSteps;
 pub use sampling::{fetch, trilinear};
 
@@ -164,6 +166,7 @@ pub struct ReferenceRaymarch<'a> {
     clip: IndexClip,
     colormap: Option<Colormap>,
     labels: Option<ReferenceLabels<'a>>,
+    layers: Vec<(ReferenceLayer<'a>, crate::scene::layer::LayerTables)>,
     vesselness: Option<Grid<'a, f64>>,
     vessels_on: bool,
     brain_mask: Option<crate::reference::brain_mask::WorkingMask<'a>>,
@@ -354,6 +357,7 @@ impl<'a> ReferenceRaymarch<'a> {
             },
             colormap: scene.colormap,
             labels: None,
+            layers: Vec::new(),
             vesselness: None,
             vessels_on: dvr && effects.vessels,
             brain_mask: None,
@@ -386,6 +390,13 @@ impl<'a> ReferenceRaymarch<'a> {
         check_values("labels", self.volume.dims, labels.values, |_| true)?;
         self.labels = Some(labels);
         Ok(self)
+    }
+
+    /// Draws intensity layers in DVR, as a render target with layers attached does
+    /// (`layers.rs`), in order.
+    pub fn with_layers(mut self, layers: &[ReferenceLayer<'a>]) -> Self {
+        self.layers = layers.iter().map(|l| (*l, l.style.tables())).collect();
+        self
     }
 
     /// The brick bounds the scene's long steps need (`BrickRanges::reference_bounds` on a
@@ -551,10 +562,19 @@ impl<'a> ReferenceRaymarch<'a> {
                 let m = self.geometry.gradient_to_world;
                 labels.sample(self.volume.dims.map(|d| d as usize), p, m, self.shading, r)
             });
-            if tissue.is_none() && label.is_none() {
+            let layers: Vec<_> = self
+                .layers
+                .iter()
+                .map(|(layer, tables)| {
+                    let m = self.geometry.gradient_to_world;
+                    layer.sample(p, tables, m, self.shading, r)
+                })
+                .collect();
+            if tissue.is_none() && label.is_none() && layers.iter().all(Option::is_none) {
                 continue;
             }
             let mut normal = DVec3::ZERO;
+            let drew = tissue.is_some() || label.is_some();
             if let Some(sample) = &tissue {
                 composite(&mut acc, sample.shaded, sample.corrected);
                 normal = sample.normal;
@@ -571,6 +591,7 @@ impl<'a> ReferenceRaymarch<'a> {
                 }
                 composite(&mut acc, colour, opacity);
             }
+            self.composite_layers(&mut acc, &mut normal, &layers, drew, plan.view_direction);
             if self.lighting.depth_cues
                 && surface.is_none()
                 && acc[3] >= lighting::CUE_SURFACE_ALPHA
@@ -595,6 +616,32 @@ impl<'a> ReferenceRaymarch<'a> {
             }
         }
         (self.with_background(acc), picked)
+    }
+}
+
+impl ReferenceRaymarch<'_> {
+    /// Each drawn layer's medium after the tissue and the label (the shader's order); the first
+    /// drawn sample's normal is the surface normal when nothing before it `drew`.
+    fn composite_layers(
+        &self,
+        acc: &mut [f64; 4],
+        normal: &mut DVec3,
+        layers: &[Option<([f64; 3], f64, DVec3)>],
+        mut drew: bool,
+        view_direction: DVec3,
+    ) {
+        for (colour, opacity, layer_normal) in layers.iter().flatten() {
+            let colour = if self.shading {
+                if !drew {
+                    *normal = *layer_normal;
+                }
+                self.lit(*colour, *layer_normal, view_direction)
+            } else {
+                *colour
+            };
+            composite(acc, colour, *opacity);
+            drew = true;
+        }
     }
 }
 

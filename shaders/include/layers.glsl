@@ -1,0 +1,62 @@
+// Intensity layers in the 3D raymarch (LAYERS > 0; issue 31 item 4). The f64 twin is
+// src/reference/raymarch/layers.rs; the rule a value is drawn by is src/scene/layer.rs.
+//
+// Each layer keeps its own grid: a sample's base index position p maps to the layer's texture
+// coordinates through one matrix (both affines composed on the host, engine/layers.rs) and is
+// filtered trilinearly from 16-bit codes (value = decode.x + decode.y * code). Off the layer's
+// grid nothing is drawn. A value >= threshold takes the positive table at (v - lo) / (hi - lo),
+// with a negative side a value <= -threshold the negative table at (-v - lo) / (hi - lo) (256
+// RGBA8 entries each, nearest entry); its opacity per mm is the layer's. A drawn sample is
+// composited after the tissue's and a label's at the same position (intermixed by depth). With
+// SHADING its normal is the central difference of the layer's value over one base voxel along
+// each axis, signed by the side, mapped to world as the tissue's gradient is.
+#ifndef MORPHRAY_LAYERS_GLSL
+#define MORPHRAY_LAYERS_GLSL
+
+// Layer l's value at base index position p; false (and 0) off its grid.
+bool layer_value(uint l, vec3 p, out float v) {
+    vec3 tc = (params.layer_to_texture[l] * vec4(p, 1.0)).xyz;
+    v = 0.0;
+    if (any(lessThan(tc, vec3(0.0))) || any(greaterThan(tc, vec3(1.0)))) {
+        return false;
+    }
+    float code = l == 0u ? textureLod(layer_volume_0, tc, 0.0).r : textureLod(layer_volume_1, tc, 0.0).r;
+    v = params.layer_decode[l].x + params.layer_decode[l].y * code;
+    return true;
+}
+
+// Colour (rgb) and opacity per mm (a) layer l draws value v with; a = 0 where it draws nothing.
+vec4 layer_style(uint l, float v) {
+    vec4 w = params.layer_window[l];
+    float x;
+    uint side;
+    if (v >= w.z) {
+        x = (v - w.x) / (w.y - w.x);
+        side = 0u;
+    } else if (params.layer_decode[l].z > 0.5 && v <= -w.z) {
+        x = (-v - w.x) / (w.y - w.x);
+        side = 1u;
+    } else {
+        return vec4(0.0);
+    }
+    uint entry = uint(floor(clamp(x, 0.0, 1.0) * 255.0 + 0.5));
+    return vec4(unpackUnorm4x8(layer_colours.rgba[(2u * l + side) * 256u + entry]).rgb, w.w);
+}
+
+// World-space normal of layer l at p (not normalized), pointing into what it draws: the side
+// (1 positive, -1 negative) times the central difference of its value (0 off the grid).
+vec3 layer_normal(uint l, vec3 p, float side) {
+    vec3 d;
+    for (int a = 0; a < 3; a++) {
+        vec3 e = vec3(0.0);
+        e[a] = 1.0;
+        float up;
+        float down;
+        layer_value(l, p + e, up);
+        layer_value(l, p - e, down);
+        d[a] = up - down;
+    }
+    return transpose(gradient_to_world_matrix()) * (0.5 * side * d);
+}
+
+#endif
