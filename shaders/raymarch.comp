@@ -44,7 +44,7 @@
 // holding a label are occupied for skipping, so skipping stays lossless.
 //
 // Layers (LAYERS; issue 31 item 4): up to two intensity volumes on their own grids, sampled
-// through the composed affines, coloured by their thresholds and maps and composited after the
+// through the composed affines, coloured by their thresholds and maps and composited before the
 // tissue and the label at each sample (layers.glsl); bricks they may draw in are occupied.
 //
 // Lighting (LIGHTING, DEPTH_CUES; issue 34 item 2): the studio model, the matcap and the surface
@@ -435,9 +435,25 @@ void main() {
                 continue;
             }
             vec3 normal = vec3(0.0);
+            // Each layer's medium first at this position, so a map shows on the surfaces and cut
+            // faces it reaches; tissue in front of it (at earlier samples) still hides it.
+            bool drew = false;
+            bool solid = start + float(i) * dt < cap_end;
+            for (uint l = 0u; l < LAYERS; l++) {
+                if (layer_colour[l].a > 0.0) {
+                    vec3 lc = layer_colour[l].rgb;
+                    if (SHADING) {
+                        // On a cut face unshaded, as the tissue there (tissue_sample).
+                        vec3 layer_n = solid ? vec3(0.0) : layer_normal(l, p, layer_v[l] >= 0.0 ? 1.0 : -1.0);
+                        lc = lit(lc, layer_n, direction_world);
+                        normal = drew ? normal : layer_n;
+                    }
+                    composite(acc, lc, opacity_correct(layer_colour[l].a, r));
+                    drew = true;
+                }
+            }
             if (cls.a > 0.0) {
                 classified++;
-                bool solid = start + float(i) * dt < cap_end;
                 vec4 tissue = tissue_sample(p, v, cls, direction_world, r, solid, normal);
                 composite(acc, tissue.rgb, tissue.a);
             }
@@ -451,20 +467,7 @@ void main() {
                 }
                 composite(acc, lc, opacity_correct(label_colour.a, r));
             }
-            // Each layer's medium after the tissue and the label at the same position.
-            bool drew = cls.a > 0.0 || label_colour.a > 0.0;
-            for (uint l = 0u; l < LAYERS; l++) {
-                if (layer_colour[l].a > 0.0) {
-                    vec3 lc = layer_colour[l].rgb;
-                    if (SHADING) {
-                        vec3 layer_n = layer_normal(l, p, layer_v[l] >= 0.0 ? 1.0 : -1.0);
-                        lc = lit(lc, layer_n, direction_world);
-                        normal = drew ? normal : layer_n;
-                    }
-                    composite(acc, lc, opacity_correct(layer_colour[l].a, r));
-                    drew = true;
-                }
-            }
+
             if (DEPTH_CUES && !surface_found && acc.a >= CUE_SURFACE_ALPHA) {
                 surface_found = true;
                 surface_p = p;

@@ -1,6 +1,6 @@
 //! Intensity layers in the 3D raymarch (issue 31 item 4) on the GPU, against the f64 twin
 //! (`reference::raymarch::ReferenceLayer`): a two-sided z-map on its own coarser, rotated grid
-//! over the phantom's tissues, flat and shaded; a layer where no tissue is visible (empty-space
+//! over the phantom's tissues, flat, shaded and cut away; a layer where no tissue is visible (empty-space
 //! skipping must not skip it); two layers with a cluster size; a threshold above every value
 //! changing nothing.
 
@@ -235,14 +235,20 @@ fn a_two_sided_z_map_on_its_own_rotated_grid_matches_the_twin_flat_and_shaded() 
         [11, 9, 2],
     );
     let size = (64, 48);
-    for shading in [false, true] {
+    for (shading, cut) in [(false, false), (true, false), (true, true)] {
         let case = prepare(&mut engine, &phantom.volume, |s| {
-            s.effects.shading = shading
+            s.effects.shading = shading;
+            // A cut-away: the layer on the cut face is drawn unshaded, as the tissue there.
+            s.cutaway = cut.then(morphray::scene::Cutaway::default);
         });
         let layers = vec![upload(&mut engine, &case, &layer, style(2.0, 5.0, 0))];
         let gpu = gpu_render(&mut engine, &case, &layers, size);
         let cpu = twin(&engine, &case, &layers, size);
-        assert_matches(&format!("z-map, shading {shading}"), &gpu, &cpu);
+        assert_matches(
+            &format!("z-map, shading {shading}, cut-away {cut}"),
+            &gpu,
+            &cpu,
+        );
         let plain = gpu_render(&mut engine, &case, &Vec::new(), size);
         let (psnr, _) = compare(&gpu, &plain);
         assert!(

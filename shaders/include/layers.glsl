@@ -7,7 +7,8 @@
 // grid nothing is drawn. A value >= threshold takes the positive table at (v - lo) / (hi - lo),
 // with a negative side a value <= -threshold the negative table at (-v - lo) / (hi - lo) (256
 // RGBA8 entries each, nearest entry); its opacity per mm is the layer's. A drawn sample is
-// composited after the tissue's and a label's at the same position (intermixed by depth). With
+// composited before the tissue's and a label's at the same position (intermixed by depth:
+// tissue at earlier samples hides it; it shows on the surfaces and cut faces it reaches). With
 // SHADING its normal is the central difference of the layer's value over one base voxel along
 // each axis, signed by the side, mapped to world as the tissue's gradient is.
 #ifndef MORPHRAY_LAYERS_GLSL

@@ -369,6 +369,9 @@ pub struct RenderArgs {
     /// Label overlay, drawn in 3D (DVR).
     #[command(flatten)]
     pub overlay: super::overlay::OverlayArgs,
+    /// Intensity layers, drawn in 3D (DVR).
+    #[command(flatten)]
+    pub layer: super::layer_args::LayerArgs,
     /// Scene documents: `--scene`, `--scene-from`, `--save-scene`.
     #[command(flatten)]
     pub scene_file: super::scene_file::SceneFileArgs,

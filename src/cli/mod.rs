@@ -18,6 +18,7 @@ mod glyphs;
 mod identity_args;
 mod info;
 mod kernels;
+pub mod layer_args;
 mod movie;
 pub mod output;
 mod overlay;

@@ -331,6 +331,10 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
     let overlay_args = loaded
         .as_ref()
         .map_or_else(|| args.overlay.clone(), |l| l.overlay(&args.overlay));
+    let layer_specs = match &loaded {
+        Some(l) if args.layer.layers.is_empty() => l.doc.layer_specs(&l.origin),
+        _ => args.layer.specs()?,
+    };
     let output = output_path(args, &files)?;
     // 1..=10000 frames (clap checks): the paths below are held, and checked, all at once.
     let frames = args.turntable.unwrap_or(1);
@@ -340,8 +344,10 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
     };
     let mut inputs: Vec<&Path> = files.iter().map(|p| p.as_path()).collect();
     inputs.extend(overlay_args.inputs());
-    // The label map and its table before any GPU work: a bad one fails at once.
+    inputs.extend(layer_specs.iter().map(|s| s.path.as_path()));
+    // The label map, its table and the layers before any GPU work: a bad one fails at once.
     let overlay = overlay_args.load()?;
+    let layers = super::layer_args::open_all(&layer_specs, print_line)?;
     // A turntable's -o names no file of its own, but `-o orbit.jpg` would still be a mistake.
     if args.turntable.is_some() && !OutputKind::Png.accepts(&output) {
         check_output(&output, OutputKind::Png, &inputs, false)?;
@@ -461,6 +467,20 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
             );
         }
     }
+    if !layers.is_empty() {
+        let prepared = opened.twin.prepared.clone();
+        super::layer_args::attach_to_render(
+            &layers,
+            &mut opened.engine,
+            (&prepared, &opened.plan),
+            &mut target,
+        )?;
+        if !classified {
+            eprintln!(
+                "morphray: note: --layer is drawn in DVR only; MIP and MinIP show intensities"
+            );
+        }
+    }
     let command = std::env::args().collect::<Vec<_>>().join(" ");
     // What the pictures' scene documents record besides the scene.
     let frame_index = args
@@ -518,6 +538,7 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
             "brain": brain,
             "degradations": opened.plan.degradations,
             "overlay": args.overlay,
+            "layers": layers.iter().map(|l| l.describe()).collect::<Vec<_>>(),
         });
         let parts = super::scene_file::PictureParts {
             input: (&files, frame_index, opened.source.sha256.as_deref()),
@@ -526,6 +547,7 @@ pub fn run(args: &RenderArgs, global: &super::GlobalOptions) -> Result<(), Error
                 .as_ref()
                 .map_or(scene_args.denoise, |l| l.doc.denoise),
             overlay: &overlay_args,
+            layers: &layers,
             size: (width, height),
             measurements: loaded.as_ref().map_or(&[], |l| &l.doc.measurements),
         };

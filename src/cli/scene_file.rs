@@ -138,6 +138,8 @@ pub struct PictureParts<'a> {
     pub denoise: crate::passes::denoise::Denoise,
     /// The label overlay's options.
     pub overlay: &'a super::overlay::OverlayArgs,
+    /// The intensity layers drawn.
+    pub layers: &'a [crate::scene::layer_open::OpenedLayer],
     /// The picture's size.
     pub size: (u32, u32),
     /// Measurements carried over from the document the picture was rendered from.
@@ -168,6 +170,14 @@ pub fn picture_document(scene: &Scene, parts: &PictureParts<'_>, folder: &Path) 
             .map(|l| recorded_path(l, folder)),
         opacity: parts.overlay.overlay_opacity,
     });
+    doc.layers = parts
+        .layers
+        .iter()
+        .map(|l| crate::scene::document::LayerRef {
+            path: recorded_path(&l.spec.path, folder),
+            style: l.style,
+        })
+        .collect();
     doc
 }
 

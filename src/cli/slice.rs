@@ -91,6 +91,9 @@ pub struct SliceArgs {
     /// Label overlay.
     #[command(flatten)]
     pub overlay: super::overlay::OverlayArgs,
+    /// Intensity layers.
+    #[command(flatten)]
+    pub layer: super::layer_args::LayerArgs,
 }
 
 fn parse_window(text: &str) -> Result<(f64, f64), Error> {
@@ -127,6 +130,8 @@ fn convention_of(arg: ConventionArg) -> Convention {
 pub fn run(args: &SliceArgs, global: &super::GlobalOptions) -> Result<(), Error> {
     let mut inputs: Vec<&std::path::Path> = args.file.iter().map(|p| p.as_path()).collect();
     inputs.extend(args.overlay.inputs());
+    let layer_paths = args.layer.inputs();
+    inputs.extend(layer_paths.iter().map(|p| p.as_path()));
     check_output(&args.output, OutputKind::Png, &inputs, false)?;
     let window = parse_window(&args.window)?;
     if let Some(p) = args.pixel_mm.filter(|p| !(p.is_finite() && *p > 0.0)) {
@@ -151,6 +156,7 @@ pub fn run(args: &SliceArgs, global: &super::GlobalOptions) -> Result<(), Error>
     };
     // The label map and its table before any GPU work: a bad one fails at once.
     let overlay = args.overlay.load()?;
+    let layers = super::layer_args::open_all(&args.layer.specs()?, print_line)?;
     let source = VolumeSource::from_paths(&args.file);
     let session = Session::open(&source, global.engine_config(), &options)?;
     print_warnings(&session.source.volume.warnings);
@@ -194,6 +200,14 @@ pub fn run(args: &SliceArgs, global: &super::GlobalOptions) -> Result<(), Error>
         let none = Default::default();
         let drawn = blend_slice(&mut image.rgba8, &index, labels, &o.table, o.opacity, &none);
         print_line(&format!("overlay: {drawn} labelled pixels"));
+    }
+    if !layers.is_empty() {
+        let index = grid.in_index_space(&geometry);
+        let drawn =
+            super::layer_args::blend_over(&mut image.rgba8, &index, &prepared.affine, &layers);
+        for (layer, count) in layers.iter().zip(drawn) {
+            print_line(&format!("layer {}: {count} pixels drawn", layer.grid.name));
+        }
     }
     let letters = edge_letters(plane, convention);
     if args.letters

@@ -8,9 +8,10 @@
 //!   matrix (base index -> layer texture coordinates, both affines composed in f64 here) and
 //!   filters it trilinearly. A 2 mm z-map on a 1 mm T1 costs its own 2 bytes a voxel, not the
 //!   T1's grid, and a window or threshold change is a uniform write.
-//! - **Composited per sample, by depth**: a layer's sample is a medium of its own right after
+//! - **Composited per sample, by depth**: a layer's sample is a medium of its own just before
 //!   the tissue's (and a label's) at the same position, so a blob inside the brain shows through
-//!   translucent tissue and hides behind opaque cortex (intermixing, not painting on top).
+//!   translucent tissue, hides behind opaque cortex in front of it, and colours the surface and
+//!   the cut faces it reaches (intermixing, not painting on top).
 //! - **Skipping stays lossless**: a base brick counts as occupied when any drawn layer voxel's
 //!   trilinear footprint (its neighbours up to one voxel away) maps into it; computed on the
 //!   host per style change over 4^3 blocks of the layer, ORed with the label bits.

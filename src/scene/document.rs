@@ -60,6 +60,16 @@ pub struct OverlayRef {
     pub opacity: f64,
 }
 
+/// An intensity layer drawn over the volume (`--layer`, `scene::layer`).
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LayerRef {
+    /// The layer's file (relative to the document's folder when relative).
+    pub path: String,
+    /// How it is drawn.
+    pub style: super::layer::LayerStyle,
+}
+
 /// The viewer's arrangement, when the document came from the viewer.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -92,6 +102,9 @@ pub struct SceneDocument {
     /// A label map drawn over the volume (`--overlay`).
     #[serde(default)]
     pub overlay: Option<OverlayRef>,
+    /// Intensity layers drawn over the volume, in order (`--layer`).
+    #[serde(default)]
+    pub layers: Vec<LayerRef>,
     /// The picture's size in pixels (`render --size`; the window's for the viewer).
     #[serde(default)]
     pub size: Option<[u32; 2]>,
@@ -159,6 +172,7 @@ impl SceneDocument {
             denoise: crate::passes::denoise::Denoise::None,
             matcap: None,
             overlay: None,
+            layers: Vec::new(),
             size: None,
             viewer: None,
             measurements: Vec::new(),
@@ -256,6 +270,20 @@ impl SceneDocument {
                 .next()
         });
         Some((labels.into_iter().next()?, lut))
+    }
+
+    /// The layers as specs that draw them as recorded, paths resolved as
+    /// [`SceneDocument::input_paths`].
+    pub fn layer_specs(&self, document: &Path) -> Vec<super::layer::LayerSpec> {
+        self.layers
+            .iter()
+            .filter_map(|l| {
+                let path = resolve(std::slice::from_ref(&l.path), document)
+                    .into_iter()
+                    .next()?;
+                Some(super::layer::LayerSpec::from_style(path, &l.style))
+            })
+            .collect()
     }
 
     /// The matcap to load: a built-in name as it is, a file resolved as the inputs are.
@@ -358,7 +386,7 @@ fn check_measurements(measurements: &[super::measure::Measurement]) -> Result<()
 /// Largest picture side a document may ask for, pixels (as `render --size`).
 pub const MAX_SIDE: u32 = 16384;
 
-/// Why the picture size, the crosshair or the overlay's opacity cannot be a document's.
+/// Why the picture size, the crosshair, the overlay's opacity or a layer cannot be a document's.
 fn check_extras(doc: &SceneDocument) -> Result<(), String> {
     if let Some([w, h]) = doc.size
         && (w == 0 || h == 0 || w > MAX_SIDE || h > MAX_SIDE)
@@ -370,6 +398,19 @@ fn check_extras(doc: &SceneDocument) -> Result<(), String> {
     let crosshair = doc.viewer.as_ref().and_then(|v| v.crosshair_mm);
     if crosshair.is_some_and(|c| !c.iter().all(|v| v.is_finite())) {
         return Err("its viewer crosshair is not a finite position".into());
+    }
+    if doc.layers.len() > super::layer::MAX_LAYERS {
+        return Err(format!(
+            "it has {} layers; at most {} are drawn",
+            doc.layers.len(),
+            super::layer::MAX_LAYERS
+        ));
+    }
+    for layer in &doc.layers {
+        layer
+            .style
+            .check()
+            .map_err(|e| format!("its layer {}: {e}", layer.path))?;
     }
     if let Some(o) = &doc.overlay
         && !(0.0..=1.0).contains(&o.opacity)

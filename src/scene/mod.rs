@@ -13,6 +13,7 @@ pub mod document;
 pub mod geometry;
 pub mod layer;
 pub mod layer_grid;
+pub mod layer_open;
 pub mod lighting;
 pub mod matcap;
 pub mod measure;

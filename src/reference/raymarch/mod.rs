@@ -574,7 +574,8 @@ impl<'a> ReferenceRaymarch<'a> {
                 continue;
             }
             let mut normal = DVec3::ZERO;
-            let drew = tissue.is_some() || label.is_some();
+            // The layers' media first at this position, as in the shader.
+            self.composite_layers(&mut acc, &mut normal, &layers, (solid, plan.view_direction));
             if let Some(sample) = &tissue {
                 composite(&mut acc, sample.shaded, sample.corrected);
                 normal = sample.normal;
@@ -591,7 +592,6 @@ impl<'a> ReferenceRaymarch<'a> {
                 }
                 composite(&mut acc, colour, opacity);
             }
-            self.composite_layers(&mut acc, &mut normal, &layers, drew, plan.view_direction);
             if self.lighting.depth_cues
                 && surface.is_none()
                 && acc[3] >= lighting::CUE_SURFACE_ALPHA
@@ -620,17 +620,19 @@ impl<'a> ReferenceRaymarch<'a> {
 }
 
 impl ReferenceRaymarch<'_> {
-    /// Each drawn layer's medium after the tissue and the label (the shader's order); the first
-    /// drawn sample's normal is the surface normal when nothing before it `drew`.
+    /// Each drawn layer's medium, before the tissue and the label at the same position (the
+    /// shader's order); the first drawn layer's normal is the surface normal so far.
     fn composite_layers(
         &self,
         acc: &mut [f64; 4],
         normal: &mut DVec3,
         layers: &[Option<([f64; 3], f64, DVec3)>],
-        mut drew: bool,
-        view_direction: DVec3,
+        (solid, view_direction): (bool, DVec3),
     ) {
+        let mut drew = false;
         for (colour, opacity, layer_normal) in layers.iter().flatten() {
+            // On a cut face unshaded, as the tissue there.
+            let layer_normal = if solid { &DVec3::ZERO } else { layer_normal };
             let colour = if self.shading {
                 if !drew {
                     *normal = *layer_normal;
