@@ -35,6 +35,8 @@ enum Purpose {
     SaveView,
     SaveScene,
     ExportMeasures,
+    AddLayer,
+    AddLabels,
 }
 
 impl Default for FilePanel {
@@ -56,6 +58,18 @@ impl FilePanel {
     /// Opens the file dialog for opening a volume.
     pub fn open_dialog(&mut self) {
         self.purpose = Purpose::Open;
+        self.dialog.pick_file();
+    }
+
+    /// Opens the file dialog for a layer over the volume (Add layer...).
+    pub fn add_layer_dialog(&mut self) {
+        self.purpose = Purpose::AddLayer;
+        self.dialog.pick_file();
+    }
+
+    /// Opens the file dialog for a label map over the volume (Add labels...).
+    pub fn add_labels_dialog(&mut self) {
+        self.purpose = Purpose::AddLabels;
         self.dialog.pick_file();
     }
 
@@ -141,6 +155,8 @@ impl FilePanel {
                 Purpose::SaveView => Request::SaveView(path, self.view_size),
                 Purpose::SaveScene => Request::SaveScene(path),
                 Purpose::ExportMeasures => Request::ExportMeasures(path),
+                Purpose::AddLayer => Request::AddLayer(path),
+                Purpose::AddLabels => Request::AddLabels(path),
             });
         }
         let dropped: Vec<PathBuf> = ctx.input(|i| {

@@ -47,6 +47,7 @@ pub mod frame_log;
 pub mod histogram;
 pub mod histogram_fit;
 pub mod identity_panel;
+pub mod layers_panel;
 pub mod loader;
 pub mod measure_panel;
 pub mod readout;

@@ -112,6 +112,10 @@ pub enum Action {
     SaveScene(PathBuf),
     /// A measurement step (`measure distance ...`, `measure export FILE`; measure_panel.rs).
     Measure(crate::app::measure_panel::MeasureStep),
+    /// An intensity layer step (`layer add SPEC`, `layer 1 threshold 3.1`; layers_panel.rs).
+    Layer(crate::app::layers_panel::LayerStep),
+    /// Draw a label map over the volume (`labels FILE`), as Add labels... does.
+    Labels(PathBuf),
     /// Let this many frames pass.
     Wait(u32),
     /// Let this many milliseconds of wall time pass, frames going on as in an interactive
@@ -522,6 +526,11 @@ fn parse_line(line: &str) -> Result<Action, String> {
             let rest: Vec<&str> = std::iter::from_fn(&mut next).collect();
             Action::Measure(crate::app::measure_panel::MeasureStep::parse(&rest)?)
         }
+        "layer" => {
+            let rest: Vec<&str> = std::iter::from_fn(&mut next).collect();
+            Action::Layer(crate::app::layers_panel::LayerStep::parse(&rest)?)
+        }
+        "labels" => Action::Labels(PathBuf::from(next().ok_or("expected a label map's path")?)),
         "save-scene" => Action::SaveScene(PathBuf::from(
             next().ok_or("expected a scene document path (.json)")?,
         )),

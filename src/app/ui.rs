@@ -49,6 +49,10 @@ pub enum Request {
     ExportMeasures(PathBuf),
     /// Open the volume on screen again taken as this modality, contrast and preset.
     Identity(super::identity_panel::IdentityChoice),
+    /// Draw this file over the volume as an intensity layer (Add layer...).
+    AddLayer(PathBuf),
+    /// Draw this label map over the volume (Add labels...).
+    AddLabels(PathBuf),
 }
 
 /// Which window presets the tissue windows follow.
@@ -87,6 +91,8 @@ pub struct Controls {
     pub pick_measures: bool,
     /// Slice layout, crosshair, window and convention (`slices_panel.rs`).
     pub slices: super::slices_panel::SliceControls,
+    /// Intensity layers over the volume (`layers_panel.rs`).
+    pub layers: super::layers_panel::Layers,
     /// What brain extraction decided for the volume on screen (`brain_panel.rs`).
     pub brain: super::brain_panel::BrainShown,
     /// The modality, contrast and preset menus (`identity_panel.rs`).
@@ -108,6 +114,7 @@ impl Controls {
             pick: None,
             pick_measures: false,
             slices: Default::default(),
+            layers: Default::default(),
             brain: Default::default(),
             identity: Default::default(),
         }
@@ -267,6 +274,18 @@ pub fn draw(ui: &mut Ui, controls: &mut Controls, shown: &Shown) -> Outcome {
                 rendering_panel(ui, controls);
                 super::clip_panel::clip_panel(ui, &mut controls.scene, controls.extent_mm);
                 super::slices_panel::label_panel(ui, &mut controls.slices);
+                ui.collapsing("Layers", |ui| {
+                    if controls.layers.panel(ui) {
+                        controls.files.add_layer_dialog();
+                    }
+                    if ui
+                        .button("Add labels...")
+                        .on_hover_text("An integer label map (a segmentation) over the volume")
+                        .clicked()
+                    {
+                        controls.files.add_labels_dialog();
+                    }
+                });
                 ui.collapsing("Measure", |ui| {
                     let asked = super::measure_panel::panel(ui, &mut controls.slices.measures);
                     if asked.is_some() {

@@ -407,6 +407,9 @@ pub struct ViewArgs {
     /// Label overlay on the slices.
     #[command(flatten)]
     pub overlay: super::overlay::OverlayArgs,
+    /// Intensity layers over the volume (slices and 3D).
+    #[command(flatten)]
+    pub layer: super::layer_args::LayerArgs,
     /// Frame of a 4-D file to show (0-based), as `render --frame`.
     #[arg(long, default_value_t = 0)]
     pub frame: usize,

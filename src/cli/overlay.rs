@@ -10,9 +10,8 @@
 use crate::engine::plan::Plan;
 use crate::engine::{Engine, PreparedVolume, RenderTarget, label_colours};
 use crate::error::Error;
-use crate::scene::overlay::{LabelTable, Overlay, resample};
+use crate::scene::overlay::{Overlay, resample};
 use crate::volume::Volume;
-use crate::volume::source::VolumeSource;
 use clap::Args;
 use std::path::PathBuf;
 
@@ -56,32 +55,9 @@ impl OverlayArgs {
         let Some(path) = &self.overlay else {
             return Ok(None);
         };
-        let source = VolumeSource::File(path.clone());
-        let labels = crate::volume::source::read(&source, &Default::default())?.volume;
-        let table = match &self.overlay_lut {
-            None => LabelTable::default(),
-            Some(lut) => {
-                let bytes = crate::files::read::read_regular(lut, 16 << 20).map_err(|e| {
-                    Error::Usage(format!(
-                        "cannot read the lookup table {}: {e}",
-                        lut.display()
-                    ))
-                })?;
-                let text = String::from_utf8(bytes).map_err(|_| {
-                    Error::Usage(format!(
-                        "{}: the lookup table is not UTF-8 text",
-                        lut.display()
-                    ))
-                })?;
-                LabelTable::parse(&text, &lut.display().to_string())
-                    .map_err(|e| Error::Usage(e.to_string()))?
-            }
-        };
-        Ok(Some(Overlay {
-            labels,
-            table,
-            opacity: self.overlay_opacity,
-        }))
+        Overlay::open(path, self.overlay_lut.as_deref(), self.overlay_opacity)
+            .map(Some)
+            .map_err(Error::Usage)
     }
 }
 

@@ -283,6 +283,8 @@ pub struct ViewDocument {
     pub crosshair_mm: Option<[f64; 3]>,
     /// The measurements the first volume starts with.
     pub measurements: Vec<crate::scene::measure::Measurement>,
+    /// The layers over the first volume.
+    pub layers: Vec<crate::scene::layer::LayerSpec>,
 }
 
 #[cfg(feature = "viewer")]
@@ -312,6 +314,7 @@ impl ViewDocument {
                 overlay: args.overlay.clone(),
                 crosshair_mm: None,
                 measurements: Vec::new(),
+                layers: args.layer.specs()?,
             });
         };
         let doc = &loaded.doc;
@@ -343,6 +346,11 @@ impl ViewDocument {
             overlay: loaded.overlay(&args.overlay),
             crosshair_mm: viewer.and_then(|v| v.crosshair_mm),
             measurements: doc.measurements.clone(),
+            layers: if args.layer.layers.is_empty() {
+                doc.layer_specs(&loaded.origin)
+            } else {
+                args.layer.specs()?
+            },
         })
     }
 }

@@ -33,6 +33,8 @@ pub fn run(args: &ViewArgs, global: &super::GlobalOptions) -> Result<(), super::
     // not silently in the status bar after the run.
     let mut inputs: Vec<&std::path::Path> = args.file.iter().map(|p| p.as_path()).collect();
     inputs.extend(args.overlay.inputs());
+    let layer_paths = args.layer.inputs();
+    inputs.extend(layer_paths.iter().map(|p| p.as_path()));
     for step in &steps {
         let (path, kind) = match &step.action {
             script::Action::Screenshot(path) | script::Action::SaveView(path, _) => {
@@ -104,6 +106,7 @@ pub fn run(args: &ViewArgs, global: &super::GlobalOptions) -> Result<(), super::
         }),
         crosshair_mm: document.crosshair_mm,
         measurements: document.measurements,
+        layers: document.layers,
     };
     crate::app::run(config, args.offscreen, fail_on_validation)?;
     Ok(())

@@ -83,6 +83,36 @@ pub struct Overlay {
     pub opacity: f64,
 }
 
+impl Overlay {
+    /// Reads the label map at `labels` (any input the readers take) and its FreeSurfer-style
+    /// table `lut` (16 MiB at most, UTF-8); the message says which file is wrong and why.
+    pub fn open(
+        labels: &std::path::Path,
+        lut: Option<&std::path::Path>,
+        opacity: f64,
+    ) -> Result<Overlay, String> {
+        let source = crate::volume::source::VolumeSource::File(labels.to_path_buf());
+        let read = crate::volume::source::read(&source, &Default::default());
+        let labels = read.map_err(|e| e.to_string())?.volume;
+        let table = match lut {
+            None => LabelTable::default(),
+            Some(lut) => {
+                let bytes = crate::files::read::read_regular(lut, 16 << 20)
+                    .map_err(|e| format!("cannot read the lookup table {}: {e}", lut.display()))?;
+                let text = String::from_utf8(bytes).map_err(|_| {
+                    format!("{}: the lookup table is not UTF-8 text", lut.display())
+                })?;
+                LabelTable::parse(&text, &lut.display().to_string()).map_err(|e| e.to_string())?
+            }
+        };
+        Ok(Overlay {
+            labels,
+            table,
+            opacity,
+        })
+    }
+}
+
 /// The label map `labels` resampled onto `volume`'s grid (module decisions).
 pub fn resample(labels: &Volume, volume: &Volume) -> Result<Labels, OverlayError> {
     resample_onto(labels, volume.dims, &volume.orientation.affine)

@@ -50,6 +50,8 @@ pub struct ViewerConfig {
     pub matcap_spec: Option<String>,
     /// The overlay's label map, table and opacity as given, for scene documents.
     pub overlay_files: Option<(PathBuf, Option<PathBuf>, f64)>,
+    /// Layers to open over the first volume (`--layer`, a scene document's).
+    pub layers: Vec<crate::scene::layer::LayerSpec>,
     /// Where the crosshair starts on the first volume (a scene document's), world mm.
     pub crosshair_mm: Option<[f64; 3]>,
     /// The measurements the first volume starts with (a scene document's).

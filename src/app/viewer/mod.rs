@@ -44,6 +44,7 @@
 
 mod brain;
 mod config;
+mod layers;
 mod measures;
 mod opening;
 mod paint;
@@ -74,6 +75,7 @@ use crate::gpu::swapchain::{Surface, Swapchain};
 use crate::gpu::{Device, FRAMES_IN_FLIGHT, GpuError, PassTiming, Presentation, Recording};
 use crate::passes::derivatives::DerivativeOutputs;
 use crate::passes::present::{COMPOSITE_FORMAT, FrameSpec, Painter};
+use crate::scene::layer::LayerSpec;
 use crate::scene::{Effects, Scene, SceneRecipe, WindowSet};
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -483,6 +485,7 @@ impl Viewer {
         }
 
         self.sync_brain();
+        self.update_layers();
         self.update_slices();
         // The interface.
         let before_ui = self.rendered_scene();
@@ -555,6 +558,11 @@ impl Viewer {
                 Request::ExportMeasures(path) => self.export_measures(&path),
                 Request::Frame(index) => self.open_frame(index, None),
                 Request::Identity(choice) => self.reidentify(choice, None),
+                Request::AddLayer(path) => self.add_layer(&LayerSpec {
+                    path,
+                    ..LayerSpec::default()
+                }),
+                Request::AddLabels(path) => self.add_labels(&path),
             }
         }
         self.request_derived();

@@ -80,6 +80,13 @@ impl Viewer {
                 };
                 super::slices::attach_labels(gpu.labels_3d.as_ref(), &self.controls.slices, target);
                 let twin = &current.loaded.twin;
+                let volume = (&*twin.prepared, current.loaded.id);
+                let layers = &mut self.controls.layers;
+                if let Err(e) =
+                    super::layers::attach_layers(layers, &mut gpu.engine, volume, target)
+                {
+                    self.status.error = Some(e);
+                }
                 let mut rec = Recording::new(&gpu.device, "frame").map_err(FrameError::Gpu)?;
                 match gpu.engine.record_render(
                     &mut rec,

@@ -45,6 +45,12 @@ impl Viewer {
                 lut: lut.as_ref().map(|l| recorded_path(l, folder)),
                 opacity: *opacity,
             });
+        doc.layers = (self.controls.layers.entries.iter())
+            .map(|e| crate::scene::document::LayerRef {
+                path: recorded_path(&e.opened.spec.path, folder),
+                style: e.opened.style,
+            })
+            .collect();
         let slices = &self.controls.slices;
         doc.measurements.clone_from(&slices.measures.items);
         doc.viewer = Some(ViewerLayout {

@@ -57,6 +57,13 @@ impl Viewer {
             .map_err(|e| e.to_string())?;
         target.read_back = true;
         super::slices::attach_labels(gpu.labels_3d.as_ref(), &self.controls.slices, &mut target);
+        let volume = (&*twin.prepared, current.loaded.id);
+        super::layers::attach_layers(
+            &mut self.controls.layers,
+            &mut gpu.engine,
+            volume,
+            &mut target,
+        )?;
         let frame = gpu
             .engine
             .render(&mut target, &twin.prepared, twin.derived(), &scene)

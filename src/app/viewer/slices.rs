@@ -34,21 +34,31 @@ impl Viewer {
             return;
         };
         let prepared = &current.loaded.twin.prepared;
+        // Each layer's value at the crosshair, after the volume's (as FSLeyes lists overlays).
+        let layer_values = (self.controls.slices.crosshair)
+            .map(|world| self.controls.layers.readout(world).join(", "))
+            .filter(|text| !text.is_empty());
         let slices = &mut self.controls.slices;
         let overlay = slices.overlay.as_ref();
-        let readout = slices.crosshair.map(|world| {
-            // HU only for values in Hounsfield units (a rescaled CT's are not), as the windows.
-            let hu = crate::scene::preset::values_are_hu(&current.loaded.report);
-            let r = crate::app::readout::readout(&current.loaded.host, world, hu);
-            match overlay {
-                // The labels are on this volume's grid once the overlay is set up below.
-                Some(o) if o.labels.dims == current.loaded.host.dims => {
-                    r.with_label(&o.labels, &o.table)
+        let readout = slices
+            .crosshair
+            .map(|world| {
+                // HU only for values in Hounsfield units (a rescaled CT's are not), as the windows.
+                let hu = crate::scene::preset::values_are_hu(&current.loaded.report);
+                let r = crate::app::readout::readout(&current.loaded.host, world, hu);
+                match overlay {
+                    // The labels are on this volume's grid once the overlay is set up below.
+                    Some(o) if o.labels.dims == current.loaded.host.dims => {
+                        r.with_label(&o.labels, &o.table)
+                    }
+                    _ => r,
                 }
-                _ => r,
-            }
-            .text()
-        });
+                .text()
+            })
+            .map(|text| match &layer_values {
+                Some(values) => format!("{text}; layers: {values}"),
+                None => text,
+            });
         if readout != self.status.readout {
             if let Some(line) = &readout {
                 // Scripted runs and tests read where the crosshair went and what is there.
@@ -135,6 +145,10 @@ impl Viewer {
                         &slices.hidden,
                     );
                 }
+                // Layers over the labels (as in 3D, where their medium comes first).
+                self.controls
+                    .layers
+                    .blend(&mut rgba, &index, &prepared.affine);
                 // Over the labels: the mask's edge stays visible through them.
                 if let Some(brain) = &slices.brain {
                     brain.draw(&mut rgba, &index, prepared.dims);

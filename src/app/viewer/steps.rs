@@ -181,6 +181,8 @@ impl Viewer {
                 self.measure_step(step);
                 watch = false;
             }
+            Action::Layer(step) => self.layer_step(step),
+            Action::Labels(path) => self.add_labels(path),
             Action::Screenshot(path) => {
                 self.screenshot_requests.push(path.clone());
                 watch = false;
