@@ -49,10 +49,13 @@ pub(super) struct AttachedLayers {
     pub(super) layers: Vec<(Arc<LayerVolume>, LayerStyle)>,
     // Grows with every change, so colour tables and brick bits are remade once per change.
     pub(super) generation: u64,
-    // The brick bits of `generation`, with the label bits they were merged with.
-    pub(super) bits: Option<(u64, Option<Arc<Vec<u32>>>, Arc<Vec<u32>>)>,
+    // The brick bits of a generation, with the label bits they were merged with.
+    pub(super) bits: Option<MergedBits>,
     pub(super) colours: HostSlots<u64>,
 }
+
+/// Brick bits of the layers of one generation ORed with the label bits (the second field).
+pub(super) type MergedBits = (u64, Option<Arc<Vec<u32>>>, Arc<Vec<u32>>);
 
 /// The plan's description of one frame slot's layer colour tables.
 pub fn layer_colours_desc() -> BufferDesc {
