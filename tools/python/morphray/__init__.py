@@ -90,6 +90,15 @@ def _value(name: str, value) -> str:
     return _item(value)
 
 
+def _layer_specs(layers) -> list:
+    """render(layers=...)'s value as a list of `--layer` spec strings (None: none)."""
+    if layers is None:
+        return []
+    if isinstance(layers, (str, os.PathLike)):
+        layers = [layers]
+    return [os.fspath(spec) for spec in layers]
+
+
 def _scene_words(caller: str, options: dict) -> list:
     """The command-line words of `options` (keyword arguments of `caller`)."""
     words = []
@@ -325,8 +334,13 @@ class Volume:
             raise ValueError(f"data of shape {array.shape} is not on the volume's grid {self.shape}")
         return nibabel.Nifti1Image(array, self.affine)
 
-    def render(self, scene=None, **options) -> np.ndarray:
+    def render(self, scene=None, layers=None, **options) -> np.ndarray:
         """Renders one frame; returns an (H, W, 4) uint8 RGBA array (rows top to bottom).
+
+        layers=["zstat.nii.gz:red-yellow:3.1:8:cluster=20"] (or one string) draws up to two
+        intensity layers over the volume, each on its own grid, as `morphray render --layer`
+        (FILE[:MAP[:LO:HI]][:thr=T][:neg=MAP|off][:cluster=N][:opacity=A]); a layer file is
+        read once per volume.
 
         scene="view.json" renders a scene document's scene (written by save_scene(),
         `morphray render --save-scene` or the viewer's File > Save scene...) on this volume;
@@ -346,6 +360,7 @@ class Volume:
         ValueError with the command line's message. A picture that shows only the background
         raises a warning (warnings.warn) saying why and what to try.
         """
+        layer_specs = _layer_specs(layers)
         if scene is not None:
             size = options.pop("size", None)
             if options:
@@ -353,19 +368,22 @@ class Volume:
                                 f"{', '.join(sorted(options))} (the document holds the whole scene)")
             # The command line's parser checks the size (1..16384 a side), as render(size=)'s.
             words = [] if size is None else _scene_words("render", {"size": size})
-            image, note = self._native.render(words, document=os.fspath(scene))
+            image, note = self._native.render(words, document=os.fspath(scene),
+                                              layers=layer_specs)
         else:
-            image, note = self._native.render(_scene_words("render", options))
+            image, note = self._native.render(_scene_words("render", options), layers=layer_specs)
         if note:
             warnings.warn(f"morphray: {note}", stacklevel=2)
         return image
 
-    def save_scene(self, path, **options) -> None:
+    def save_scene(self, path, layers=None, **options) -> None:
         """Writes the scene the options describe (render()'s, by the same names) on this volume
         as a scene document: `morphray render --scene PATH`, `morphray view --scene PATH` and
         render(scene=PATH) show it again. The volume must have been opened from a file (the
-        document names its scan by path, relative to the document's folder)."""
-        self._native.save_scene(os.fspath(path), _scene_words("save_scene", options))
+        document names its scan by path, relative to the document's folder). layers= as
+        render()'s: recorded with the style they are drawn with."""
+        self._native.save_scene(os.fspath(path), _scene_words("save_scene", options),
+                                layers=_layer_specs(layers))
 
     def derive(self, maps=("gradient", "curvature"), denoise="none", vessel_scales=None) -> dict:
         """The derived maps as (i, j, k) arrays on the input grid, computed on the GPU, by

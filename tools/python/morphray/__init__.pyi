@@ -63,6 +63,7 @@ class Volume:
     def render(
         self,
         scene: Optional[Union[str, PathLike[str]]] = ...,
+        layers: Optional[Union[str, PathLike[str], Sequence[Union[str, PathLike[str]]]]] = ...,
         *,
         size: Union[int, Tuple[int, int], str] = ...,
         mode: Literal["dvr", "mip", "minip"] = ...,
@@ -110,4 +111,9 @@ class Volume:
     ) -> None: ...
     def to_nibabel(self, data: Optional[npt.ArrayLike] = ...) -> Any: ...
     def brain_report(self) -> dict[str, Any]: ...
-    def save_scene(self, path: Union[str, PathLike[str]], **options: SceneOption) -> None: ...
+    def save_scene(
+        self,
+        path: Union[str, PathLike[str]],
+        layers: Optional[Union[str, PathLike[str], Sequence[Union[str, PathLike[str]]]]] = ...,
+        **options: SceneOption,
+    ) -> None: ...

@@ -13,6 +13,7 @@
 //!   library's one-line message.
 
 mod errors;
+mod layers;
 mod recipe;
 mod state;
 mod volume;

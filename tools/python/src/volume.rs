@@ -56,6 +56,8 @@ struct Inner {
     /// The identity options it was opened with (set again when it is reopened).
     identity: (NormalizeMode, ContrastChoice, ModalityChoice),
     generation: u64,
+    /// Intensity layers drawn over it (`layers.rs`).
+    layers: crate::layers::Layers,
 }
 
 /// A volume on the GPU with its tissue analysis.
@@ -166,6 +168,7 @@ fn open_host(
             bricked,
             identity: choice.identity,
             generation,
+            layers: Default::default(),
         }),
     })
 }
@@ -417,13 +420,21 @@ impl Volume {
     /// only the background, why and what to try.
     /// With `document` (a scene document's path), its scene instead, at the size `scene`
     /// gives (`--size` only) or its own.
-    #[pyo3(signature = (scene, document=None))]
+    /// `layers`: `--layer` specs (none: a document's layers, or none).
+    #[pyo3(signature = (scene, document=None, layers=vec![]))]
     fn render<'py>(
         &self,
         py: Python<'py>,
         scene: Vec<String>,
         document: Option<PathBuf>,
+        layers: Vec<String>,
     ) -> PyResult<(Bound<'py, PyArray3<u8>>, Option<String>)> {
+        let specs = match (&document, layers.is_empty()) {
+            (Some(path), true) => morphray::scene::document::SceneDocument::read(path)
+                .map_err(|e| errors::usage(e.to_string()))?
+                .layer_specs(path),
+            _ => crate::layers::parse(&layers)?,
+        };
         let choice = match &document {
             Some(path) => {
                 let size = (!scene.is_empty())
@@ -444,6 +455,8 @@ impl Volume {
             inner.reopen_if_needed(&mut state, &recipe)?;
             let scene = recipe.scene_for(&inner.report);
             let (engine, target) = state.engine_and_target(generation, [width, height])?;
+            let prepared = inner.twin.prepared.clone();
+            inner.layers.attach(&specs, engine, &prepared, target)?;
             // The engine outlives this render: a render without `matcap=` gets the built-in.
             match matcap {
                 Some(matcap) => engine.set_matcap(matcap),
@@ -526,7 +539,15 @@ impl Volume {
     /// Writes the scene the command-line words `scene` describe on this volume as a scene
     /// document (`morphray render --scene`, `view --scene` open it). Volumes read from a file
     /// only: the document names its input by path.
-    fn save_scene(&self, py: Python<'_>, path: PathBuf, scene: Vec<String>) -> PyResult<()> {
+    #[pyo3(signature = (path, scene, layers=vec![]))]
+    fn save_scene(
+        &self,
+        py: Python<'_>,
+        path: PathBuf,
+        scene: Vec<String>,
+        layers: Vec<String>,
+    ) -> PyResult<()> {
+        let specs = crate::layers::parse(&layers)?;
         use morphray::scene::document::{SceneDocument, SceneInput, recorded_path};
         let Some(input) = &self.path else {
             return Err(errors::usage(format!(
@@ -541,8 +562,9 @@ impl Volume {
             _ => PathBuf::from("."),
         };
         py.detach(|| -> PyResult<()> {
-            let inner = self.inner.lock().unwrap_or_else(|p| p.into_inner());
+            let mut inner = self.inner.lock().unwrap_or_else(|p| p.into_inner());
             let scene = choice.recipe.scene_for(&inner.report);
+            let records = inner.layers.records(&specs, &folder)?;
             let mut doc = SceneDocument::new(
                 SceneInput {
                     paths: vec![recorded_path(input, &folder)],
@@ -552,6 +574,7 @@ impl Volume {
                 scene,
             );
             doc.denoise = choice.recipe.denoise;
+            doc.layers = records;
             doc.size = Some([choice.size.0, choice.size.1]);
             doc.matcap = choice.matcap_word.map(|m| {
                 if morphray::scene::matcap::BUILT_IN.contains(&m.as_str()) {

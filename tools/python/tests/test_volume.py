@@ -235,3 +235,36 @@ def test_a_scene_saved_from_python_renders_again_here_and_on_the_command_line(tm
     subprocess.run([binary, "render", "--scene", str(scenes / "a.json"), "-o", str(out)],
                    check=True, capture_output=True)
     assert out.stat().st_size > 0
+
+
+def test_a_layer_on_its_own_grid_is_drawn_saved_and_drawn_again(tmp_path):
+    import json
+    data, affine = head_array()
+    path = tmp_path / "head.nii.gz"
+    nib.save(nib.Nifti1Image(data, affine), path)
+    # A z-map on a 4 mm grid over the same box: a positive ball in a corner, outside the head.
+    shape = (24, 24, 24)
+    z_affine = np.diag([4.0, 4.0, 4.0, 1.0])
+    z_affine[:3, 3] = affine[:3, 3]
+    ijk = np.indices(shape).reshape(3, -1).T
+    xyz = ijk @ z_affine[:3, :3].T + z_affine[:3, 3]
+    ball = 6.0 * np.exp(-((xyz - [36.0, 36.0, 36.0]) ** 2).sum(1) / 60.0)
+    zmap = tmp_path / "z.nii.gz"
+    nib.save(nib.Nifti1Image(ball.reshape(shape).astype(np.float32), z_affine), zmap)
+    vol = morphray.open(path)
+    options = dict(size=(64, 64), no_jitter=True)
+    plain = vol.render(**options)
+    spec = f"{zmap}:red-yellow:2:6"
+    drawn = vol.render(layers=spec, **options)
+    red = (drawn[..., 0] > 200) & (drawn[..., 2] < 60)
+    assert red.sum() > 20 and ((plain[..., 0] > 200) & (plain[..., 2] < 60)).sum() == 0
+    # A threshold above every value draws nothing; two layers at most.
+    np.testing.assert_array_equal(vol.render(layers=[f"{zmap}:hot:7:9"], **options), plain)
+    with pytest.raises(ValueError, match="at most 2"):
+        vol.render(layers=[spec, spec, spec], **options)
+    with pytest.raises(ValueError, match="no colour map"):
+        vol.render(layers=f"{zmap}:nomap", **options)
+    vol.save_scene(tmp_path / "s.json", layers=spec, **options)
+    doc = json.loads((tmp_path / "s.json").read_text())
+    assert doc["layers"][0]["path"] == "z.nii.gz" and doc["layers"][0]["style"]["lo"] == 2.0
+    np.testing.assert_array_equal(vol.render(scene=tmp_path / "s.json"), drawn)
