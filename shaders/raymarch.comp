@@ -141,6 +141,7 @@ layout(set = 0, binding = 4, std140) uniform Params {
     mat4 layer_to_texture[2];
     vec4 layer_window[2];   // lo, hi, threshold, opacity per mm
     vec4 layer_decode[2];   // value of code 0, value span of the codes, negative side drawn, 0
+    uvec4 layer_bricks;     // xyz: brick grid of the layer bits, w: brick side
 } params;
 
 // Benchmark counters (COUNT_SAMPLES only): samples marched and samples that passed
@@ -174,6 +175,8 @@ layout(set = 0, binding = 13, std430) readonly buffer Matcap { uint texels[]; } 
 layout(set = 0, binding = 14) uniform sampler3D layer_volume_0;
 layout(set = 0, binding = 15) uniform sampler3D layer_volume_1;
 layout(set = 0, binding = 16, std430) readonly buffer LayerColours { uint rgba[]; } layer_colours;
+// One bit per brick where a layer may draw (engine/layers.rs): elsewhere no layer is read.
+layout(set = 0, binding = 17, std430) readonly buffer LayerBricks { uint bits[]; } layer_bricks;
 
 #include "geometry.glsl"
 #include "clip.glsl"
@@ -184,7 +187,6 @@ layout(set = 0, binding = 16, std430) readonly buffer LayerColours { uint rgba[]
 #include "sampling.glsl"
 #include "gradients.glsl"
 #include "labels.glsl"
-#include "layers.glsl"
 
 // The classification of the sample at p with I_norm v, as the march sees it: the brain mask and
 // the vessel channel when their variants are on.
@@ -239,6 +241,9 @@ vec3 lit(vec3 colour, vec3 normal, vec3 view_direction) {
     }
     return shade(colour, normal, view_direction);
 }
+
+// After lit(): a layer sample is lit as the tissue is.
+#include "layers.glsl"
 
 void count_samples(uint marched, uint classified) {
     uint subgroup_marched = subgroupAdd(marched);
@@ -421,16 +426,27 @@ void main() {
                 label = label_at(nearest_voxel(p));
                 label_colour = label_style(label);
             }
-            // Each layer's value and style here (one fetch each; layers.glsl).
-            float layer_v[2] = float[2](0.0, 0.0);
-            vec4 layer_colour[2] = vec4[2](vec4(0.0), vec4(0.0));
-            bool layer_drawn = false;
-            for (uint l = 0u; l < LAYERS; l++) {
-                if (layer_value(l, p, layer_v[l])) {
-                    layer_colour[l] = layer_style(l, layer_v[l]);
-                    layer_drawn = layer_drawn || layer_colour[l].a > 0.0;
+            // Each layer's value and style here (one fetch each, only in bricks where a layer
+            // may draw; layers.glsl), as scalars with constant layer indices: indexed arrays
+            // spill to memory on a CPU device. There (lavapipe) every branch runs under a mask,
+            // so the layer code costs its fetches in every sample, drawn or not (BENCHMARKS.md);
+            // a GPU skips a branch no lane takes.
+            // Plain branches on LAYERS (the build's reflection evaluates IEqual, not `>` on it).
+            float layer_v0 = 0.0;
+            float layer_v1 = 0.0;
+            vec4 layer_c0 = vec4(0.0);
+            vec4 layer_c1 = vec4(0.0);
+            if (LAYERS == 0u) {
+                layer_c0 = vec4(0.0);
+            } else if (layer_brick_hit(p)) {
+                if (layer_value(0u, p, layer_v0)) {
+                    layer_c0 = layer_style(0u, layer_v0);
+                }
+                if (LAYERS == 2u && layer_value(1u, p, layer_v1)) {
+                    layer_c1 = layer_style(1u, layer_v1);
                 }
             }
+            bool layer_drawn = layer_c0.a > 0.0 || layer_c1.a > 0.0;
             if (cls.a <= 0.0 && label_colour.a <= 0.0 && !layer_drawn) {
                 continue;
             }
@@ -439,18 +455,11 @@ void main() {
             // faces it reaches; tissue in front of it (at earlier samples) still hides it.
             bool drew = false;
             bool solid = start + float(i) * dt < cap_end;
-            for (uint l = 0u; l < LAYERS; l++) {
-                if (layer_colour[l].a > 0.0) {
-                    vec3 lc = layer_colour[l].rgb;
-                    if (SHADING) {
-                        // On a cut face unshaded, as the tissue there (tissue_sample).
-                        vec3 layer_n = solid ? vec3(0.0) : layer_normal(l, p, layer_v[l] >= 0.0 ? 1.0 : -1.0);
-                        lc = lit(lc, layer_n, direction_world);
-                        normal = drew ? normal : layer_n;
-                    }
-                    composite(acc, lc, opacity_correct(layer_colour[l].a, r));
-                    drew = true;
-                }
+            if (layer_c0.a > 0.0) {
+                draw_layer(0u, p, layer_v0, layer_c0, r, solid, direction_world, acc, normal, drew);
+            }
+            if (layer_c1.a > 0.0) {
+                draw_layer(1u, p, layer_v1, layer_c1, r, solid, direction_world, acc, normal, drew);
             }
             if (cls.a > 0.0) {
                 classified++;

@@ -14,6 +14,16 @@
 #ifndef MORPHRAY_LAYERS_GLSL
 #define MORPHRAY_LAYERS_GLSL
 
+// Whether a layer may draw in the brick of base index position p (a fetch costs about a
+// volume sample; a map covers few bricks, so most samples skip it).
+bool layer_brick_hit(vec3 p) {
+    float side = float(params.layer_bricks.w);
+    uvec3 grid = params.layer_bricks.xyz;
+    uvec3 b = uvec3(clamp(ivec3(floor((p + 0.5) / side)), ivec3(0), ivec3(grid) - 1));
+    uint i = b.x + grid.x * (b.y + grid.y * b.z);
+    return (layer_bricks.bits[i >> 5u] & (1u << (i & 31u))) != 0u;
+}
+
 // Layer l's value at base index position p; false (and 0) off its grid.
 bool layer_value(uint l, vec3 p, out float v) {
     vec3 tc = (params.layer_to_texture[l] * vec4(p, 1.0)).xyz;
@@ -21,7 +31,8 @@ bool layer_value(uint l, vec3 p, out float v) {
     if (any(lessThan(tc, vec3(0.0))) || any(greaterThan(tc, vec3(1.0)))) {
         return false;
     }
-    float code = l == 0u ? textureLod(layer_volume_0, tc, 0.0).r : textureLod(layer_volume_1, tc, 0.0).r;
+    // One layer: the second texture is never sampled (LAYERS folds the choice away).
+    float code = (LAYERS == 1u || l == 0u) ? textureLod(layer_volume_0, tc, 0.0).r : textureLod(layer_volume_1, tc, 0.0).r;
     v = params.layer_decode[l].x + params.layer_decode[l].y * code;
     return true;
 }
@@ -58,6 +69,21 @@ vec3 layer_normal(uint l, vec3 p, float side) {
         d[a] = up - down;
     }
     return transpose(gradient_to_world_matrix()) * (0.5 * side * d);
+}
+
+// Composites layer l's sample (value v, style c) at p into acc: lit by its own normal with
+// SHADING (unshaded on a cut face, as the tissue there); its normal is the surface's when
+// nothing at this position drew before it.
+void draw_layer(uint l, vec3 p, float v, vec4 c, float r, bool solid, vec3 view_direction,
+                inout vec4 acc, inout vec3 normal, inout bool drew) {
+    vec3 colour = c.rgb;
+    if (SHADING) {
+        vec3 n = solid ? vec3(0.0) : layer_normal(l, p, v >= 0.0 ? 1.0 : -1.0);
+        colour = lit(colour, n, view_direction);
+        normal = drew ? normal : n;
+    }
+    composite(acc, colour, opacity_correct(c.a, r));
+    drew = true;
 }
 
 #endif

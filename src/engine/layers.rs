@@ -49,13 +49,29 @@ pub(super) struct AttachedLayers {
     pub(super) layers: Vec<(Arc<LayerVolume>, LayerStyle)>,
     // Grows with every change, so colour tables and brick bits are remade once per change.
     pub(super) generation: u64,
+    // The layers' own brick bits of a generation (the raymarch's gate on the layer fetch).
+    pub(super) own_bits: Option<(u64, Arc<Vec<u32>>)>,
     // The brick bits of a generation, with the label bits they were merged with.
     pub(super) bits: Option<MergedBits>,
     pub(super) colours: HostSlots<u64>,
+    pub(super) brick_buffers: HostSlots<u64>,
 }
 
 /// Brick bits of the layers of one generation ORed with the label bits (the second field).
 pub(super) type MergedBits = (u64, Option<Arc<Vec<u32>>>, Arc<Vec<u32>>);
+
+/// The plan's description of one frame slot's layer brick bits for a base volume of `dims`.
+pub fn layer_bricks_desc(dims: [u32; 3]) -> BufferDesc {
+    let [x, y, z, _] = brick_grid(dims);
+    let words = (x as u64 * y as u64 * z as u64).div_ceil(32).max(4);
+    BufferDesc::host_storage("layer bricks", 4 * words)
+}
+
+/// The brick grid of a base volume of `dims` (the occupancy grid's) and the brick side.
+fn brick_grid(dims: [u32; 3]) -> [u32; 4] {
+    let [x, y, z] = dims.map(|d| d.div_ceil(BRICK_SIDE).max(1));
+    [x, y, z, BRICK_SIDE]
+}
 
 /// The plan's description of one frame slot's layer colour tables.
 pub fn layer_colours_desc() -> BufferDesc {
@@ -76,6 +92,8 @@ pub struct LayerUniforms {
     pub window: [[f32; 4]; MAX_LAYERS],
     /// Value of code 0, value span of the codes, negative side drawn, 0.
     pub decode: [[f32; 4]; MAX_LAYERS],
+    /// The base volume's brick grid (xyz) and brick side (w) of the layer brick bits.
+    pub bricks: [u32; 4],
 }
 
 /// What the raymarch binds for layers this frame.
@@ -83,6 +101,8 @@ pub(super) struct LayerInputs {
     pub(super) count: u32,
     pub(super) images: [Arc<Image>; MAX_LAYERS],
     pub(super) colours: Arc<Buffer>,
+    /// One bit per base brick where a layer may draw (`layer_brick_bits`).
+    pub(super) bricks: Arc<Buffer>,
     pub(super) uniforms: LayerUniforms,
 }
 
@@ -148,6 +168,7 @@ impl Engine {
                 count: 0,
                 images: [placeholder.clone(), placeholder],
                 colours: self.placeholders.occupancy.clone(),
+                bricks: self.placeholders.occupancy.clone(),
                 uniforms: LayerUniforms::default(),
             });
         }
@@ -171,15 +192,27 @@ impl Engine {
             generation,
             |buffer| buffer.write(0, bytemuck::cast_slice(&words)),
         )?;
+        let bits = attached.own_bits(prepared.dims);
+        let bricks = attached.brick_buffers.current(
+            &self.device,
+            frame_slot,
+            || layer_bricks_desc(prepared.dims),
+            |held| *held == generation,
+            generation,
+            |buffer| buffer.write(0, bytemuck::cast_slice(&bits)),
+        )?;
         let mut images = [placeholder.clone(), placeholder];
         for (slot, (layer, _)) in attached.layers.iter().enumerate() {
             images[slot] = layer.image.clone();
         }
+        let mut uniforms = layer_uniforms(&attached.layers);
+        uniforms.bricks = brick_grid(prepared.dims);
         Ok(LayerInputs {
             count: attached.layers.len() as u32,
             images,
             colours,
-            uniforms: layer_uniforms(&attached.layers),
+            bricks,
+            uniforms,
         })
     }
 }
@@ -289,6 +322,20 @@ fn drawn_blocks(grid: &LayerGrid, style: &LayerStyle) -> Vec<(DVec3, DVec3)> {
     boxes
 }
 
+impl AttachedLayers {
+    /// The layers' own brick bits for a base volume of `dims`, computed once per generation.
+    fn own_bits(&mut self, dims: [u32; 3]) -> Arc<Vec<u32>> {
+        match &self.own_bits {
+            Some((g, bits)) if *g == self.generation => bits.clone(),
+            _ => {
+                let bits = Arc::new(layer_brick_bits(&self.layers, dims));
+                self.own_bits = Some((self.generation, bits.clone()));
+                bits
+            }
+        }
+    }
+}
+
 impl RenderTarget {
     /// Draws `layers` (at most [`MAX_LAYERS`], each with its style) in this target's DVR frames
     /// from the next recording on; an empty list stops drawing them. Nothing changes (and
@@ -339,7 +386,7 @@ impl RenderTarget {
         {
             return Some(bits.clone());
         }
-        let mut bits = layer_brick_bits(&self.layers.layers, dims);
+        let mut bits = self.layers.own_bits(dims).to_vec();
         if let Some(l) = &label_bits {
             for (w, &extra) in bits.iter_mut().zip(l.iter()) {
                 *w |= extra;

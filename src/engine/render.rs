@@ -444,6 +444,7 @@ impl Engine {
         block.layer_to_texture = layers.uniforms.to_texture;
         block.layer_window = layers.uniforms.window;
         block.layer_decode = layers.uniforms.decode;
+        block.layer_bricks = layers.uniforms.bricks;
         let uniforms = target.uniforms[frame_slot].clone();
         uniforms.write(0, bytemuck::bytes_of(&block))?;
 
@@ -484,6 +485,7 @@ impl Engine {
             label_colours: &label_colours,
             layers: [&layers.images[0], &layers.images[1]],
             layer_colours: &layers.colours,
+            layer_bricks: &layers.bricks,
             sampler: &linear,
         };
         if count {

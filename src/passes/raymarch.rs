@@ -156,6 +156,8 @@ pub struct RaymarchInputs<'a> {
     /// The layers' colour tables (positive then negative, 256 RGBA8 each, per layer), or a
     /// placeholder.
     pub layer_colours: &'a Arc<Buffer>,
+    /// One bit per base brick where a layer may draw, or a placeholder.
+    pub layer_bricks: &'a Arc<Buffer>,
     /// The transfer-function table (`scene::transfer_table`), or a placeholder.
     pub transfer_table: &'a Arc<Buffer>,
     /// The matcap (`scene::matcap`) of a matcap-lit variant, or a placeholder.
@@ -274,6 +276,10 @@ impl RaymarchPass {
                 (
                     "layer_colours",
                     Resource::Buffer(inputs.layer_colours.clone()),
+                ),
+                (
+                    "layer_bricks",
+                    Resource::Buffer(inputs.layer_bricks.clone()),
                 ),
             ],
         )?;

@@ -93,6 +93,9 @@ pub struct RaymarchUniforms {
     pub layer_window: [[f32; 4]; 2],
     /// Per layer: value of code 0, value span of the codes, negative side drawn (1/0), unused.
     pub layer_decode: [[f32; 4]; 2],
+    /// The layer brick bits' grid (xyz) and brick side (w): the raymarch reads a layer only in
+    /// bricks where one may draw.
+    pub layer_bricks: [u32; 4],
 }
 
 /// Where a bricked volume's bricks are (zeros for a whole volume).
@@ -236,6 +239,7 @@ impl RaymarchUniforms {
             layer_to_texture: [[[0.0; 4]; 4]; 2],
             layer_window: [[0.0; 4]; 2],
             layer_decode: [[0.0; 4]; 2],
+            layer_bricks: [1, 1, 1, 8],
             head_window: [
                 head.window.lo as f32,
                 head.window.hi as f32,
