@@ -91,6 +91,8 @@ pub struct Controls {
     pub brain: super::brain_panel::BrainShown,
     /// The modality, contrast and preset menus (`identity_panel.rs`).
     pub identity: super::identity_panel::IdentityChoice,
+    /// The 4-D panel: frame, playback, time course.
+    pub cine: super::cine_panel::CinePanel,
 }
 
 impl Controls {
@@ -110,6 +112,7 @@ impl Controls {
             slices: Default::default(),
             brain: Default::default(),
             identity: Default::default(),
+            cine: Default::default(),
         }
     }
 
@@ -262,6 +265,7 @@ pub fn draw(ui: &mut Ui, controls: &mut Controls, shown: &Shown) -> Outcome {
         .exact_size(PANEL_WIDTH)
         .show(ui, |ui| {
             egui::ScrollArea::vertical().show(ui, |ui| {
+                super::cine_panel::panel(ui, &mut controls.cine, &mut requests);
                 histogram_rect = tissue_panel(ui, controls);
                 ui.separator();
                 rendering_panel(ui, controls);

@@ -37,12 +37,13 @@
 //!
 //! Files: this one (state, the frame loop), `steps.rs` (loader replies, script steps),
 //! `paint.rs` (the frame's GPU side, screenshots, device loss), `pick.rs` (depth picking),
-//! `opening.rs` (opening files),
+//! `opening.rs` (opening files), `cine.rs` (4-D frames and playback),
 //! `brain.rs` (brain extraction's panel state, log lines and slice outline),
 //! `quality.rs` (adaptive quality while interacting: `app/adaptive.rs`), `config.rs` (how the
 //! viewer was started).
 
 mod brain;
+mod cine;
 mod config;
 mod measures;
 mod opening;
@@ -222,6 +223,8 @@ pub struct Viewer {
     frame: usize,
     /// Adaptive quality: the level of each frame's raymarch (`quality.rs`).
     adaptive: super::adaptive::Controller,
+    /// 4-D: held frames, the frame change in progress, playback (`cine.rs`).
+    cine: cine::CineState,
 }
 
 /// What the last raymarch rendered.
@@ -320,6 +323,7 @@ impl Viewer {
             reopened_for: None,
             frame: config.frame,
             adaptive: super::adaptive::Controller::new(config.frame_budget_ms),
+            cine: Default::default(),
             config,
         })
     }
@@ -350,7 +354,7 @@ impl Viewer {
     }
 
     fn busy(&self) -> bool {
-        self.pending_load.is_some() || self.pending_derive.is_some()
+        self.pending_load.is_some() || self.pending_derive.is_some() || self.cine.busy()
     }
 
     /// Creates the GPU objects (for `window`, or offscreen) and hands the device to the loader.
@@ -482,6 +486,7 @@ impl Viewer {
             input.time = Some(self.config.started.elapsed().as_secs_f64());
         }
 
+        self.tick_cine();
         self.sync_brain();
         self.update_slices();
         // The interface.
