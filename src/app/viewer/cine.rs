@@ -57,6 +57,11 @@ impl CineState {
         let holding = self.asked.is_some() && self.held.is_none() && self.streamed.is_none();
         self.pending.is_some() || holding
     }
+
+    /// A frame change is in progress (its twin will replace the one on screen).
+    pub(super) fn changing(&self) -> bool {
+        self.pending.is_some()
+    }
 }
 
 /// A frame change in progress.
@@ -168,10 +173,10 @@ impl Viewer {
                     0 => String::new(),
                     n => format!("; {n} skipped"),
                 };
+                let [normalize, derive, ranges] = ready.steps_ms;
                 self.log.say(&format!(
-                    "frame {index}/{count} shown in {:.1} ms ({source}; upload, normalization, derived volumes {:.1} ms{skipped})",
+                    "frame {index}/{count} shown in {:.1} ms ({source}; upload and normalization {normalize:.1} ms, derived volumes {derive:.1} ms, brick ranges {ranges:.1} ms{skipped})",
                     pending.since.elapsed().as_secs_f64() * 1e3,
-                    ready.prepare_ms,
                 ));
             }
             FrameReply::Failed { id, index, message } => {

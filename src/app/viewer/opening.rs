@@ -117,7 +117,9 @@ impl Viewer {
         let wanted = self.controls.scene.effects;
         match twin_step(twin.outputs(), wanted.derivative_outputs()) {
             TwinStep::Recompute(outputs) => {
-                if self.pending_derive.is_none() {
+                // Not during a frame change: its result replaces this twin (`cine.rs`); the
+                // next frame asks again for the new frame.
+                if self.pending_derive.is_none() && !self.cine.changing() {
                     let what = describe(outputs);
                     self.status.deriving = Some(format!("Computing the {what} (once)..."));
                     self.log.say(&format!("requesting derived volumes: {what}"));
