@@ -139,8 +139,8 @@ pub struct FrameReady {
     pub passes: Vec<PassTiming>,
     /// Reading the frame from the file, ms (None: held in memory).
     pub read_ms: Option<f64>,
-    /// Upload, normalization, derived volumes and brick ranges, ms.
-    pub prepare_ms: f64,
+    /// Host wall times, ms: upload and normalization, derived volumes, brick ranges.
+    pub steps_ms: [f64; 3],
 }
 
 /// Prepares `input` like `like` on `engine` (module doc); errors are one line.
@@ -159,12 +159,15 @@ pub fn prepare_frame(
             (Arc::new(read.volume), Some(ms))
         }
     };
+    let ms = |since: Instant| since.elapsed().as_secs_f64() * 1e3;
     let before = Instant::now();
     let prepared = engine
         .prepare_frame(&host, &like.prepared)
         .map_err(|e| text(&e))?;
+    let normalize_ms = ms(before);
     let mut passes = prepared.gpu_timings.clone();
     let mut twin = Twin::new(prepared);
+    let before_derive = Instant::now();
     if let Some(outputs) = like.outputs {
         let derived = engine
             .derive_frame(&twin.prepared, outputs, like.brain.clone())
@@ -172,12 +175,18 @@ pub fn prepare_frame(
         passes.extend(derived.gpu_timings.iter().cloned());
         twin.install(derived);
     }
-    engine.brick_ranges(&twin.prepared).map_err(|e| text(&e))?;
+    let derive_ms = ms(before_derive);
+    let before_ranges = Instant::now();
+    let (_, ranges) = engine
+        .brick_ranges_timed(&twin.prepared)
+        .map_err(|e| text(&e))?;
+    passes.extend(ranges);
+    let steps_ms = [normalize_ms, derive_ms, ms(before_ranges)];
     Ok(FrameReady {
         twin,
         host,
         passes,
         read_ms,
-        prepare_ms: before.elapsed().as_secs_f64() * 1e3,
+        steps_ms,
     })
 }
