@@ -184,6 +184,35 @@ fn frames_are_held_shown_played_and_plotted_without_reading_the_file_again() {
     assert_eq!(differing(&dir.join("f0.png"), &dir.join("back.png")), 0);
 }
 
+/// The phantom as a `.hdr`/`.img` pair (NIfTI-1 `ni1`): its frames are streamed.
+fn pair(dir: &Path) -> PathBuf {
+    let single = std::fs::read(phantom(dir)).unwrap();
+    let offset = f32::from_le_bytes(single[108..112].try_into().unwrap()) as usize;
+    let mut header = single[..348].to_vec();
+    header[108..112].copy_from_slice(&0f32.to_le_bytes()); // vox_offset: the .img's start
+    header[344..348].copy_from_slice(b"ni1\0");
+    let hdr = dir.join("pair.hdr");
+    std::fs::write(&hdr, header).unwrap();
+    std::fs::write(dir.join("pair.img"), &single[offset..]).unwrap();
+    hdr
+}
+
+#[test]
+fn a_pair_s_frames_are_streamed_one_at_a_time_with_the_same_look() {
+    let dir = temp_dir("streamed");
+    let volume = pair(&dir);
+    let log = view(&volume, "frame 3\nframe 4\n", false, &[]);
+    assert!(
+        log.contains("4-D: frames streamed from the file: a .hdr/.img pair"),
+        "{log}"
+    );
+    // Read from the file, but prepared like the frame on screen: no second open.
+    assert!(log.contains("frame 3/6 shown in "), "{log}");
+    assert!(log.contains("read from the file in "), "{log}");
+    assert_eq!(log.matches("\nloaded ").count(), 1, "{log}");
+    assert!(!log.contains("time course at voxel"), "{log}");
+}
+
 #[test]
 fn a_window_plays_from_the_command_line_and_draws_the_time_course() {
     let dir = temp_dir("window");
