@@ -60,6 +60,17 @@ pub fn check_fps(fps: f64) -> Result<f64, String> {
     }
 }
 
+/// The script's `play [FPS]`: the rate, if given, checked.
+pub fn parse_play(word: Option<&str>) -> Result<Option<f64>, String> {
+    let Some(word) = word else {
+        return Ok(None);
+    };
+    let fps = word
+        .parse::<f64>()
+        .map_err(|_| format!("play {word}: expected frames per second"))?;
+    check_fps(fps).map(Some).map_err(|e| format!("play {e}"))
+}
+
 /// The time course at the crosshair.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Course {

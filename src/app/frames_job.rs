@@ -190,3 +190,44 @@ pub fn prepare_frame(
         steps_ms,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::volume::{LinearMap, Samples};
+
+    #[test]
+    fn the_cap_is_a_quarter_of_the_budget_and_at_most_2_gib() {
+        assert_eq!(hold_cap(400 << 20), 100 << 20);
+        assert_eq!(hold_cap(64 << 30), HOLD_CAP_MAX);
+        assert_eq!(hold_cap(0), 0);
+    }
+
+    #[test]
+    fn the_time_course_applies_each_frame_s_own_map() {
+        let frame = |values: &[i16], slope: f64, intercept: f64| {
+            let mut v = Volume::from_voxels(
+                "t",
+                [2, 1, 1],
+                Samples::from_i16(values),
+                [
+                    [1.0, 0.0, 0.0, 0.0],
+                    [0.0, 1.0, 0.0, 0.0],
+                    [0.0, 0.0, 1.0, 0.0],
+                    [0.0, 0.0, 0.0, 1.0],
+                ],
+                LinearMap::IDENTITY,
+            )
+            .unwrap();
+            v.to_physical = LinearMap { slope, intercept };
+            Arc::new(v)
+        };
+        let held = HeldFrames {
+            volumes: vec![frame(&[1, 5], 2.0, 10.0), frame(&[3, 7], 0.5, 0.0)],
+            bytes: 8,
+        };
+        assert_eq!(held.time_course(1), vec![20.0, 3.5]);
+        // A voxel past the end is NaN in every frame, never a panic.
+        assert!(held.time_course(9).iter().all(|v| v.is_nan()));
+    }
+}

@@ -522,14 +522,7 @@ fn parse_line(line: &str) -> Result<Action, String> {
             }
             Action::Frame(n as usize)
         }
-        "play" => Action::Play(
-            next()
-                .map(|w| number(Some(w), "frames per second"))
-                .transpose()?
-                .map(crate::app::cine_panel::check_fps)
-                .transpose()
-                .map_err(|e| format!("play {e}"))?,
-        ),
+        "play" => Action::Play(crate::app::cine_panel::parse_play(next())?),
         "pause" => Action::Pause,
         "measure" => {
             let rest: Vec<&str> = std::iter::from_fn(&mut next).collect();

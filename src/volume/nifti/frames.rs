@@ -78,3 +78,66 @@ pub fn load_all_frames(path: &Path, cap: u64) -> Result<AllFrames, NiftiError> {
     }
     Ok(AllFrames::Held(held))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::volume::Volume;
+
+    /// A 2x2x1 int16 file of `frames` frames (scl_slope 2, scl_inter 1): frame t holds t, t+1,
+    /// t+2, t+3. Written by the library's writer, made 4-D by patching dim[0] and dim[4].
+    fn write(path: &Path, frames: i16) {
+        let one = |t: i16| {
+            let v = Volume::from_voxels(
+                "f",
+                [2, 2, 1],
+                Samples::from_i16(&[t, t + 1, t + 2, t + 3]),
+                [
+                    [1.0, 0.0, 0.0, 0.0],
+                    [0.0, 1.0, 0.0, 0.0],
+                    [0.0, 0.0, 1.0, 0.0],
+                    [0.0, 0.0, 0.0, 1.0],
+                ],
+                LinearMap {
+                    slope: 2.0,
+                    intercept: 1.0,
+                },
+            )
+            .unwrap();
+            let one = path.with_extension(format!("{t}.nii"));
+            super::super::write_nifti1(&v, &one, false).unwrap();
+            std::fs::read(&one).unwrap()
+        };
+        let mut file = one(0);
+        let offset = f32::from_le_bytes(file[108..112].try_into().unwrap()) as usize;
+        file[40..42].copy_from_slice(&4i16.to_le_bytes());
+        file[48..50].copy_from_slice(&frames.to_le_bytes());
+        for t in 1..frames {
+            file.extend_from_slice(&one(t)[offset..]);
+        }
+        std::fs::write(path, file).unwrap();
+    }
+
+    #[test]
+    fn every_frame_is_held_with_its_map_or_none_over_the_cap() {
+        let dir = std::env::temp_dir().join(format!("morphray-frames-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("four.nii");
+        write(&path, 3);
+        let AllFrames::Held(frames) = load_all_frames(&path, 1 << 20).unwrap() else {
+            panic!("not held");
+        };
+        assert_eq!(frames.len(), 3);
+        for (t, (samples, map)) in frames.iter().enumerate() {
+            let physical: Vec<f64> = (0..4).map(|i| map.apply(samples.get(i))).collect();
+            let want: Vec<f64> = (0..4).map(|i| 2.0 * (t + i) as f64 + 1.0).collect();
+            assert_eq!(physical, want, "frame {t}");
+        }
+        // 3 frames of 8 bytes: 24 bytes, over a 23-byte cap.
+        assert!(matches!(
+            load_all_frames(&path, 23).unwrap(),
+            AllFrames::TooLarge { bytes: 24 }
+        ));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
