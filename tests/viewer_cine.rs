@@ -162,6 +162,9 @@ fn frames_are_held_shown_played_and_plotted_without_reading_the_file_again() {
         log.contains("action \"frame 3\" -> first shown by frame"),
         "{log}"
     );
+    // Frame 3 is what the crosshair reads after it: 2.5 x 280 + 10.
+    let after = log.split("frame 3/6 shown in").nth(1).unwrap_or_default();
+    assert!(after.contains("voxel 12, 10, 8  |  value 710"), "{log}");
     // The time course at the blob's voxel: the written values in the scanner's units.
     let course = numbers_after(&log, "time course at voxel (12, 10, 8): ");
     let want: Vec<f64> = (0..FRAMES)

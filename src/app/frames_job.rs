@@ -81,7 +81,8 @@ pub fn hold_frames(source: &VolumeSource, template: &Volume, cap: u64) -> Holdin
             let bytes = frames.iter().map(|(s, _)| s.as_bytes().len() as u64).sum();
             let volumes = frames
                 .into_iter()
-                .map(|(samples, to_physical)| {
+                .enumerate()
+                .map(|(t, (samples, to_physical))| {
                     Arc::new(Volume {
                         name: template.name.clone(),
                         dims: template.dims,
@@ -89,7 +90,7 @@ pub fn hold_frames(source: &VolumeSource, template: &Volume, cap: u64) -> Holdin
                         orientation: template.orientation.clone(),
                         samples,
                         to_physical,
-                        warnings: template.warnings.clone(),
+                        warnings: frame_warnings(&template.warnings, t),
                         facts: template.facts.clone(),
                     })
                 })
@@ -109,6 +110,18 @@ pub fn hold_frames(source: &VolumeSource, template: &Volume, cap: u64) -> Holdin
             super::loader::one_line(&e.to_string())
         )),
     }
+}
+
+/// The reader's warnings about a file as they read for frame `t`: its "showing frame N" line
+/// (`volume::nifti`) names `t`, so a screenshot's provenance names the frame it shows.
+fn frame_warnings(warnings: &[String], t: usize) -> Vec<String> {
+    warnings
+        .iter()
+        .map(|w| match w.rsplit_once(": showing frame ") {
+            Some((file, _)) => format!("{file}: showing frame {t}"),
+            None => w.clone(),
+        })
+        .collect()
 }
 
 /// Where a frame comes from.
@@ -229,5 +242,17 @@ mod tests {
         assert_eq!(held.time_course(1), vec![20.0, 3.5]);
         // A voxel past the end is NaN in every frame, never a panic.
         assert!(held.time_course(9).iter().all(|v| v.is_nan()));
+    }
+
+    #[test]
+    fn each_held_frame_s_warnings_name_that_frame() {
+        let read = vec![
+            "4-D file with 6 frames: showing frame 0".to_string(),
+            "bitpix is 8".to_string(),
+        ];
+        assert_eq!(
+            frame_warnings(&read, 4),
+            ["4-D file with 6 frames: showing frame 4", "bitpix is 8"]
+        );
     }
 }

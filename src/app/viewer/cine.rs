@@ -154,6 +154,8 @@ impl Viewer {
                 let loaded = &mut current.loaded;
                 loaded.twin = ready.twin;
                 loaded.host = ready.host;
+                // The provenance of screenshots names the frame shown.
+                loaded.warnings = loaded.host.warnings.clone();
                 loaded.id = pending.new_id;
                 let count = loaded.frame.1;
                 loaded.frame = (index, count);
