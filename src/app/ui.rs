@@ -39,7 +39,7 @@ pub enum Request {
     Series(usize),
     /// Save the window as PNG.
     Screenshot(PathBuf),
-    /// Open the file on screen again at this frame of its 4-D data (0-based).
+    /// Show this frame of the 4-D file on screen (0-based; `viewer/cine.rs`).
     Frame(usize),
     /// Save the 3D view alone, rendered at this size (width, height), as PNG.
     SaveView(PathBuf, [u32; 2]),

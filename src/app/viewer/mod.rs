@@ -219,7 +219,7 @@ pub struct Viewer {
     shown_preset: Option<crate::scene::Preset>,
     /// The scene the bricked volume was last opened again for.
     reopened_for: Option<SceneRecipe>,
-    /// The frame of 4-D files opened now (`--frame`, then the frame slider's).
+    /// The frame of 4-D files shown now (`--frame`, then the 4-D panel's, playback's).
     frame: usize,
     /// Adaptive quality: the level of each frame's raymarch (`quality.rs`).
     adaptive: super::adaptive::Controller,
