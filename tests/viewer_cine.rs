@@ -187,6 +187,23 @@ fn frames_are_held_shown_played_and_plotted_without_reading_the_file_again() {
     assert_eq!(differing(&dir.join("f0.png"), &dir.join("back.png")), 0);
 }
 
+#[test]
+fn a_frame_chosen_while_playing_is_where_playback_goes_on_from() {
+    let dir = temp_dir("jump");
+    let volume = phantom(&dir);
+    let log = view(&volume, "play 2\nframe 4\nsleep 800\npause\n", false, &[]);
+    let shown: Vec<&str> = log
+        .lines()
+        .filter(|l| l.contains("/6 shown in "))
+        .map(|l| l.split(" shown in").next().unwrap_or_default())
+        .collect();
+    let at = shown
+        .iter()
+        .position(|&f| f == "frame 4/6")
+        .expect("frame 4");
+    assert_eq!(shown.get(at + 1), Some(&"frame 5/6"), "{log}");
+}
+
 /// The phantom as a `.hdr`/`.img` pair (NIfTI-1 `ni1`): its frames are streamed.
 fn pair(dir: &Path) -> PathBuf {
     let single = std::fs::read(phantom(dir)).unwrap();

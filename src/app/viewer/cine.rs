@@ -47,6 +47,8 @@ pub(super) struct CineState {
     course_of: Option<([usize; 3], usize)>,
     /// `view --play` applied (to the first 4-D volume).
     started: bool,
+    /// The frame asked for now comes from playback (not a person or a script).
+    by_clock: bool,
 }
 
 impl CineState {
@@ -72,6 +74,8 @@ pub(super) struct PendingFrame {
     since: Instant,
     /// Frames playback skipped to get to it.
     skipped: usize,
+    /// Asked for by playback; else playback goes on from it when it is shown.
+    by_clock: bool,
 }
 
 impl Viewer {
@@ -166,6 +170,13 @@ impl Viewer {
                 self.controls.slices.volume = pending.new_id;
                 self.controls.slices.dirty = true;
                 self.render_blocked = None;
+                if !pending.by_clock
+                    && let Some(clock) = &mut self.cine.clock
+                {
+                    // A frame chosen while playing: playback goes on from it.
+                    clock.from = index;
+                    clock.start_s = self.config.started.elapsed().as_secs_f64();
+                }
                 self.arrived.push((format!("frame {index}"), ready.passes));
                 let source = match ready.read_ms {
                     Some(ms) => format!("read from the file in {ms:.1} ms"),
@@ -241,16 +252,17 @@ impl Viewer {
         self.next_id += 1;
         let now = Instant::now();
         self.loader.frame(id, index, input, like);
-        let skipped = if self.controls.cine.playing {
-            skipped(shown, index, count)
-        } else {
-            0
-        };
+        let by_clock = self.cine.by_clock;
         self.cine.pending = Some(PendingFrame {
             index,
             new_id,
             since: now,
-            skipped,
+            skipped: if by_clock {
+                skipped(shown, index, count)
+            } else {
+                0
+            },
+            by_clock,
         });
         if let Some(label) = label {
             self.log.pending.push(Pending {
@@ -276,10 +288,13 @@ impl Viewer {
     /// Playback: starts, stops or changes rate as the panel says, and asks for the frame the
     /// wall clock says when no change is in progress.
     fn play_step(&mut self) {
-        let (shown, count) = self.controls.cine.frame;
+        // The frame on screen (the panel's slider may be mid-drag).
+        let Some((shown, count)) = self.current.as_ref().map(|c| c.loaded.frame) else {
+            return;
+        };
         let now_s = self.config.started.elapsed().as_secs_f64();
         let cine = &self.controls.cine;
-        if !cine.playing || count < 2 || self.current.is_none() {
+        if !cine.playing || count < 2 {
             if self.cine.clock.take().is_some() {
                 self.log.say(&format!("paused at frame {shown}/{count}"));
             }
@@ -305,7 +320,9 @@ impl Viewer {
         }
         let next = clock.frame_at(now_s, count);
         if next != shown {
+            self.cine.by_clock = true;
             self.open_frame(next, None);
+            self.cine.by_clock = false;
         }
     }
 
