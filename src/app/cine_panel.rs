@@ -138,6 +138,16 @@ impl FrameClock {
     }
 }
 
+impl FrameClock {
+    /// Seconds from `now_s` until the next frame is due (a window sleeps that long).
+    pub fn seconds_to_next(&self, now_s: f64) -> f64 {
+        let elapsed = (now_s - self.start_s).max(0.0);
+        let next = ((elapsed * self.fps).floor() + 1.0) / self.fps;
+        let wait = next - elapsed;
+        if wait.is_finite() { wait.max(0.0) } else { 0.0 }
+    }
+}
+
 /// Frames skipped going from `shown` to `next` forwards (0 for the next frame), of `count`.
 pub fn skipped(shown: usize, next: usize, count: usize) -> usize {
     if count == 0 {
@@ -354,6 +364,15 @@ mod tests {
         // From another frame; a clock before the start stays there.
         assert_eq!(clock(5, 4.0).frame_at(10.25, 6), 0);
         assert_eq!(clock(3, 4.0).frame_at(9.0, 6), 3);
+    }
+
+    #[test]
+    fn a_window_sleeps_until_the_next_frame_is_due() {
+        let c = clock(0, 4.0);
+        assert!((c.seconds_to_next(10.0) - 0.25).abs() < 1e-9);
+        assert!((c.seconds_to_next(10.3) - 0.2).abs() < 1e-9);
+        assert!((c.seconds_to_next(9.0) - 0.25).abs() < 1e-9);
+        assert_eq!(c.seconds_to_next(f64::INFINITY), 0.0);
     }
 
     #[test]

@@ -285,6 +285,14 @@ impl Viewer {
         self.update_course();
     }
 
+    /// While playing, wakes a window that waits for input when the next frame is due.
+    pub(super) fn cine_repaint(&self, result: &mut super::FrameResult) {
+        if let Some(clock) = self.cine.clock {
+            let after = clock.seconds_to_next(self.config.started.elapsed().as_secs_f64());
+            result.repaint_after = Some(result.repaint_after.map_or(after, |r| r.min(after)));
+        }
+    }
+
     /// Playback: starts, stops or changes rate as the panel says, and asks for the frame the
     /// wall clock says when no change is in progress.
     fn play_step(&mut self) {

@@ -645,6 +645,7 @@ impl Viewer {
         }
         self.flush_completed();
         self.refine_later(&mut result);
+        self.cine_repaint(&mut result);
         self.idle_frames = self.idle_frames.saturating_sub(1);
         result.platform = Some(full.platform_output);
         if last {
