@@ -287,10 +287,13 @@ impl Viewer {
 
     /// While playing, wakes a window that waits for input when the next frame is due.
     pub(super) fn cine_repaint(&self, result: &mut super::FrameResult) {
-        if let Some(clock) = self.cine.clock {
-            let after = clock.seconds_to_next(self.config.started.elapsed().as_secs_f64());
-            result.repaint_after = Some(result.repaint_after.map_or(after, |r| r.min(after)));
-        }
+        let after = match self.cine.clock {
+            Some(clock) => clock.seconds_to_next(self.config.started.elapsed().as_secs_f64()),
+            // Play was pressed in this frame's interface: the next frame starts the clock.
+            None if self.controls.cine.playing => 0.0,
+            None => return,
+        };
+        result.repaint_after = Some(result.repaint_after.map_or(after, |r| r.min(after)));
     }
 
     /// Playback: starts, stops or changes rate as the panel says, and asks for the frame the
