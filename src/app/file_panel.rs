@@ -24,8 +24,6 @@ pub struct FilePanel {
     pub series: Option<SeriesListing>,
     /// Size "Save 3D view..." renders at (width, height in pixels).
     pub view_size: [u32; 2],
-    /// The frame on screen and the file's frame count (a slider when it has several).
-    pub frame: (usize, usize),
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -49,7 +47,6 @@ impl Default for FilePanel {
             purpose: Purpose::Open,
             series: None,
             view_size: [2048, 2048],
-            frame: (0, 1),
         }
     }
 }
@@ -142,7 +139,6 @@ impl FilePanel {
         if let Some(listing) = &self.series {
             series_picker(ui, listing, requests);
         }
-        frame_slider(ui, &mut self.frame, requests);
     }
 
     /// The dialog (floating over everything) and files dropped on the window this frame.
@@ -169,27 +165,6 @@ impl FilePanel {
         if !dropped.is_empty() {
             requests.push(Request::Open(VolumeSource::from_paths(&dropped)));
         }
-    }
-}
-
-/// A slider over the frames of a 4-D file; the frame is opened when the slider is let go (each
-/// frame is a new open: planned, uploaded, analysed), not at every step of a drag.
-fn frame_slider(ui: &mut Ui, frame: &mut (usize, usize), requests: &mut Vec<Request>) {
-    let (shown, count) = *frame;
-    if count < 2 {
-        return;
-    }
-    let mut wanted = frame.0;
-    let response = ui
-        .horizontal(|ui| {
-            ui.label("Frame");
-            ui.add(egui::Slider::new(&mut wanted, 0..=count - 1).text(format!("of {count}")))
-        })
-        .inner;
-    frame.0 = wanted;
-    let settled = response.drag_stopped() || (response.changed() && !response.dragged());
-    if settled && wanted != shown {
-        requests.push(Request::Frame(wanted));
     }
 }
 

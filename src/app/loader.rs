@@ -21,6 +21,7 @@
 //!   the mask reaches the interface thread, so no frame reads it during the readback.
 
 use super::brain_outline::BrainOutline;
+use super::frames_job::{FrameInput, FrameReady, Holding, Like, hold_cap};
 use crate::analysis::TissueReport;
 use crate::engine::plan::Plan;
 use crate::engine::{Derived, Engine, EngineConfig, OpenOptions, PreparedVolume, Twin};
@@ -87,6 +88,19 @@ enum Job {
         prepared: Arc<PreparedVolume>,
         outputs: DerivativeOutputs,
     },
+    /// Every frame of the 4-D file `template` is a frame of (`app::frames_job`).
+    HoldFrames {
+        id: u64,
+        source: VolumeSource,
+        template: Arc<crate::volume::Volume>,
+    },
+    /// Another frame prepared like the one on screen (`app::frames_job`).
+    Frame {
+        id: u64,
+        index: usize,
+        input: FrameInput,
+        like: Box<Like>,
+    },
     /// What the next volumes are taken to be (the viewer's modality and contrast menus).
     Identity {
         contrast: crate::analysis::ContrastChoice,
@@ -133,6 +147,37 @@ pub enum Reply {
         message: String,
         /// The device was lost (the viewer restarts the GPU).
         device_lost: bool,
+    },
+    /// 4-D work (held frames, a frame change).
+    Frames(FrameReply),
+}
+
+/// The loader's 4-D replies (`app::frames_job`).
+pub enum FrameReply {
+    /// The frames of volume `id` are held, or streamed (and why).
+    Held {
+        /// The volume (request) whose frames these are.
+        id: u64,
+        /// The outcome.
+        holding: Holding,
+    },
+    /// Frame `index` of volume `id` is prepared.
+    Ready {
+        /// The volume on screen when it was asked for.
+        id: u64,
+        /// Which frame.
+        index: usize,
+        /// The frame.
+        ready: Box<FrameReady>,
+    },
+    /// Frame `index` could not be prepared (one line).
+    Failed {
+        /// The volume on screen when it was asked for.
+        id: u64,
+        /// Which frame.
+        index: usize,
+        /// Why.
+        message: String,
     },
 }
 
@@ -232,6 +277,31 @@ impl Loader {
         }
     }
 
+    /// Queues holding every frame of the 4-D file `template` is a frame of (volume `id`).
+    pub fn hold_frames(&self, id: u64, source: VolumeSource, template: Arc<crate::volume::Volume>) {
+        self.send_job(Job::HoldFrames {
+            id,
+            source,
+            template,
+        });
+    }
+
+    /// Queues preparing frame `index` of volume `id` from `input` like `like`.
+    pub fn frame(&self, id: u64, index: usize, input: FrameInput, like: Like) {
+        self.send_job(Job::Frame {
+            id,
+            index,
+            input,
+            like: Box::new(like),
+        });
+    }
+
+    fn send_job(&self, job: Job) {
+        if let Some(jobs) = &self.jobs {
+            let _ = jobs.send(job);
+        }
+    }
+
     /// Everything reported since the last call (never blocks).
     pub fn poll(&self) -> Vec<Reply> {
         self.replies.try_iter().collect()
@@ -291,6 +361,17 @@ impl Worker {
                     prepared,
                     outputs,
                 } => self.derive(id, &prepared, outputs),
+                Job::HoldFrames {
+                    id,
+                    source,
+                    template,
+                } => self.hold(id, &source, &template),
+                Job::Frame {
+                    id,
+                    index,
+                    input,
+                    like,
+                } => self.frame(id, index, input, &like),
                 Job::Identity { contrast, modality } => {
                     // Kept in the configuration too: an engine made after a device loss
                     // starts from it.
@@ -418,6 +499,35 @@ impl Worker {
             brain_outline,
             host,
         }))
+    }
+
+    fn hold(&mut self, id: u64, source: &VolumeSource, template: &crate::volume::Volume) {
+        let holding = match (self.ensure_engine(), self.engine.as_ref()) {
+            (Ok(true), Some(engine)) => {
+                super::frames_job::hold_frames(source, template, hold_cap(engine.memory_budget()))
+            }
+            // Shutting down.
+            (Ok(_), _) => return,
+            // Always an answer: the viewer waits for one before its next frame change.
+            (Err(message), _) => Holding::Streamed(format!("no GPU engine: {message}")),
+        };
+        self.send(Reply::Frames(FrameReply::Held { id, holding }));
+    }
+
+    fn frame(&mut self, id: u64, index: usize, input: FrameInput, like: &Like) {
+        let result = match (self.ensure_engine(), self.engine.as_mut()) {
+            (Ok(true), Some(engine)) => super::frames_job::prepare_frame(engine, input, like),
+            (Ok(_), _) => return,
+            (Err(message), _) => Err(message),
+        };
+        self.send(Reply::Frames(match result {
+            Ok(ready) => FrameReply::Ready {
+                id,
+                index,
+                ready: Box::new(ready),
+            },
+            Err(message) => FrameReply::Failed { id, index, message },
+        }));
     }
 
     fn derive(&mut self, id: u64, prepared: &PreparedVolume, outputs: DerivativeOutputs) {

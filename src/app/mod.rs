@@ -8,8 +8,10 @@
 //! ui.rs              panels: tissues, rendering, view, file, status bar; view input/overlays
 //! histogram.rs       the I_norm histogram with peaks and draggable tissue windows
 //! camera_control.rs  mouse/keys -> camera, orientation letters (views: scene/views.rs)
+//! cine_panel.rs     4-D: frame slider, Play/Pause and fps, the time course at the crosshair
 //! clip_panel.rs      crop sliders, one clip plane, colour map (edits Scene::clip/colormap)
 //! colour_bar.rs      the colour map's bar over the 3D view, its ends in the file's units
+//! frames_job.rs      4-D: frames held in memory, a frame prepared like the one on screen
 //! loader.rs          worker thread: opens volumes the library's way (plan, whole or bricked,
 //!                    analyse, derive), derives later effects (never the UI thread)
 //! readout.rs         the crosshair's mm, voxel and value in the scanner's units (HU for CT)
@@ -39,11 +41,13 @@ pub mod adaptive;
 pub mod brain_outline;
 pub mod brain_panel;
 pub mod camera_control;
+pub mod cine_panel;
 pub mod clip_panel;
 pub mod colour_bar;
 pub mod crosshair_3d;
 pub mod file_panel;
 pub mod frame_log;
+pub mod frames_job;
 pub mod histogram;
 pub mod histogram_fit;
 pub mod identity_panel;

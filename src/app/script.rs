@@ -103,8 +103,12 @@ pub enum Action {
     Colormap(Option<crate::scene::Colormap>),
     /// Save the whole window as PNG.
     Screenshot(PathBuf),
-    /// Open the 4-D file on screen again at this frame (0-based): `frame 3`.
+    /// Show this frame of the 4-D file on screen (0-based): `frame 3`.
     Frame(usize),
+    /// Play a 4-D file's frames (`play`, or `play FPS`: 0.1 to 60 frames per second).
+    Play(Option<f64>),
+    /// Stop playing (`pause`).
+    Pause,
     /// Save the 3D view alone at a size (`save-view PATH 2048x2048`; default the view's size
     /// in pixels is not known to a script, so 1024x1024).
     SaveView(PathBuf, [u32; 2]),
@@ -522,6 +526,8 @@ fn parse_line(line: &str) -> Result<Action, String> {
             }
             Action::Frame(n as usize)
         }
+        "play" => Action::Play(crate::app::cine_panel::parse_play(next())?),
+        "pause" => Action::Pause,
         "measure" => {
             let rest: Vec<&str> = std::iter::from_fn(&mut next).collect();
             Action::Measure(crate::app::measure_panel::MeasureStep::parse(&rest)?)

@@ -62,6 +62,8 @@ pub struct Loading {
 pub struct Status {
     /// File name or `phantom`.
     pub file: String,
+    /// A 4-D file's frame on screen: `frame 3/10` (from 0).
+    pub frame: Option<String>,
     /// Volume dimensions.
     pub dims: [u32; 3],
     /// Voxel spacing, mm.

@@ -17,6 +17,9 @@ const PASS_COLOURS: [Color32; 5] = [
 pub(super) fn status_bar(ui: &mut Ui, status: &Status) {
     ui.horizontal(|ui| {
         ui.label(RichText::new(status.volume_text()).small());
+        if let Some(frame) = &status.frame {
+            ui.label(RichText::new(frame.as_str()).small().strong());
+        }
     });
     if let Some(identity) = &status.identity {
         ui.label(RichText::new(identity.as_str()).small());

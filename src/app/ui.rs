@@ -39,7 +39,7 @@ pub enum Request {
     Series(usize),
     /// Save the window as PNG.
     Screenshot(PathBuf),
-    /// Open the file on screen again at this frame of its 4-D data (0-based).
+    /// Show this frame of the 4-D file on screen (0-based; `viewer/cine.rs`).
     Frame(usize),
     /// Save the 3D view alone, rendered at this size (width, height), as PNG.
     SaveView(PathBuf, [u32; 2]),
@@ -97,6 +97,8 @@ pub struct Controls {
     pub brain: super::brain_panel::BrainShown,
     /// The modality, contrast and preset menus (`identity_panel.rs`).
     pub identity: super::identity_panel::IdentityChoice,
+    /// The 4-D panel: frame, playback, time course.
+    pub cine: super::cine_panel::CinePanel,
 }
 
 impl Controls {
@@ -117,6 +119,7 @@ impl Controls {
             layers: Default::default(),
             brain: Default::default(),
             identity: Default::default(),
+            cine: Default::default(),
         }
     }
 
@@ -269,6 +272,7 @@ pub fn draw(ui: &mut Ui, controls: &mut Controls, shown: &Shown) -> Outcome {
         .exact_size(PANEL_WIDTH)
         .show(ui, |ui| {
             egui::ScrollArea::vertical().show(ui, |ui| {
+                super::cine_panel::panel(ui, &mut controls.cine, &mut requests);
                 histogram_rect = tissue_panel(ui, controls);
                 ui.separator();
                 rendering_panel(ui, controls);

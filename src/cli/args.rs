@@ -413,6 +413,14 @@ pub struct ViewArgs {
     /// Frame of a 4-D file to show (0-based), as `render --frame`.
     #[arg(long, default_value_t = 0)]
     pub frame: usize,
+    /// Play a 4-D file's frames from the start (Play/Pause in the 4-D panel; looping).
+    #[arg(long)]
+    pub play: bool,
+    /// Playback rate of a 4-D file, frames per second (0.1 to 60); a frame that takes longer to
+    /// prepare is skipped, never queued.
+    // The range is app::cine_panel::FPS_RANGE (app exists only with the viewer feature).
+    #[arg(long, value_name = "F", default_value_t = 4.0, value_parser = parse_fps)]
+    pub fps: f64,
     /// Raymarch time budget while you drag, scroll or move a slider, in ms of GPU time (default:
     /// one frame at 60 Hz). A scene that would miss it is drawn with a coarser step (then a
     /// smaller image) until 0.25 s after the last input, then once at full quality; 0 keeps
@@ -489,6 +497,13 @@ fn parse_budget(text: &str) -> Result<f64, String> {
         .ok()
         .filter(|ms| ms.is_finite() && *ms >= 0.0)
         .ok_or_else(|| "give milliseconds >= 0 (0 switches adaptive quality off)".into())
+}
+
+fn parse_fps(text: &str) -> Result<f64, String> {
+    text.parse::<f64>()
+        .ok()
+        .filter(|fps| (0.1..=60.0).contains(fps))
+        .ok_or_else(|| "give 0.1 to 60 frames per second".into())
 }
 
 fn parse_series(text: &str) -> Result<crate::volume::source::dicom::SeriesChoice, String> {

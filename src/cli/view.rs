@@ -97,6 +97,10 @@ pub fn run(args: &ViewArgs, global: &super::GlobalOptions) -> Result<(), super::
         overlay,
         frame: document.frame,
         frame_budget_ms: args.frame_budget,
+        cine: crate::app::cine_panel::CineStart {
+            play: args.play,
+            fps: args.fps,
+        },
         layout: document.layout,
         matcap: document.matcap,
         matcap_spec: document.matcap_spec,

@@ -19,6 +19,7 @@ mod brain_fit;
 mod bricked;
 mod denoise;
 mod derive;
+mod frames;
 mod host_slots;
 pub mod kernels;
 mod labels;

@@ -5,6 +5,7 @@
 #![allow(dead_code)]
 
 pub mod bids;
+pub mod four_d;
 pub mod mni152;
 pub mod pictures;
 pub mod viewer;

@@ -162,3 +162,21 @@ fn a_pick_step_takes_fractions_of_the_view() {
         assert!(parse(bad, "s").is_err(), "{bad}");
     }
 }
+
+#[test]
+fn play_and_pause_parse_and_a_rate_out_of_range_is_refused() {
+    assert_eq!(
+        actions_of("play\nplay 8\npause\nframe 2\n"),
+        vec![
+            Action::Play(None),
+            Action::Play(Some(8.0)),
+            Action::Pause,
+            Action::Frame(2)
+        ]
+    );
+    for bad in ["play 0", "play 61", "play fast", "pause now"] {
+        assert!(parse(bad, "s").is_err(), "{bad}");
+    }
+    let e = parse("play 100", "s").unwrap_err();
+    assert!(e.message.contains("give 0.1 to 60"), "{e}");
+}

@@ -40,6 +40,8 @@ pub struct ViewerConfig {
     pub overlay: Option<crate::scene::overlay::Overlay>,
     /// Which frame of a 4-D file to show (0-based), for every file this session opens.
     pub frame: usize,
+    /// 4-D playback at start (`view --play --fps F`).
+    pub cine: crate::app::cine_panel::CineStart,
     /// Raymarch time budget while interacting, ms (`--frame-budget`; 0: always full quality).
     pub frame_budget_ms: f64,
     /// The first layout (`--layout`; 3D + slices by default).

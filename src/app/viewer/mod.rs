@@ -37,12 +37,13 @@
 //!
 //! Files: this one (state, the frame loop), `steps.rs` (loader replies, script steps),
 //! `paint.rs` (the frame's GPU side, screenshots, device loss), `pick.rs` (depth picking),
-//! `opening.rs` (opening files),
+//! `opening.rs` (opening files), `cine.rs` (4-D frames and playback),
 //! `brain.rs` (brain extraction's panel state, log lines and slice outline),
 //! `quality.rs` (adaptive quality while interacting: `app/adaptive.rs`), `config.rs` (how the
 //! viewer was started).
 
 mod brain;
+mod cine;
 mod config;
 mod layers;
 mod measures;
@@ -220,10 +221,12 @@ pub struct Viewer {
     shown_preset: Option<crate::scene::Preset>,
     /// The scene the bricked volume was last opened again for.
     reopened_for: Option<SceneRecipe>,
-    /// The frame of 4-D files opened now (`--frame`, then the frame slider's).
+    /// The frame of 4-D files shown now (`--frame`, then the 4-D panel's, playback's).
     frame: usize,
     /// Adaptive quality: the level of each frame's raymarch (`quality.rs`).
     adaptive: super::adaptive::Controller,
+    /// 4-D: held frames, the frame change in progress, playback (`cine.rs`).
+    cine: cine::CineState,
 }
 
 /// What the last raymarch rendered.
@@ -322,6 +325,7 @@ impl Viewer {
             reopened_for: None,
             frame: config.frame,
             adaptive: super::adaptive::Controller::new(config.frame_budget_ms),
+            cine: Default::default(),
             config,
         })
     }
@@ -352,7 +356,7 @@ impl Viewer {
     }
 
     fn busy(&self) -> bool {
-        self.pending_load.is_some() || self.pending_derive.is_some()
+        self.pending_load.is_some() || self.pending_derive.is_some() || self.cine.busy()
     }
 
     /// Creates the GPU objects (for `window`, or offscreen) and hands the device to the loader.
@@ -484,6 +488,7 @@ impl Viewer {
             input.time = Some(self.config.started.elapsed().as_secs_f64());
         }
 
+        self.tick_cine();
         self.sync_brain();
         self.update_layers();
         self.update_slices();
@@ -648,6 +653,7 @@ impl Viewer {
         }
         self.flush_completed();
         self.refine_later(&mut result);
+        self.cine_repaint(&mut result);
         self.idle_frames = self.idle_frames.saturating_sub(1);
         result.platform = Some(full.platform_output);
         if last {

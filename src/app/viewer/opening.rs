@@ -56,7 +56,6 @@ impl Viewer {
             .say(&format!("identity: {identity}  |  preset {preset}"));
         self.status.identity = Some(format!("{identity}  |  preset {preset}"));
         self.controls.files.series = loaded.series.clone();
-        self.controls.files.frame = loaded.frame;
         self.status.dims = prepared.dims;
         self.status.spacing_mm = loaded.spacing_mm;
         self.status.ttfp_ms = None;
@@ -92,6 +91,7 @@ impl Viewer {
             loaded,
             shown: false,
         });
+        self.cine_adopted();
         // A scene document's measurements, with the first volume (world mm: they stay when
         // another frame or file is opened, until Clear).
         let measurements = std::mem::take(&mut self.config.measurements);
@@ -117,7 +117,9 @@ impl Viewer {
         let wanted = self.controls.scene.effects;
         match twin_step(twin.outputs(), wanted.derivative_outputs()) {
             TwinStep::Recompute(outputs) => {
-                if self.pending_derive.is_none() {
+                // Not during a frame change: its result replaces this twin (`cine.rs`); the
+                // next frame asks again for the new frame.
+                if self.pending_derive.is_none() && !self.cine.changing() {
                     let what = describe(outputs);
                     self.status.deriving = Some(format!("Computing the {what} (once)..."));
                     self.log.say(&format!("requesting derived volumes: {what}"));
@@ -224,9 +226,10 @@ impl Viewer {
         self.open(source, Some(SeriesChoice::Index(index)), label_for_log);
     }
 
-    /// Opens the 4-D file on screen again at `index` (the frame slider, the script's `frame`);
-    /// later files open at that frame too, as `view --frame` does. An index the file does not
-    /// have is an error in the status line.
+    /// Shows frame `index` of the 4-D file on screen (the frame slider, the time course, the
+    /// script's `frame`, playback): prepared like the frame on screen when it can be
+    /// (`cine.rs`), else opened again the full way; later files open at that frame too, as
+    /// `view --frame` does. An index the file does not have is an error in the status line.
     pub(super) fn open_frame(&mut self, index: usize, label_for_log: Option<String>) {
         let Some(current) = &self.current else {
             self.status.error = Some("No volume is open: there is no frame to choose".into());
@@ -240,6 +243,16 @@ impl Viewer {
             ));
             return;
         }
+        if !self.change_frame(index, label_for_log.clone()) {
+            self.reopen_frame(index, label_for_log);
+        }
+    }
+
+    /// Opens the 4-D file on screen again at `index` the full way (read, plan, analyse).
+    pub(super) fn reopen_frame(&mut self, index: usize, label_for_log: Option<String>) {
+        let Some(current) = &self.current else {
+            return;
+        };
         let source = current.loaded.source.clone();
         let series = shown_series(&current.loaded);
         self.frame = index;

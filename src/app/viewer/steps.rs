@@ -15,6 +15,7 @@ impl Viewer {
                         loading.stage = stage.to_string();
                     }
                 }
+                Reply::Frames(reply) => self.frame_reply(reply),
                 Reply::Loaded(loaded) => {
                     if self.pending_load.as_ref().map(|p| p.0) != Some(loaded.id) {
                         continue;
@@ -162,6 +163,15 @@ impl Viewer {
             }
             Action::Frame(index) => {
                 self.open_frame(*index, Some(step.text.clone()));
+                watch = false;
+            }
+            Action::Play(fps) => {
+                c.cine.playing = true;
+                c.cine.fps = fps.unwrap_or(c.cine.fps);
+                watch = false;
+            }
+            Action::Pause => {
+                c.cine.playing = false;
                 watch = false;
             }
             Action::Identity(change) => {

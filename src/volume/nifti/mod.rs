@@ -32,6 +32,7 @@ pub mod datatype;
 mod error;
 pub mod extensions;
 mod frame_mean;
+pub mod frames;
 pub mod gzip;
 pub mod gzip_parallel;
 pub mod header;
