@@ -24,6 +24,16 @@ const SCHEMA_V1: &[&str] = &[
     "input.frame",
     "input.paths",
     "input.sha256",
+    "layers",
+    "layers[].path",
+    "layers[].style",
+    "layers[].style.cluster",
+    "layers[].style.colormap",
+    "layers[].style.hi",
+    "layers[].style.lo",
+    "layers[].style.negative",
+    "layers[].style.opacity",
+    "layers[].style.threshold",
     "matcap",
     "measurements",
     "measurements[].angle",
@@ -157,6 +167,18 @@ fn full_document() -> SceneDocument {
         lut: Some("labels.lut".into()),
         opacity: 0.25,
     });
+    doc.layers = vec![morphray::scene::document::LayerRef {
+        path: "zstat.nii.gz".into(),
+        style: morphray::scene::layer::LayerStyle {
+            colormap: morphray::scene::layer::LayerColormap::RedYellow,
+            lo: 3.1,
+            hi: 8.0,
+            threshold: 3.1,
+            negative: Some(morphray::scene::layer::LayerColormap::BlueLightblue),
+            cluster: 20,
+            opacity: 0.9,
+        },
+    }];
     doc.size = Some([320, 240]);
     doc.measurements = vec![
         Measurement::Distance {
@@ -293,6 +315,10 @@ fn hostile_documents_are_refused_in_one_line() {
             "1 to 16384 pixels",
         ),
         (edit(&|v| v["overlay"]["opacity"] = 2.0.into()), "opacity 2"),
+        (
+            edit(&|v| v["layers"][0]["style"]["lo"] = 9.0.into()),
+            "lo < hi",
+        ),
         (
             edit(&|v| v["viewer"]["crosshair_mm"] = serde_json::json!([1, 2])),
             "invalid length",

@@ -274,6 +274,28 @@ fn the_viewer_adds_reads_restyles_and_saves_a_layer() {
     let log = view(&["--scene", "viewer.json", "--script", "shot.txt"]);
     assert!(log.contains("layer blobs.nii.gz: red-yellow 2..6"), "{log}");
     assert!(map_pixels(&dir.join("restored.png")).0 > before + 1000);
+    // A label map added from the viewer (as Add labels... does): set up on the volume's grid.
+    run(
+        &dir,
+        &[
+            "phantom",
+            "--dims",
+            "61x67x53",
+            "-o",
+            "again.nii.gz",
+            "--labels",
+            "labels.nii.gz",
+        ],
+    );
+    std::fs::write(
+        dir.join("labels.txt"),
+        "labels labels.nii.gz\nwait 2\nscreenshot labels.png\n",
+    )
+    .unwrap();
+    let log = view(&["small.nii.gz", "--script", "labels.txt"]);
+    assert!(log.contains("labels labels.nii.gz added"), "{log}");
+    // The readout names the label under the crosshair once the labels are on the grid.
+    assert!(log.contains("|  label 4"), "{log}");
     // A bad step is a logged error, not a panic.
     std::fs::write(
         dir.join("bad.txt"),
