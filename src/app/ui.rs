@@ -278,7 +278,8 @@ pub fn draw(ui: &mut Ui, controls: &mut Controls, shown: &Shown) -> Outcome {
                 rendering_panel(ui, controls);
                 super::clip_panel::clip_panel(ui, &mut controls.scene, controls.extent_mm);
                 super::slices_panel::label_panel(ui, &mut controls.slices);
-                ui.collapsing("Layers", |ui| {
+                // Open: Add layer... and Add labels... are how a second volume is found.
+                egui::CollapsingHeader::new("Layers").default_open(true).show(ui, |ui| {
                     if controls.layers.panel(ui) {
                         controls.files.add_layer_dialog();
                     }
