@@ -6,12 +6,12 @@
 
 mod common;
 
+use common::twin_compare::{assert_matches, compare, norm, rgba};
+
 use ash::vk;
 use common::pictures::prepared_scene;
 use common::volumes::volume_with_affine;
-use morphray::engine::readback::read_image;
 use morphray::engine::{Derived, Engine, LayerVolume, PreparedVolume};
-use morphray::gpu::Access;
 use morphray::reference::raymarch::{
     ReferenceDerived, ReferenceLayer, ReferenceRaymarch, ReferenceVolume,
 };
@@ -69,24 +69,11 @@ fn gpu_render(
             &case.scene,
         )
         .unwrap();
-    frame
-        .values
-        .chunks_exact(4)
-        .map(|c| [c[0] as f64, c[1] as f64, c[2] as f64, c[3] as f64])
-        .collect()
+    rgba(&frame)
 }
 
 fn twin(engine: &Engine, case: &Case, layers: &Attached, (w, h): (u32, u32)) -> Vec<[f64; 4]> {
-    let norm: Vec<f64> = read_image(
-        engine.device(),
-        &case.prepared.normalized,
-        Access::ComputeSampled,
-    )
-    .unwrap()
-    .values
-    .iter()
-    .map(|&v| v as f64)
-    .collect();
+    let norm = norm(engine, &case.prepared);
     let geometry = VolumeGeometry::new(case.prepared.dims, case.prepared.affine).unwrap();
     let volume = ReferenceVolume::new(case.prepared.dims, &norm).unwrap();
     let stats = case.derived.as_ref().map_or(
@@ -112,36 +99,6 @@ fn twin(engine: &Engine, case: &Case, layers: &Attached, (w, h): (u32, u32)) -> 
         .unwrap()
         .with_layers(&reference)
         .render()
-}
-
-/// (PSNR over RGB with peak 1, fraction of pixels off by more than 0.1 in a channel).
-fn compare(a: &[[f64; 4]], b: &[[f64; 4]]) -> (f64, f64) {
-    let mut sum = 0.0;
-    let mut off = 0usize;
-    for (x, y) in a.iter().zip(b) {
-        let errors: Vec<f64> = (0..3).map(|c| (x[c] - y[c].min(1.0)).abs()).collect();
-        sum += errors.iter().map(|e| e * e).sum::<f64>();
-        off += usize::from(errors.iter().any(|&e| e > 0.1));
-    }
-    let mse = sum / (3 * a.len()) as f64;
-    (
-        10.0 * (1.0 / mse.max(1e-20)).log10(),
-        off as f64 / a.len() as f64,
-    )
-}
-
-/// The GPU matches the twin: a sample within f32 rounding of the threshold may fall on the
-/// other side, so a few pixels may differ, no more.
-fn assert_matches(what: &str, gpu: &[[f64; 4]], cpu: &[[f64; 4]]) {
-    let (psnr, off) = compare(gpu, cpu);
-    eprintln!(
-        "{what}: PSNR {psnr:.1} dB, {:.2} % of pixels off by > 0.1",
-        100.0 * off
-    );
-    assert!(
-        psnr >= 40.0 && off <= 0.01,
-        "{what}: PSNR {psnr:.1} dB, {off:.4} off"
-    );
 }
 
 /// A layer of `dims` voxels of 2 mm, turned 12 degrees about z and shifted against the base

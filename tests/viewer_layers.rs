@@ -103,37 +103,29 @@ fn scans(name: &str) -> PathBuf {
 #[test]
 fn render_and_slice_draw_a_layer_and_a_threshold_above_it_draws_nothing() {
     let dir = scans("cli");
-    let out = run(
-        &dir,
-        &[
+    // The same still (160x160 from above) with `extra` options, written to `out`.
+    let still = |extra: &[&str], out: &str| {
+        let mut args = vec![
             "render",
             "small.nii.gz",
             "--size",
             "160x160",
             "--view",
             "superior",
-            "-o",
-            "plain.png",
-        ],
-    );
+        ];
+        args.extend_from_slice(extra);
+        args.extend_from_slice(&["-o", out]);
+        run(&dir, &args)
+    };
+    let out = still(&[], "plain.png");
     assert!(out.contains("wrote plain.png"), "{out}");
-    let out = run(
-        &dir,
-        &[
-            "render",
-            "small.nii.gz",
-            "--size",
-            "160x160",
-            "--view",
-            "superior",
-            "--layer",
-            "blobs.nii.gz:red-yellow:2:6",
-            "--save-scene",
-            "layer.json",
-            "-o",
-            "layer.png",
-        ],
-    );
+    let layer = [
+        "--layer",
+        "blobs.nii.gz:red-yellow:2:6",
+        "--save-scene",
+        "layer.json",
+    ];
+    let out = still(&layer, "layer.png");
     assert!(
         out.contains("layer blobs.nii.gz: red-yellow 2..6, |v| >= 2, negative side blue-lightblue"),
         "{out}"
@@ -142,21 +134,7 @@ fn render_and_slice_draw_a_layer_and_a_threshold_above_it_draws_nothing() {
     assert!(red > 50 && blue > 50, "{red} red, {blue} blue pixels");
     assert_eq!(map_pixels(&dir.join("plain.png")), (0, 0));
     // Above every value: the picture without the layer, byte for byte.
-    run(
-        &dir,
-        &[
-            "render",
-            "small.nii.gz",
-            "--size",
-            "160x160",
-            "--view",
-            "superior",
-            "--layer",
-            "blobs.nii.gz:red-yellow:7:9",
-            "-o",
-            "none.png",
-        ],
-    );
+    still(&["--layer", "blobs.nii.gz:red-yellow:7:9"], "none.png");
     let plain = common::pictures::Picture::read(&dir.join("plain.png")).pixels;
     assert_eq!(
         common::pictures::Picture::read(&dir.join("none.png")).pixels,

@@ -24,7 +24,7 @@ use super::brain::BrainMask;
 use super::derive::Derived;
 use super::prepare::{PrepareTimings, PreparedVolume, VolumeLayout, normalized_desc};
 use super::upload::upload_samples;
-use crate::gpu::{Access, GpuError, GpuResult, Image, Recording};
+use crate::gpu::{GpuError, GpuResult, Image, Recording};
 use crate::passes::brain::BrainSwitch;
 use crate::passes::derivatives::DerivativeOutputs;
 use crate::passes::normalize::plan_physical;
@@ -56,20 +56,12 @@ impl Engine {
         let upload_ms = ms(before_upload);
         let before_normalize = Instant::now();
         let passes = self.kind_passes(kind)?;
-        rec.begin_pass("normalize");
-        passes
-            .normalize
-            .record(&mut rec, &samples, &normalization.params, &normalized)?;
-        rec.end_pass();
-        // Orders the normalized writes before the derivatives' and the raymarch's reads.
-        rec.barriers(
-            &[],
-            &[(
-                &normalized,
-                Access::ComputeWriteImage,
-                Access::ComputeSampled,
-            )],
-        );
+        passes.normalize.record_for_sampling(
+            &mut rec,
+            &samples,
+            &normalization.params,
+            &normalized,
+        )?;
         let gpu_timings = rec.submit()?.wait()?;
         let prepared = PreparedVolume {
             dims: old.dims,

@@ -249,21 +249,12 @@ impl Engine {
         let normalized = Image::new(&device, normalized_desc(dims, normalized_format))?;
         let bins = Buffer::new(&device, histogram_desc())?;
         let mut rec = Recording::new(&device, "normalize")?;
-        rec.begin_pass("normalize");
-        passes
-            .normalize
-            .record(&mut rec, &samples, &normalization.params, &normalized)?;
-        rec.end_pass();
-        // Orders the normalized writes before the histogram's (and later passes') reads; a
-        // barrier also orders work of later submissions to the same queue.
-        rec.barriers(
-            &[],
-            &[(
-                &normalized,
-                Access::ComputeWriteImage,
-                Access::ComputeSampled,
-            )],
-        );
+        passes.normalize.record_for_sampling(
+            &mut rec,
+            &samples,
+            &normalization.params,
+            &normalized,
+        )?;
         let normalizing = rec.submit()?;
         let mut rec = Recording::new(&device, "histogram")?;
         rec.begin_pass("histogram");

@@ -174,6 +174,27 @@ impl NormalizePass {
         Ok(NormalizePass { pipeline })
     }
 
+    /// [`NormalizePass::record`] as its own pass, then the barrier that orders the writes before
+    /// every later read (the histogram, the derivatives, the raymarch; a barrier also orders
+    /// work of later submissions to the same queue). Afterwards `target` was last accessed as
+    /// `Access::ComputeSampled`.
+    pub fn record_for_sampling(
+        &self,
+        rec: &mut Recording,
+        samples: &Arc<Buffer>,
+        params: &NormalizeParams,
+        target: &Arc<Image>,
+    ) -> GpuResult<()> {
+        rec.begin_pass("normalize");
+        self.record(rec, samples, params, target)?;
+        rec.end_pass();
+        rec.barriers(
+            &[],
+            &[(target, Access::ComputeWriteImage, Access::ComputeSampled)],
+        );
+        Ok(())
+    }
+
     /// Records the normalization of `samples` into `target` (whose previous contents are
     /// discarded). Afterwards `target` was last accessed as `Access::ComputeWriteImage`.
     pub fn record(

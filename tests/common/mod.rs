@@ -8,6 +8,7 @@ pub mod bids;
 pub mod four_d;
 pub mod mni152;
 pub mod pictures;
+pub mod twin_compare;
 pub mod viewer;
 pub mod volumes;
 

@@ -1,0 +1,60 @@
+//! Comparing a GPU frame with its f64 twin, as the overlay tests (labels, layers) do: the frame
+//! as f64 RGBA, I_norm read back for the twin, PSNR and the share of pixels off by more than 0.1.
+#![allow(dead_code)]
+
+use morphray::engine::readback::read_image;
+use morphray::engine::{Engine, Frame, PreparedVolume};
+use morphray::gpu::Access;
+
+/// A float frame's pixels as f64 RGBA.
+pub fn rgba(frame: &Frame) -> Vec<[f64; 4]> {
+    frame
+        .values
+        .chunks_exact(4)
+        .map(|c| [c[0] as f64, c[1] as f64, c[2] as f64, c[3] as f64])
+        .collect()
+}
+
+/// The prepared volume's I_norm, read back as f64 (the twin's input).
+pub fn norm(engine: &Engine, prepared: &PreparedVolume) -> Vec<f64> {
+    read_image(
+        engine.device(),
+        &prepared.normalized,
+        Access::ComputeSampled,
+    )
+    .unwrap()
+    .values
+    .iter()
+    .map(|&v| v as f64)
+    .collect()
+}
+
+/// (PSNR over RGB with peak 1, fraction of pixels off by more than 0.1 in a channel).
+pub fn compare(a: &[[f64; 4]], b: &[[f64; 4]]) -> (f64, f64) {
+    let mut sum = 0.0;
+    let mut off = 0usize;
+    for (x, y) in a.iter().zip(b) {
+        let errors: Vec<f64> = (0..3).map(|c| (x[c] - y[c].min(1.0)).abs()).collect();
+        sum += errors.iter().map(|e| e * e).sum::<f64>();
+        off += usize::from(errors.iter().any(|&e| e > 0.1));
+    }
+    let mse = sum / (3 * a.len()) as f64;
+    (
+        10.0 * (1.0 / mse.max(1e-20)).log10(),
+        off as f64 / a.len() as f64,
+    )
+}
+
+/// Asserts the GPU matches the twin: a sample within f32 rounding of a voxel boundary or a
+/// threshold may fall on the other side, so a few pixels may differ, no more.
+pub fn assert_matches(what: &str, gpu: &[[f64; 4]], cpu: &[[f64; 4]]) {
+    let (psnr, off) = compare(gpu, cpu);
+    eprintln!(
+        "{what}: PSNR {psnr:.1} dB, {:.2} % of pixels off by > 0.1",
+        100.0 * off
+    );
+    assert!(
+        psnr >= 40.0 && off <= 0.01,
+        "{what}: PSNR {psnr:.1} dB, {off:.4} off"
+    );
+}
