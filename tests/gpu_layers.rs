@@ -72,7 +72,18 @@ fn gpu_render(
     rgba(&frame)
 }
 
-fn twin(engine: &Engine, case: &Case, layers: &Attached, (w, h): (u32, u32)) -> Vec<[f64; 4]> {
+fn twin(engine: &Engine, case: &Case, layers: &Attached, size: (u32, u32)) -> Vec<[f64; 4]> {
+    with_twin(engine, case, layers, size, |r| r.render())
+}
+
+/// Runs `f` on the f64 twin of `case` with `layers` at `(w, h)` pixels.
+fn with_twin<R>(
+    engine: &Engine,
+    case: &Case,
+    layers: &Attached,
+    (w, h): (u32, u32),
+    f: impl FnOnce(&ReferenceRaymarch) -> R,
+) -> R {
     let norm = norm(engine, &case.prepared);
     let geometry = VolumeGeometry::new(case.prepared.dims, case.prepared.affine).unwrap();
     let volume = ReferenceVolume::new(case.prepared.dims, &norm).unwrap();
@@ -95,10 +106,10 @@ fn twin(engine: &Engine, case: &Case, layers: &Attached, (w, h): (u32, u32)) -> 
         })
         .collect();
     let derived = ReferenceDerived::NONE;
-    ReferenceRaymarch::new(&case.scene, &geometry, &stats, &volume, &derived, w, h)
+    let twin = ReferenceRaymarch::new(&case.scene, &geometry, &stats, &volume, &derived, w, h)
         .unwrap()
-        .with_layers(&reference)
-        .render()
+        .with_layers(&reference);
+    f(&twin)
 }
 
 /// A layer of `dims` voxels of 2 mm, turned 12 degrees about z and shifted against the base
@@ -331,6 +342,80 @@ fn two_layers_draw_both_and_a_cluster_size_removes_the_lone_voxel() {
     assert!(
         (1..60).contains(&changed),
         "the cluster size removed the lone voxel only: {changed} pixels changed"
+    );
+    common::assert_no_validation_errors(&engine);
+}
+
+#[test]
+fn a_pick_meets_the_layers_the_picture_shows_where_the_twin_does() {
+    let mut engine = common::engine();
+    let phantom = generate(&PhantomSpec::cube(29)).unwrap();
+    let layer = z_map(
+        &phantom.volume.orientation.affine,
+        [13, 11, 12],
+        [8.0, 5.0, 9.0],
+        [3.0, 6.0, 3.0],
+        [2, 9, 10],
+    );
+    let case = prepare(&mut engine, &phantom.volume, |s| {
+        for tissue in &mut s.classification.tissues {
+            tissue.visible = false;
+        }
+    });
+    let layers = vec![upload(&mut engine, &case, &layer, style(2.0, 5.0, 0))];
+    let view = [40u32, 32];
+    let pixels: Vec<[u32; 2]> = (0..view[1])
+        .step_by(3)
+        .flat_map(|y| (0..view[0]).step_by(3).map(move |x| [x, y]))
+        .collect();
+    let threshold = morphray::engine::pick::DEFAULT_PICK_THRESHOLD;
+    // Without the layers no tissue is visible: nothing to meet.
+    let blind = engine
+        .pick(
+            &case.prepared,
+            case.derived.as_ref(),
+            &case.scene,
+            view,
+            pixels[0],
+            threshold,
+        )
+        .unwrap();
+    assert!(blind.is_none());
+    engine.set_pick_layers(layers.clone());
+    let (twin, step): (Vec<Option<f64>>, f64) =
+        with_twin(&engine, &case, &layers, (view[0], view[1]), |r| {
+            let picks = pixels
+                .iter()
+                .map(|&[x, y]| r.pick(x, y, f64::from(threshold)));
+            (picks.collect(), r.step_mm())
+        });
+    let (mut hits, mut agree) = (0, 0);
+    for (&p, t) in pixels.iter().zip(&twin) {
+        let g = engine
+            .pick(
+                &case.prepared,
+                case.derived.as_ref(),
+                &case.scene,
+                view,
+                p,
+                threshold,
+            )
+            .unwrap();
+        match (g, t) {
+            (Some(g), Some(t)) => {
+                hits += 1;
+                // Within one step of the twin's sample (f32 positions at the blob's edge).
+                agree += usize::from((g.ray_mm - t).abs() <= step + 1e-3);
+            }
+            (None, None) => agree += 1,
+            _ => {}
+        }
+    }
+    assert!(hits > 10, "{hits} picks met a blob");
+    assert!(
+        agree + 2 >= pixels.len(),
+        "{agree} of {} picks agree with the twin",
+        pixels.len()
     );
     common::assert_no_validation_errors(&engine);
 }

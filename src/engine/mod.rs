@@ -192,6 +192,8 @@ pub struct Engine {
     matcap: Arc<crate::scene::matcap::MatcapImage>,
     /// The 1x1 target depth picks render into, after the first (`pick.rs`).
     pick_target: Option<RenderTarget>,
+    /// The layers a depth pick sees (`pick.rs`), as the picture's target draws them.
+    pick_layers: Vec<(Arc<LayerVolume>, crate::scene::layer::LayerStyle)>,
 }
 
 impl Drop for Engine {
@@ -266,6 +268,7 @@ impl Engine {
             ahead_window: None,
             matcap: Arc::default(),
             pick_target: None,
+            pick_layers: Vec::new(),
         })
     }
 

@@ -21,6 +21,7 @@ use crate::scene::geometry::VolumeGeometry;
 use crate::scene::uniforms::PixelPick;
 use ash::vk;
 use glam::DVec3;
+use std::sync::Arc;
 
 /// The accumulated opacity at which a DVR ray counts as having met what the pixel shows.
 pub const DEFAULT_PICK_THRESHOLD: f32 = 0.5;
@@ -35,6 +36,15 @@ pub struct PickHit {
 }
 
 impl Engine {
+    /// The intensity layers later picks see (those the picture's target draws; empty: none), so
+    /// a click on a blob that shows finds it.
+    pub fn set_pick_layers(
+        &mut self,
+        layers: Vec<(Arc<super::LayerVolume>, crate::scene::layer::LayerStyle)>,
+    ) {
+        self.pick_layers = layers;
+    }
+
     /// Where `scene`, drawn `view[0]` x `view[1]` pixels, first shows something at `pixel`
     /// (module doc): None where the ray meets nothing visible. `threshold` in (0, 1] (DVR).
     pub fn pick(
@@ -62,6 +72,8 @@ impl Engine {
             None => self.render_target(1, 1, vk::Format::R32G32B32A32_SFLOAT)?,
         };
         target.pick = Some((PixelPick { pixel, threshold }, view));
+        // What the picture shows is what the pick meets: its layers too.
+        target.set_layers(self.pick_layers.clone())?;
         let frame = self.render(&mut target, prepared, derived, scene);
         self.pick_target = Some(target);
         let ray_mm = f64::from(frame?.values.first().copied().unwrap_or(-1.0));

@@ -29,6 +29,12 @@ impl Viewer {
         });
         let scene = last.level.apply(&last.scene);
         let twin = &current.loaded.twin;
+        // The layers drawn are met by the pick too (a failed upload is the frame's error).
+        let layers =
+            self.controls
+                .layers
+                .attached(&mut gpu.engine, &twin.prepared, current.loaded.id);
+        gpu.engine.set_pick_layers(layers.unwrap_or_default());
         let picked = gpu.engine.pick(
             &twin.prepared,
             twin.derived(),
