@@ -291,6 +291,25 @@ impl Layers {
     }
 }
 
+/// The tools panel's Layers section: the layers' controls, Add layer... and Add labels...
+/// (open by default: they are how a second volume is found).
+pub fn section(ui: &mut Ui, controls: &mut super::ui::Controls) {
+    egui::CollapsingHeader::new("Layers")
+        .default_open(true)
+        .show(ui, |ui| {
+            if controls.layers.panel(ui) {
+                controls.files.add_layer_dialog();
+            }
+            if ui
+                .button("Add labels...")
+                .on_hover_text("An integer label map (a segmentation) over the volume")
+                .clicked()
+            {
+                controls.files.add_labels_dialog();
+            }
+        });
+}
+
 /// One layer's controls; true when one changed.
 fn style_controls(ui: &mut Ui, index: usize, style: &mut LayerStyle) -> bool {
     let before = *style;

@@ -278,21 +278,7 @@ pub fn draw(ui: &mut Ui, controls: &mut Controls, shown: &Shown) -> Outcome {
                 rendering_panel(ui, controls);
                 super::clip_panel::clip_panel(ui, &mut controls.scene, controls.extent_mm);
                 super::slices_panel::label_panel(ui, &mut controls.slices);
-                // Open: Add layer... and Add labels... are how a second volume is found.
-                egui::CollapsingHeader::new("Layers")
-                    .default_open(true)
-                    .show(ui, |ui| {
-                        if controls.layers.panel(ui) {
-                            controls.files.add_layer_dialog();
-                        }
-                        if ui
-                            .button("Add labels...")
-                            .on_hover_text("An integer label map (a segmentation) over the volume")
-                            .clicked()
-                        {
-                            controls.files.add_labels_dialog();
-                        }
-                    });
+                super::layers_panel::section(ui, controls);
                 ui.collapsing("Measure", |ui| {
                     let asked = super::measure_panel::panel(ui, &mut controls.slices.measures);
                     if asked.is_some() {

@@ -9,7 +9,8 @@
 //! matrix. The GPU filters in f32 (and some devices with 8-bit sub-texel weights), so a sample
 //! within rounding of the threshold can fall on the other side: comparisons allow a few pixels.
 
-use super::formulas::opacity_correct;
+use super::ReferenceRaymarch;
+use super::formulas::{composite, opacity_correct};
 use crate::scene::layer::{LayerStyle, LayerTables};
 use crate::scene::layer_grid::{LayerCodes, LayerGrid, sample_codes};
 use glam::{DMat3, DMat4, DVec3, DVec4};
@@ -66,5 +67,33 @@ impl ReferenceLayer<'_> {
             opacity_correct(opacity, opacity_exponent),
             normal,
         ))
+    }
+}
+
+impl ReferenceRaymarch<'_> {
+    /// Each drawn layer's medium, before the tissue and the label at the same position (the
+    /// shader's order); the first drawn layer's normal is the surface normal so far.
+    pub(super) fn composite_layers(
+        &self,
+        acc: &mut [f64; 4],
+        normal: &mut DVec3,
+        layers: &[Option<([f64; 3], f64, DVec3)>],
+        (solid, view_direction): (bool, DVec3),
+    ) {
+        let mut drew = false;
+        for (colour, opacity, layer_normal) in layers.iter().flatten() {
+            // On a cut face unshaded, as the tissue there.
+            let layer_normal = if solid { &DVec3::ZERO } else { layer_normal };
+            let colour = if self.shading {
+                if !drew {
+                    *normal = *layer_normal;
+                }
+                self.lit(*colour, *layer_normal, view_direction)
+            } else {
+                *colour
+            };
+            composite(acc, colour, *opacity);
+            drew = true;
+        }
     }
 }

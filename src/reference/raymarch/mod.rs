@@ -619,34 +619,6 @@ impl<'a> ReferenceRaymarch<'a> {
     }
 }
 
-impl ReferenceRaymarch<'_> {
-    /// Each drawn layer's medium, before the tissue and the label at the same position (the
-    /// shader's order); the first drawn layer's normal is the surface normal so far.
-    fn composite_layers(
-        &self,
-        acc: &mut [f64; 4],
-        normal: &mut DVec3,
-        layers: &[Option<([f64; 3], f64, DVec3)>],
-        (solid, view_direction): (bool, DVec3),
-    ) {
-        let mut drew = false;
-        for (colour, opacity, layer_normal) in layers.iter().flatten() {
-            // On a cut face unshaded, as the tissue there.
-            let layer_normal = if solid { &DVec3::ZERO } else { layer_normal };
-            let colour = if self.shading {
-                if !drew {
-                    *normal = *layer_normal;
-                }
-                self.lit(*colour, *layer_normal, view_direction)
-            } else {
-                *colour
-            };
-            composite(acc, colour, *opacity);
-            drew = true;
-        }
-    }
-}
-
 /// Renders `scene` on `volume` at `width` x `height` exactly as `shaders/raymarch.comp` does, in
 /// f64: RGBA per pixel (alpha 1), rows top to bottom, before 8-bit quantization.
 pub fn render(
