@@ -334,14 +334,25 @@ fn style_controls(ui: &mut Ui, index: usize, style: &mut LayerStyle) -> bool {
                 .range(0.0..=f64::MAX),
         );
     });
-    let mut negative = style.negative.is_some();
-    if ui
-        .checkbox(&mut negative, "negative side")
-        .on_hover_text("Values <= -threshold in blue-lightblue")
-        .changed()
-    {
-        style.negative = negative.then_some(LayerColormap::BlueLightblue);
-    }
+    ui.horizontal(|ui| {
+        let mut negative = style.negative.is_some();
+        if ui
+            .checkbox(&mut negative, "negative side")
+            .on_hover_text("Values <= -threshold, in their own map (a two-sided z-map)")
+            .changed()
+        {
+            style.negative = negative.then_some(LayerColormap::BlueLightblue);
+        }
+        if let Some(map) = &mut style.negative {
+            egui::ComboBox::from_id_salt(("layer negative map", index))
+                .selected_text(map.name())
+                .show_ui(ui, |ui| {
+                    for choice in LayerColormap::ALL {
+                        ui.selectable_value(map, choice, choice.name());
+                    }
+                });
+        }
+    });
     ui.horizontal(|ui| {
         ui.label("min cluster");
         ui.add(egui::DragValue::new(&mut style.cluster).range(0..=1_000_000))
