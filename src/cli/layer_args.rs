@@ -18,9 +18,10 @@ use std::sync::Arc;
 /// Layer options.
 #[derive(Clone, Debug, Default, Args, serde::Serialize)]
 pub struct LayerArgs {
-    /// Intensity layer drawn over the volume: FILE[:MAP[:LO:HI]][:thr=T][:neg=MAP|off][:cluster=N][:opacity=A]; twice for two
+    /// Intensity layer over the volume, on its own grid: FILE[:MAP[:LO:HI]][:KEY=VALUE...]
     ///
-    /// A second volume (a statistical map, PET, FLAIR) on its own grid, resampled through both
+    /// FILE[:MAP[:LO:HI]][:thr=T][:neg=MAP|off][:cluster=N][:opacity=A]; give it twice for two
+    /// layers. A second volume (a statistical map, PET, FLAIR) on its own grid, resampled through both
     /// affines. Values >= thr (default LO) take MAP (default red-yellow) from LO to HI; with
     /// neg=, values <= -thr take the negative map (default blue-lightblue when the file has
     /// values at or below -LO). Without LO:HI: the 95th and 99.5th percentiles of |value|.
