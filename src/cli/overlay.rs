@@ -28,7 +28,12 @@ pub struct OverlayArgs {
     ///
     /// Labels not in it, or all without it, take a default palette. A is a transparency, as
     /// FreeSurfer writes it (0 = opaque).
-    #[arg(long, value_name = "FILE", requires = "overlay", hide_short_help = true)]
+    #[arg(
+        long,
+        value_name = "FILE",
+        requires = "overlay",
+        hide_short_help = true
+    )]
     pub overlay_lut: Option<PathBuf>,
     /// Label opacity 0..1: over a slice's grey, per mm in 3D
     #[arg(long, value_name = "A", default_value_t = 0.5, requires = "overlay")]

@@ -73,9 +73,9 @@ impl OpenedLayer {
             "layer {}: {} {}..{}, |v| >= {}",
             self.grid.name,
             s.colormap.name(),
-            s.lo,
-            s.hi,
-            s.threshold
+            short(s.lo),
+            short(s.hi),
+            short(s.threshold)
         );
         match s.negative {
             Some(map) => text.push_str(&format!(", negative side {}", map.name())),
@@ -99,6 +99,17 @@ impl OpenedLayer {
     }
 }
 
+/// `v` with at most 4 decimals and no trailing zeros (`3.1`, `0.9474`, `8`).
+fn short(v: f64) -> String {
+    let text = format!("{v:.4}");
+    let text = text.trim_end_matches('0').trim_end_matches('.');
+    if text == "-0" {
+        "0".into()
+    } else {
+        text.into()
+    }
+}
+
 impl LayerSpec {
     /// The spec that draws `path` exactly with `style` (scene documents, the viewer's layers).
     pub fn from_style(path: std::path::PathBuf, style: &LayerStyle) -> LayerSpec {
@@ -111,5 +122,19 @@ impl LayerSpec {
             cluster: Some(style.cluster),
             opacity: Some(style.opacity),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::short;
+
+    #[test]
+    fn numbers_are_told_short() {
+        assert_eq!(short(3.1), "3.1");
+        assert_eq!(short(8.0), "8");
+        assert_eq!(short(0.947395384311676), "0.9474");
+        assert_eq!(short(-0.00001), "0");
+        assert_eq!(short(-2.5), "-2.5");
     }
 }
