@@ -95,14 +95,20 @@ fn with_twin<R>(
         |d| d.stats,
     );
     let codes: Vec<_> = layers.iter().map(|(l, _)| l.grid.codes()).collect();
+    let tables: Vec<_> = layers.iter().map(|(_, style)| style.tables()).collect();
     let reference: Vec<ReferenceLayer> = layers
         .iter()
         .zip(&codes)
-        .map(|((l, style), codes)| ReferenceLayer {
-            grid: &l.grid,
-            codes,
+        .zip(&tables)
+        .map(|(((l, style), codes), tables)| ReferenceLayer {
+            dims: l.grid.dims,
+            codes: &codes.codes,
+            decode: [codes.lo, codes.scale],
             index_map: l.index_map,
-            style: *style,
+            window: [style.lo, style.hi, style.threshold],
+            opacity: style.opacity,
+            positive: &tables.positive,
+            negative: style.negative.map(|_| &tables.negative[..]),
         })
         .collect();
     let derived = ReferenceDerived::NONE;

@@ -166,7 +166,7 @@ pub struct ReferenceRaymarch<'a> {
     clip: IndexClip,
     colormap: Option<Colormap>,
     labels: Option<ReferenceLabels<'a>>,
-    layers: Vec<(ReferenceLayer<'a>, crate::scene::layer::LayerTables)>,
+    layers: Vec<ReferenceLayer<'a>>,
     vesselness: Option<Grid<'a, f64>>,
     vessels_on: bool,
     brain_mask: Option<crate::reference::brain_mask::WorkingMask<'a>>,
@@ -395,7 +395,7 @@ impl<'a> ReferenceRaymarch<'a> {
     /// Draws intensity layers in DVR, as a render target with layers attached does
     /// (`layers.rs`), in order.
     pub fn with_layers(mut self, layers: &[ReferenceLayer<'a>]) -> Self {
-        self.layers = layers.iter().map(|l| (*l, l.style.tables())).collect();
+        self.layers = layers.to_vec();
         self
     }
 
@@ -565,9 +565,9 @@ impl<'a> ReferenceRaymarch<'a> {
             let layers: Vec<_> = self
                 .layers
                 .iter()
-                .map(|(layer, tables)| {
+                .map(|layer| {
                     let m = self.geometry.gradient_to_world;
-                    layer.sample(p, tables, m, self.shading, r)
+                    layer.sample(p, m, self.shading, r)
                 })
                 .collect();
             if tissue.is_none() && label.is_none() && layers.iter().all(Option::is_none) {
