@@ -5,48 +5,21 @@
 
 mod common;
 
-use common::twin_compare::{assert_matches, compare, norm, rgba};
+use common::twin_compare::{Case, assert_matches, compare, norm, prepare, rgba};
 
 use ash::vk;
-use common::pictures::prepared_scene;
 use common::volumes::{Rng, smooth_field, volume_with_affine};
-use morphray::engine::{Derived, Engine, LabelVolume, PreparedVolume, label_colours};
+use morphray::engine::{Engine, LabelVolume, label_colours};
 use morphray::reference::raymarch::{
     ReferenceDerived, ReferenceLabels, ReferenceRaymarch, ReferenceVolume,
 };
 use morphray::scene::overlay::{LabelTable, Labels};
 use morphray::scene::uniforms::GradientStats;
-use morphray::scene::{GradientSource, Scene, VolumeGeometry};
+use morphray::scene::VolumeGeometry;
 use morphray::volume::Samples;
 use morphray::volume::phantom::{PhantomSpec, generate};
 use std::collections::BTreeSet;
 use std::sync::Arc;
-
-struct Case {
-    prepared: PreparedVolume,
-    derived: Option<Derived>,
-    scene: Scene,
-}
-
-fn prepare(
-    engine: &mut Engine,
-    volume: &morphray::volume::Volume,
-    edit: impl Fn(&mut Scene),
-) -> Case {
-    let (prepared, mut scene) = prepared_scene(engine, volume);
-    // On-the-fly gradients: the reference then needs only I_norm, also with shading.
-    scene.effects.gradient_source = GradientSource::OnTheFly;
-    edit(&mut scene);
-    let derived = scene
-        .effects
-        .derivative_outputs()
-        .map(|o| engine.derive(&prepared, o).unwrap());
-    Case {
-        prepared,
-        derived,
-        scene,
-    }
-}
 
 fn gpu_render(
     engine: &mut Engine,

@@ -6,48 +6,21 @@
 
 mod common;
 
-use common::twin_compare::{assert_matches, compare, norm, rgba};
+use common::twin_compare::{Case, assert_matches, compare, norm, prepare, rgba};
 
 use ash::vk;
-use common::pictures::prepared_scene;
 use common::volumes::volume_with_affine;
-use morphray::engine::{Derived, Engine, LayerVolume, PreparedVolume};
+use morphray::engine::{Engine, LayerVolume};
 use morphray::reference::raymarch::{
     ReferenceDerived, ReferenceLayer, ReferenceRaymarch, ReferenceVolume,
 };
 use morphray::scene::layer::{LayerColormap, LayerStyle};
 use morphray::scene::layer_grid::LayerGrid;
 use morphray::scene::uniforms::GradientStats;
-use morphray::scene::{GradientSource, Scene, VolumeGeometry};
+use morphray::scene::{Scene, VolumeGeometry};
 use morphray::volume::Samples;
 use morphray::volume::phantom::{PhantomSpec, generate};
 use std::sync::Arc;
-
-struct Case {
-    prepared: PreparedVolume,
-    derived: Option<Derived>,
-    scene: Scene,
-}
-
-fn prepare(
-    engine: &mut Engine,
-    volume: &morphray::volume::Volume,
-    edit: impl Fn(&mut Scene),
-) -> Case {
-    let (prepared, mut scene) = prepared_scene(engine, volume);
-    // On-the-fly gradients: the twin then needs only I_norm, also with shading.
-    scene.effects.gradient_source = GradientSource::OnTheFly;
-    edit(&mut scene);
-    let derived = scene
-        .effects
-        .derivative_outputs()
-        .map(|o| engine.derive(&prepared, o).unwrap());
-    Case {
-        prepared,
-        derived,
-        scene,
-    }
-}
 
 type Attached = Vec<(Arc<LayerVolume>, LayerStyle)>;
 
@@ -116,6 +89,20 @@ fn with_twin<R>(
         .unwrap()
         .with_layers(&reference);
     f(&twin)
+}
+
+/// The 29^3 phantom and a z-map whose blobs lie apart from the first test's (a positive one at
+/// layer voxel (8, 5, 9), a negative one at (3, 6, 3), a lone voxel at (2, 9, 10)).
+fn phantom_with_blobs_apart() -> (morphray::volume::Volume, morphray::volume::Volume) {
+    let phantom = generate(&PhantomSpec::cube(29)).unwrap();
+    let layer = z_map(
+        &phantom.volume.orientation.affine,
+        [13, 11, 12],
+        [8.0, 5.0, 9.0],
+        [3.0, 6.0, 3.0],
+        [2, 9, 10],
+    );
+    (phantom.volume, layer)
 }
 
 /// A layer of `dims` voxels of 2 mm, turned 12 degrees about z and shifted against the base
@@ -243,21 +230,14 @@ fn a_two_sided_z_map_on_its_own_rotated_grid_matches_the_twin_flat_and_shaded() 
 #[test]
 fn layers_where_no_tissue_is_visible_are_drawn_and_not_skipped() {
     let mut engine = common::engine();
-    let phantom = generate(&PhantomSpec::cube(29)).unwrap();
-    let layer = z_map(
-        &phantom.volume.orientation.affine,
-        [13, 11, 12],
-        [8.0, 5.0, 9.0],
-        [3.0, 6.0, 3.0],
-        [2, 9, 10],
-    );
+    let (phantom, layer) = phantom_with_blobs_apart();
     let size = (56, 40);
     let hide = |s: &mut Scene| {
         for tissue in &mut s.classification.tissues {
             tissue.visible = false;
         }
     };
-    let case = prepare(&mut engine, &phantom.volume, hide);
+    let case = prepare(&mut engine, &phantom, hide);
     assert!(case.scene.effects.quality.empty_space_skipping);
     let layers = vec![upload(&mut engine, &case, &layer, style(2.0, 5.0, 0))];
     let gpu = gpu_render(&mut engine, &case, &layers, size);
@@ -268,7 +248,7 @@ fn layers_where_no_tissue_is_visible_are_drawn_and_not_skipped() {
         "the blobs show: {red} red, {blue} blue pixels"
     );
     // Skipping off: the same picture (skipping is lossless with layers).
-    let unskipped = prepare(&mut engine, &phantom.volume, |s| {
+    let unskipped = prepare(&mut engine, &phantom, |s| {
         hide(s);
         s.effects.quality.empty_space_skipping = false;
     });
@@ -355,15 +335,8 @@ fn two_layers_draw_both_and_a_cluster_size_removes_the_lone_voxel() {
 #[test]
 fn a_pick_meets_the_layers_the_picture_shows_where_the_twin_does() {
     let mut engine = common::engine();
-    let phantom = generate(&PhantomSpec::cube(29)).unwrap();
-    let layer = z_map(
-        &phantom.volume.orientation.affine,
-        [13, 11, 12],
-        [8.0, 5.0, 9.0],
-        [3.0, 6.0, 3.0],
-        [2, 9, 10],
-    );
-    let case = prepare(&mut engine, &phantom.volume, |s| {
+    let (phantom, layer) = phantom_with_blobs_apart();
+    let case = prepare(&mut engine, &phantom, |s| {
         for tissue in &mut s.classification.tissues {
             tissue.visible = false;
         }

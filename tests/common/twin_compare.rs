@@ -1,10 +1,40 @@
-//! Comparing a GPU frame with its f64 twin, as the overlay tests (labels, layers) do: the frame
-//! as f64 RGBA, I_norm read back for the twin, PSNR and the share of pixels off by more than 0.1.
+//! Comparing a GPU frame with its f64 twin, as the overlay tests (labels, layers) do: the case
+//! (volume, scene, derived volumes), the frame as f64 RGBA, I_norm read back for the twin, PSNR
+//! and the share of pixels off by more than 0.1.
 #![allow(dead_code)]
 
 use morphray::engine::readback::read_image;
-use morphray::engine::{Engine, Frame, PreparedVolume};
+use morphray::engine::{Derived, Engine, Frame, PreparedVolume};
 use morphray::gpu::Access;
+use morphray::scene::{GradientSource, Scene};
+
+/// A volume prepared for a twin comparison, with its scene and derived volumes.
+pub struct Case {
+    pub prepared: PreparedVolume,
+    pub derived: Option<Derived>,
+    pub scene: Scene,
+}
+
+/// `volume` prepared with the adaptive scene, gradients on the fly (the twin then needs only
+/// I_norm, also with shading), edited by `edit`, and the derived volumes that scene reads.
+pub fn prepare(
+    engine: &mut Engine,
+    volume: &morphray::volume::Volume,
+    edit: impl Fn(&mut Scene),
+) -> Case {
+    let (prepared, mut scene) = super::pictures::prepared_scene(engine, volume);
+    scene.effects.gradient_source = GradientSource::OnTheFly;
+    edit(&mut scene);
+    let derived = scene
+        .effects
+        .derivative_outputs()
+        .map(|o| engine.derive(&prepared, o).unwrap());
+    Case {
+        prepared,
+        derived,
+        scene,
+    }
+}
 
 /// A float frame's pixels as f64 RGBA.
 pub fn rgba(frame: &Frame) -> Vec<[f64; 4]> {
