@@ -13,9 +13,9 @@ use morphray::engine::{Engine, LabelVolume, label_colours};
 use morphray::reference::raymarch::{
     ReferenceDerived, ReferenceLabels, ReferenceRaymarch, ReferenceVolume,
 };
+use morphray::scene::VolumeGeometry;
 use morphray::scene::overlay::{LabelTable, Labels};
 use morphray::scene::uniforms::GradientStats;
-use morphray::scene::VolumeGeometry;
 use morphray::volume::Samples;
 use morphray::volume::phantom::{PhantomSpec, generate};
 use std::collections::BTreeSet;

@@ -67,25 +67,7 @@ fn view(volume: &Path, script: &str, window: bool, extra: &[&str]) -> String {
     let dir = volume.parent().unwrap();
     let script_path = dir.join(if window { "window.txt" } else { "script.txt" });
     std::fs::write(&script_path, script).unwrap();
-    let bin = env!("CARGO_BIN_EXE_morphray");
-    let mut command = if window {
-        let found = Command::new("sh")
-            .args(["-c", "command -v xvfb-run"])
-            .output()
-            .is_ok_and(|o| o.status.success());
-        assert!(
-            found,
-            "this test needs xvfb-run (Debian: apt-get install xvfb xauth)"
-        );
-        let mut c = Command::new("xvfb-run");
-        c.args(["-a", "-s", "-screen 0 1280x1024x24", bin, "view"]);
-        c
-    } else {
-        let mut c = Command::new(bin);
-        c.env_remove("DISPLAY").env_remove("WAYLAND_DISPLAY");
-        c.args(["view", "--offscreen"]);
-        c
-    };
+    let mut command = common::viewer::view_command(window);
     let o = command
         .current_dir(dir)
         .arg(volume)
@@ -100,7 +82,6 @@ fn view(volume: &Path, script: &str, window: bool, extra: &[&str]) -> String {
         .args(["--size", "900x600", "--frames", "3", "--script"])
         .arg(&script_path)
         .args(extra)
-        .env("MORPHRAY_VALIDATION", "required")
         .output()
         .expect("morphray runs");
     common::viewer::checked_log(&o)

@@ -4,6 +4,8 @@
 //! axial slice in both conventions. Validation layer required. Fails (never skips) without a
 //! Vulkan device or xvfb-run.
 
+mod common;
+
 use morphray::volume::nifti::write_nifti1;
 use morphray::volume::{LinearMap, Samples, Volume};
 use std::path::{Path, PathBuf};
@@ -67,45 +69,13 @@ fn view(volume: &Path, script: &str, shot: &Path, window: bool) -> Output {
 fn view_with(volume: &Path, script: &str, shot: &Path, window: bool, extra: &[&str]) -> Output {
     let script_path = shot.with_extension("txt");
     std::fs::write(&script_path, script).unwrap();
-    let bin = env!("CARGO_BIN_EXE_morphray");
-    let mut command = if window {
-        let found = Command::new("sh")
-            .args(["-c", "command -v xvfb-run"])
-            .output()
-            .is_ok_and(|o| o.status.success());
-        assert!(
-            found,
-            "this test needs xvfb-run (Debian: apt-get install xvfb xauth)"
-        );
-        let mut c = Command::new("xvfb-run");
-        c.args([
-            "-a",
-            "-s",
-            "-screen 0 1280x1024x24",
-            bin,
-            "view",
-            "--layout",
-            "3d",
-        ]);
-        c
-    } else {
-        let mut c = Command::new(bin);
-        c.env_remove("DISPLAY").env_remove("WAYLAND_DISPLAY");
-        c.args(["view", "--layout", "3d", "--offscreen"]);
-        c
-    };
+    let mut command = common::viewer::view_command(window);
     let o = command
-        .args([
-            volume.to_str().unwrap(),
-            "--normalize",
-            "minmax",
-            "--size",
-            "800x500",
-        ])
+        .args(["--layout", "3d", volume.to_str().unwrap()])
+        .args(["--normalize", "minmax", "--size", "800x500"])
         .args(["--frames", "3", "--script", script_path.to_str().unwrap()])
         .args(["--screenshot", shot.to_str().unwrap()])
         .args(extra)
-        .env("MORPHRAY_VALIDATION", "required")
         .output()
         .expect("morphray runs");
     let out = String::from_utf8_lossy(&o.stdout);

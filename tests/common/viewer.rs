@@ -39,3 +39,29 @@ pub fn checked_log(o: &Output) -> String {
     );
     log
 }
+
+/// `morphray view` as a command, offscreen (no display) or, with `window`, in a window under
+/// Xvfb (fails with what to install when xvfb-run is missing); validation required.
+pub fn view_command(window: bool) -> Command {
+    let bin = env!("CARGO_BIN_EXE_morphray");
+    let mut command = if window {
+        let found = Command::new("sh")
+            .args(["-c", "command -v xvfb-run"])
+            .output()
+            .is_ok_and(|o| o.status.success());
+        assert!(
+            found,
+            "this test needs xvfb-run (Debian: apt-get install xvfb xauth)"
+        );
+        let mut c = Command::new("xvfb-run");
+        c.args(["-a", "-s", "-screen 0 1280x1024x24", bin, "view"]);
+        c
+    } else {
+        let mut c = Command::new(bin);
+        c.env_remove("DISPLAY").env_remove("WAYLAND_DISPLAY");
+        c.args(["view", "--offscreen"]);
+        c
+    };
+    command.env("MORPHRAY_VALIDATION", "required");
+    command
+}
