@@ -54,6 +54,17 @@
 // colours (cortex over white matter, the ventricles) instead of the see-through interior that
 // eq. 4 gives a flat region; the f64 twin does the same.
 //
+// Classified volume (CLASSIFIED; issue 33 item 1, the lean sample): MODE 3 classifies every
+// voxel once into an RGBA8 volume (classified_out) when the classification changes: the
+// opacity of eq. 4 at the voxel (window, |g|, curvature weight, brain mask and vessels included)
+// already corrected for the step, and its colour premultiplied by it. A DVR sample of a
+// CLASSIFIED variant is then one trilinear fetch of that volume (pre-classification: the
+// voxels' opacities are interpolated instead of classifying the interpolated value), its colour
+// the interpolated sum divided by the interpolated opacity, and the normal fetch for lighting.
+// What it costs in accuracy is measured by the accuracy study; twin:
+// reference/raymarch/classified.rs. Cut faces (capping) need f(v) per sample, so the engine
+// uses the exact variant for a scene with a cut.
+//
 // Depth picking (PICK; issue 31 item 2): one invocation marches the ray of view pixel
 // params.pick.yz exactly as the picture does and writes, instead of a colour, the ray parameter
 // (mm from the ray's origin) of the first sample at which the accumulated opacity reaches
@@ -73,7 +84,7 @@
 layout(local_size_x_id = 100, local_size_y_id = 101, local_size_z_id = 102) in;
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
-layout(constant_id = 0) const uint MODE = 0u;             // 0 DVR, 1 MIP, 2 MinIP
+layout(constant_id = 0) const uint MODE = 0u;             // 0 DVR, 1 MIP, 2 MinIP, 3 classify voxels
 layout(constant_id = 1) const uint CURVATURE_MODE = 0u;   // 0 off, 1 stored k, 2 k on the fly
 layout(constant_id = 2) const bool SHADING = false;       // Phong with gradient normals
 layout(constant_id = 3) const uint GRADIENT_MODE = 0u;    // 0 stored, 1 central on the fly, 2 Sobel on the fly
@@ -91,6 +102,7 @@ layout(constant_id = 14) const uint LIGHTING = 0u;        // 0 headlight Phong, 
 layout(constant_id = 15) const bool DEPTH_CUES = false;   // occlusion and shadow at the surface (lighting.glsl)
 layout(constant_id = 16) const bool PICK = false;         // one view pixel's first visible sample (depth picking)
 layout(constant_id = 17) const uint LAYERS = 0u;          // intensity layers drawn, 0..2 (layers.glsl)
+layout(constant_id = 18) const bool CLASSIFIED = false;   // DVR samples the classified volume (MODE 3 builds it)
 
 layout(set = 0, binding = 0) uniform sampler3D volume;          // I_norm, trilinear
 layout(set = 0, binding = 1) uniform sampler3D gradient_volume; // .r |g|, .g k (scaled, see derived_scale)
@@ -177,6 +189,11 @@ layout(set = 0, binding = 15) uniform sampler3D layer_volume_1;
 layout(set = 0, binding = 16, std430) readonly buffer LayerColours { uint rgba[]; } layer_colours;
 // One bit per brick where a layer may draw (engine/layers.rs): elsewhere no layer is read.
 layout(set = 0, binding = 17, std430) readonly buffer LayerBricks { uint bits[]; } layer_bricks;
+
+// The classified volume (CLASSIFIED reads it; MODE 3 writes it): premultiplied colour and the
+// step-corrected opacity per voxel.
+layout(set = 0, binding = 18) uniform sampler3D classified_volume;
+layout(set = 0, binding = 19, rgba8) uniform writeonly image3D classified_out;
 
 #include "geometry.glsl"
 #include "clip.glsl"
@@ -342,7 +359,49 @@ vec4 tissue_sample(vec3 p, float v, vec4 cls, vec3 direction_world, float r, boo
     return vec4(colour, a);
 }
 
+// A CLASSIFIED variant's tissue sample: `pre` is the classified volume at p (premultiplied
+// colour, corrected opacity); its colour lit like tissue_sample's.
+vec4 classified_sample(vec3 p, vec4 pre, vec3 direction_world, out vec3 normal_out) {
+    vec3 colour = min(pre.rgb / pre.a, vec3(1.0));
+    vec3 normal = vec3(0.0);
+    if (SHADING) {
+        if (GRADIENT_MODE == 0u) {
+            normal = fetch_volume(normal_volume, p).xyz;
+        } else {
+            vec3 g = GRADIENT_MODE == 1u ? gradient_central(p) : gradient_sobel(p);
+            float magnitude = length(g);
+            normal = magnitude > params.curvature.z ? g / magnitude : vec3(0.0);
+        }
+        colour = lit(colour, normal, direction_world);
+    }
+    normal_out = normal;
+    return vec4(colour, pre.a);
+}
+
+// MODE 3: the voxel of this invocation classified as a DVR sample at its centre (the variant
+// has SHADING off, so the colour is the unlit one), stored premultiplied.
+void classify_voxel() {
+    ivec3 voxel = ivec3(gl_GlobalInvocationID.xyz);
+    if (any(greaterThanEqual(voxel, ivec3(params.dims.xyz)))) {
+        return;
+    }
+    vec3 p = vec3(voxel);
+    float v = sample_volume(p);
+    vec4 cls = classify_at(p, v);
+    vec4 stored = vec4(0.0);
+    if (cls.a > 0.0) {
+        vec3 unused_normal;
+        vec4 tissue = tissue_sample(p, v, cls, vec3(0.0, 0.0, 1.0), params.march.x, false, unused_normal);
+        stored = vec4(tissue.rgb * tissue.a, tissue.a);
+    }
+    imageStore(classified_out, voxel, stored);
+}
+
 void main() {
+    if (MODE == 3u) {
+        classify_voxel();
+        return;
+    }
     uvec2 pixel = gl_GlobalInvocationID.xy;
     if (PICK) {
         // One ray: the view pixel params.pick.yz of a params.image.xy view (its own jitter
@@ -417,9 +476,17 @@ void main() {
                     i += span - 1u;
                 }
             }
-            float v = sample_volume(p);
+            float v = 0.0;
+            vec4 cls;
+            vec4 pre = vec4(0.0);
+            if (CLASSIFIED) {
+                pre = fetch_volume(classified_volume, p);
+                cls = vec4(0.0, 0.0, 0.0, pre.a);
+            } else {
+                v = sample_volume(p);
+                cls = classify_at(p, v);
+            }
             marched++;
-            vec4 cls = classify_at(p, v);
             uint label = 0u;
             vec4 label_colour = vec4(0.0);
             if (LABELS) {
@@ -463,7 +530,12 @@ void main() {
             }
             if (cls.a > 0.0) {
                 classified++;
-                vec4 tissue = tissue_sample(p, v, cls, direction_world, r, solid, normal);
+                vec4 tissue;
+                if (CLASSIFIED) {
+                    tissue = classified_sample(p, pre, direction_world, normal);
+                } else {
+                    tissue = tissue_sample(p, v, cls, direction_world, r, solid, normal);
+                }
                 composite(acc, tissue.rgb, tissue.a);
             }
             if (LABELS && label_colour.a > 0.0) {

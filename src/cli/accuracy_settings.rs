@@ -109,6 +109,14 @@ pub(super) fn settings() -> Vec<Setting> {
         s("exact classification", "classification", |x| {
             x.effects.quality.classification = ClassificationLookup::Exact
         }),
+        // The lean sample (issue 33 item 1): one fetch of the classified volume.
+        s("classified volume", "classification", |x| {
+            x.effects.quality.classification = ClassificationLookup::Volume
+        }),
+        s("classified volume, step 1", "classification", |x| {
+            x.effects.quality.classification = ClassificationLookup::Volume;
+            x.step_voxels = 1.0;
+        }),
     ];
     // Long steps in bricks of low opacity bound (issue 17 item 2): (factor, threshold in 1e-4).
     // Of the six pairs measured on the 96x112x96 phantom (ACCURACY.md), 2x/4x below 0.02 and

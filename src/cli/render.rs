@@ -158,6 +158,7 @@ pub fn recipe_from_args(args: &SceneArgs) -> Result<SceneRecipe, Error> {
     effects.quality.classification = match args.classification {
         ClassificationArg::Exact => crate::scene::ClassificationLookup::Exact,
         ClassificationArg::Table => crate::scene::ClassificationLookup::Table,
+        ClassificationArg::Volume => crate::scene::ClassificationLookup::Volume,
     };
     let recipe = SceneRecipe {
         windows: match args.windows {

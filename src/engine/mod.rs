@@ -17,6 +17,7 @@ mod brain;
 mod brain_extract;
 mod brain_fit;
 mod bricked;
+pub mod classified;
 mod denoise;
 mod derive;
 mod frames;
@@ -131,6 +132,9 @@ struct Placeholders {
     gradient: Arc<Image>,
     normal: Arc<Image>,
     occupancy: Arc<Buffer>,
+    /// Bound as the classified volume's storage binding where nothing writes it (kept in
+    /// `Access::ComputeWriteImage`).
+    storage: Arc<Image>,
 }
 
 /// What the engine has done since it was created: how often it compiled a pipeline and ran each
@@ -150,6 +154,9 @@ pub struct EngineCounters {
     pub brick_bounds_runs: u32,
     /// Frames rendered.
     pub frames: u32,
+    /// Classified-volume builds (a CLASSIFIED variant's rebuild when the classification
+    /// changed).
+    pub classify_runs: u32,
 }
 
 /// Image sizes as this device will allocate them (for plans).
@@ -206,8 +213,8 @@ impl Drop for Engine {
 
 /// The engine's 1-texel stand-ins, bound where a variant declares an input it never reads (as
 /// [`Engine::with_device`] creates them, and as the pass plan declares them): a gradient image,
-/// a normal image and an occupancy buffer.
-pub fn placeholder_descs() -> (ImageDesc, ImageDesc, BufferDesc) {
+/// a normal image, an occupancy buffer and a storage image.
+pub fn placeholder_descs() -> (ImageDesc, ImageDesc, BufferDesc, ImageDesc) {
     (
         ImageDesc::volume(
             "placeholder (gradient)",
@@ -220,6 +227,11 @@ pub fn placeholder_descs() -> (ImageDesc, ImageDesc, BufferDesc) {
             vk::Format::R8G8B8A8_SNORM,
         ),
         BufferDesc::host_storage("placeholder (occupancy)", 16),
+        ImageDesc::volume(
+            "placeholder (storage)",
+            [1, 1, 1],
+            classified::CLASSIFIED_FORMAT,
+        ),
     )
 }
 
@@ -238,11 +250,12 @@ impl Engine {
         let pipeline_cache = Arc::new(PipelineCache::new(&device, &config.pipeline_cache)?);
         let nearest = Sampler::new(&device, Filter::Nearest)?;
         let linear = Sampler::new(&device, Filter::Linear)?;
-        let (gradient, normal, occupancy) = placeholder_descs();
+        let (gradient, normal, occupancy, storage) = placeholder_descs();
         let placeholders = Placeholders {
             gradient: Image::new(&device, gradient)?,
             normal: Image::new(&device, normal)?,
             occupancy: Buffer::with_data(&device, occupancy, &[0u8; 16])?,
+            storage: Image::new(&device, storage)?,
         };
         // Their layout transition waits for the first frame (`ensure_placeholder_layouts`): an
         // engine that only compiles (`morphray kernels`, on a stub device that cannot execute)
@@ -279,10 +292,16 @@ impl Engine {
             return Ok(());
         }
         let mut rec = Recording::new(&self.device, "placeholder layouts")?;
-        // Orders nothing before (fresh images): moves both to SHADER_READ_ONLY for sampling.
+        // Orders nothing before (fresh images): moves the sampled two to SHADER_READ_ONLY, the
+        // storage one to GENERAL.
         rec.barriers(
             &[],
             &[
+                (
+                    &self.placeholders.storage,
+                    Access::Nothing,
+                    Access::ComputeWriteImage,
+                ),
                 (
                     &self.placeholders.gradient,
                     Access::Nothing,

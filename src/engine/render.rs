@@ -18,6 +18,7 @@
 //!   placeholder by mistake.
 
 use super::Engine;
+use super::classified::ClassifyKey;
 use super::derive::Derived;
 use super::occupancy::{BoundsInputs, OccupancySlots};
 use super::prepare::PreparedVolume;
@@ -49,11 +50,11 @@ pub struct RenderTarget {
     pub width: u32,
     /// Height in pixels.
     pub height: u32,
-    image: Arc<Image>,
+    pub(super) image: Arc<Image>,
     readback: Arc<Buffer>,
     uniforms: [Arc<Buffer>; FRAMES_IN_FLIGHT],
     next_uniforms: usize,
-    counters: Arc<Buffer>,
+    pub(super) counters: Arc<Buffer>,
     counters_host: Arc<Buffer>,
     // Occupancy bits and opacity bounds per frame slot, and what each holds.
     occupancy: OccupancySlots,
@@ -68,6 +69,8 @@ pub struct RenderTarget {
     pub(super) tables: super::transfer::TableSlots,
     // The matcap per frame slot (matcap.rs).
     pub(super) matcaps: super::matcap::MatcapSlots,
+    // The classified volume of CLASSIFIED variants (classified.rs).
+    pub(super) classified: Option<super::classified::ClassifiedVolume>,
     // A picking target (pick.rs): the view pixel it marches and the view's size.
     pub(super) pick: Option<(crate::scene::uniforms::PixelPick, [u32; 2])>,
     /// Compile in and read the benchmark counters (samples marched / classified) each frame.
@@ -220,6 +223,7 @@ impl Engine {
             layers: Default::default(),
             tables: Default::default(),
             matcaps: Default::default(),
+            classified: None,
             pick: None,
             count_samples: false,
             read_back: true,
@@ -375,6 +379,8 @@ impl Engine {
             variant.skip_empty = false;
             variant.long_steps = false;
         }
+        // Cut faces take f(v) per sample, which a classified volume does not hold.
+        variant.classified &= !scene.has_cut();
         let frame_slot = target.next_uniforms;
         let (label_values, label_colours, label_bits) =
             self.label_inputs(target, prepared, scene, frame_slot)?;
@@ -470,8 +476,9 @@ impl Engine {
         let transfer_table =
             self.transfer_table_input(target, scene, frame_slot, variant.classify_table)?;
         let matcap = self.matcap_input(target, frame_slot, variant.lighting == 2)?;
-        let pass = self.raymarch_pass(variant)?;
-        let inputs = RaymarchInputs {
+        let storage_placeholder = self.placeholders.storage.clone();
+        let sampled_placeholder = self.placeholders.normal.clone();
+        let mut inputs = RaymarchInputs {
             transfer_table: &transfer_table,
             matcap: &matcap,
             brain_mask: &brain_mask,
@@ -486,8 +493,20 @@ impl Engine {
             layers: [&layers.images[0], &layers.images[1]],
             layer_colours: &layers.colours,
             layer_bricks: &layers.bricks,
+            classified: &sampled_placeholder,
+            classified_out: &storage_placeholder,
             sampler: &linear,
         };
+        let classified = if variant.classified {
+            let key = ClassifyKey::new(&block, variant.classifier(), &inputs);
+            Some(self.classified_input(rec, target, variant, &inputs, &uniforms, key)?)
+        } else {
+            None
+        };
+        if let Some(image) = &classified {
+            inputs.classified = image;
+        }
+        let pass = self.raymarch_pass(variant)?;
         if count {
             rec.fill_buffer(&target.counters, 0, (COUNTER_WORDS * 4) as u64, 0);
             // Orders the zeroing before the shader's counter atomics.

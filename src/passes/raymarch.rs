@@ -22,7 +22,8 @@ pub const COUNTER_WORDS: usize = 1024;
 /// The specialization constants of one raymarch pipeline.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
 pub struct RaymarchVariant {
-    /// 0 DVR, 1 MIP, 2 MinIP.
+    /// 0 DVR, 1 MIP, 2 MinIP, 3 classify the voxels into the classified volume
+    /// ([`RaymarchVariant::classifier`]).
     pub mode: u32,
     /// 0 off, 1 stored k, 2 k on the fly.
     pub curvature_mode: u32,
@@ -59,6 +60,9 @@ pub struct RaymarchVariant {
     /// One view pixel's first visible sample instead of a picture (depth picking; the engine's
     /// `pick`, never a scene's frame).
     pub pick: bool,
+    /// DVR samples the classified volume (one RGBA8 fetch) instead of classifying each sample
+    /// (the lean sample, issue 33 item 1); set by the engine where the scene allows it.
+    pub classified: bool,
 }
 
 impl RaymarchVariant {
@@ -67,7 +71,7 @@ impl RaymarchVariant {
         let on = |b: bool| if b { "on" } else { "off" };
         let mut text = format!(
             "raymarch (MODE={}, CURVATURE={}, SHADING={}, GRADIENT={}, INTERPOLATION={}",
-            ["dvr", "mip", "minip"]
+            ["dvr", "mip", "minip", "classify"]
                 .get(self.mode as usize)
                 .unwrap_or(&"?"),
             ["off", "stored", "on-the-fly"]
@@ -98,11 +102,32 @@ impl RaymarchVariant {
             ("MATCAP", self.lighting == 2),
             ("DEPTH_CUES", self.depth_cues),
             ("PICK", self.pick),
+            ("CLASSIFIED", self.classified),
         ] {
             text.push_str(&format!(", {name}={}", on(value)));
         }
         text.push(')');
         text
+    }
+
+    /// The variant (MODE 3) that classifies the voxels into the classified volume a
+    /// CLASSIFIED variant samples: this one's classification inputs, nothing of its picture.
+    pub fn classifier(&self) -> RaymarchVariant {
+        RaymarchVariant {
+            mode: 3,
+            shading: false,
+            count_samples: false,
+            skip_empty: false,
+            long_steps: false,
+            bricked: false,
+            labels: false,
+            layers: 0,
+            lighting: 0,
+            depth_cues: false,
+            pick: false,
+            classified: false,
+            ..*self
+        }
     }
 
     /// Trilinear fetches per marched sample and per classified sample (for cost models).
@@ -113,6 +138,10 @@ impl RaymarchVariant {
         };
         if self.mode != 0 {
             return (per_fetch, 0.0);
+        }
+        if self.classified {
+            // The classified volume, then the normals where shaded.
+            return (per_fetch, per_fetch * self.shading as u32 as f64);
         }
         // The vessel channel reads the vesselness, the brain mask its mask, at every marched
         // sample.
@@ -132,6 +161,7 @@ impl RaymarchVariant {
 }
 
 /// Sampled inputs of one raymarch (images in `Access::ComputeSampled`).
+#[derive(Clone, Copy)]
 pub struct RaymarchInputs<'a> {
     /// I_norm.
     pub volume: &'a Arc<Image>,
@@ -158,6 +188,11 @@ pub struct RaymarchInputs<'a> {
     pub layer_colours: &'a Arc<Buffer>,
     /// One bit per base brick where a layer may draw, or a placeholder.
     pub layer_bricks: &'a Arc<Buffer>,
+    /// The classified volume a CLASSIFIED variant samples, or a placeholder.
+    pub classified: &'a Arc<Image>,
+    /// The classified volume MODE 3 writes (`Access::ComputeWriteImage`), or the storage
+    /// placeholder.
+    pub classified_out: &'a Arc<Image>,
     /// The transfer-function table (`scene::transfer_table`), or a placeholder.
     pub transfer_table: &'a Arc<Buffer>,
     /// The matcap (`scene::matcap`) of a matcap-lit variant, or a placeholder.
@@ -205,6 +240,7 @@ impl RaymarchPass {
                 ("DEPTH_CUES", SpecValue::Bool(variant.depth_cues)),
                 ("PICK", SpecValue::Bool(variant.pick)),
                 ("LAYERS", SpecValue::U32(variant.layers)),
+                ("CLASSIFIED", SpecValue::Bool(variant.classified)),
             ],
             cache,
         )?;
@@ -222,8 +258,39 @@ impl RaymarchPass {
         target: &Arc<Image>,
         counters: &Arc<Buffer>,
     ) -> GpuResult<()> {
+        let set = self.descriptor_set(inputs, uniforms, target, counters)?;
+        // Moves the target to GENERAL for storage writes; the last frame's pixels are not needed.
+        rec.barriers(&[], &[(target, Access::Nothing, Access::ComputeWriteImage)]);
+        let [w, h, _] = target.extent();
+        let groups = self.pipeline.workgroups_for([w, h, 1]);
+        rec.dispatch(&self.pipeline, &[set], &[], groups)
+    }
+
+    /// Records a classifier's (MODE 3) pass: every voxel of `inputs.classified_out` (in
+    /// `Access::ComputeWriteImage`, a `dims` volume) written. `target` and `counters` are bound
+    /// but not touched; `target` must be in `Access::ComputeWriteImage`.
+    pub fn record_classify(
+        &self,
+        rec: &mut Recording,
+        inputs: &RaymarchInputs<'_>,
+        uniforms: &Arc<Buffer>,
+        target: &Arc<Image>,
+        counters: &Arc<Buffer>,
+    ) -> GpuResult<()> {
+        let set = self.descriptor_set(inputs, uniforms, target, counters)?;
+        let groups = self.pipeline.workgroups_for(inputs.classified_out.extent());
+        rec.dispatch(&self.pipeline, &[set], &[], groups)
+    }
+
+    fn descriptor_set(
+        &self,
+        inputs: &RaymarchInputs<'_>,
+        uniforms: &Arc<Buffer>,
+        target: &Arc<Image>,
+        counters: &Arc<Buffer>,
+    ) -> GpuResult<Arc<DescriptorSet>> {
         let s = inputs.sampler;
-        let set = DescriptorSet::new(
+        DescriptorSet::new(
             &self.pipeline,
             0,
             &[
@@ -281,13 +348,16 @@ impl RaymarchPass {
                     "layer_bricks",
                     Resource::Buffer(inputs.layer_bricks.clone()),
                 ),
+                (
+                    "classified_volume",
+                    Resource::CombinedImageSampler(inputs.classified.clone(), s.clone()),
+                ),
+                (
+                    "classified_out",
+                    Resource::StorageImage(inputs.classified_out.clone()),
+                ),
             ],
-        )?;
-        // Moves the target to GENERAL for storage writes; the last frame's pixels are not needed.
-        rec.barriers(&[], &[(target, Access::Nothing, Access::ComputeWriteImage)]);
-        let [w, h, _] = target.extent();
-        let groups = self.pipeline.workgroups_for([w, h, 1]);
-        rec.dispatch(&self.pipeline, &[set], &[], groups)
+        )
     }
 }
 

@@ -115,6 +115,11 @@ pub enum ClassificationLookup {
     Exact,
     /// One linear lookup in a 4096-entry table of the window sums (`transfer_table`).
     Table,
+    /// Every voxel classified once into an RGBA8 volume (eq. 4's opacity at the voxel, step
+    /// corrected, and its colour) when the classification changes; a sample is one trilinear
+    /// fetch of it (pre-classification; the lean sample of issue 33 item 1). Scenes with a cut
+    /// are drawn with the table (cut faces need f(v) per sample).
+    Volume,
 }
 
 /// The quality knobs: what accuracy costs in time (the accuracy study varies each).
@@ -299,6 +304,12 @@ impl Scene {
             Some(cut) => cut.add_to(&self.clip, rays, bounds).unwrap_or(self.clip),
             None => self.clip,
         }
+    }
+
+    /// True when the scene cuts the volume (crop box, clip planes or a cut-away): its cut faces
+    /// take the window opacity per sample, so a classified volume cannot draw it.
+    pub fn has_cut(&self) -> bool {
+        !self.clip.is_full() || self.cutaway.is_some()
     }
 
     /// The sampling distance the raymarch uses: `step_voxels`, or 0.5 when it is not a finite

@@ -55,10 +55,15 @@ impl RaymarchVariant {
             // Set by the engine where intensity layers are attached to the render target.
             layers: 0,
             vessels: dvr && effects.vessels,
-            long_steps: dvr && q.empty_space_skipping && q.long_steps.is_on(),
+            // A classified volume holds the opacity of one step: no longer steps with it.
+            long_steps: dvr
+                && q.empty_space_skipping
+                && q.long_steps.is_on()
+                && (q.classification != ClassificationLookup::Volume || bricked),
             // Set by the engine where the derived volumes hold a brain mask in use.
             brain: false,
-            classify_table: dvr && q.classification == ClassificationLookup::Table,
+            // The classified volume is built through the table (the classifier variant).
+            classify_table: dvr && q.classification != ClassificationLookup::Exact,
             lighting: match effects.lighting.model {
                 LightModel::Studio if dvr && effects.shading => 1,
                 LightModel::Matcap if dvr && effects.shading => 2,
@@ -66,6 +71,9 @@ impl RaymarchVariant {
             },
             depth_cues: dvr && effects.lighting.depth_cues,
             pick: false,
+            // A whole volume only (an atlas would need a classified atlas); the engine turns it
+            // off for a scene with a cut.
+            classified: dvr && q.classification == ClassificationLookup::Volume && !bricked,
         }
     }
 }

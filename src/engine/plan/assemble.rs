@@ -135,10 +135,11 @@ pub(super) fn build(
 /// What every engine holds whatever the scene: the stand-ins bound where a variant declares an
 /// input it never reads, and the device's pass breadcrumbs (one slot per reusable submission).
 fn engine_fixed() -> PassDeclaration {
-    let (gradient, normal, occupancy) = crate::engine::placeholder_descs();
+    let (gradient, normal, occupancy, storage) = crate::engine::placeholder_descs();
     PassDeclaration::allocations(vec![
         Declared::held_image(gradient),
         Declared::held_image(normal),
+        Declared::held_image(storage),
         Declared::held(occupancy),
         Declared::held(recycler::breadcrumb_desc()),
     ])
@@ -423,6 +424,12 @@ fn raymarch(ctx: &PlanContext) -> PassDeclaration {
                 crate::scene::transfer_table::TABLE_BYTES,
             ))
         }));
+    }
+    if variant.classified {
+        // The classified volume (engine/classified.rs), one per render target.
+        allocations.push(Declared::held_image(
+            crate::engine::classified::classified_desc(ctx.input.dims),
+        ));
     }
     if variant.lighting == 2 {
         // The matcap, one per frame in flight (engine/matcap.rs).

@@ -122,9 +122,10 @@ fn denoising_raises_the_peak_by_its_images_and_holds_nothing_more() {
 }
 
 /// Allocations every plan holds whatever the scene (stand-ins, target, uniforms, counters).
-const FIXED: [&str; 10] = [
+const FIXED: [&str; 11] = [
     "placeholder (gradient)",
     "placeholder (normals)",
+    "placeholder (storage)",
     "placeholder (occupancy)",
     "pass breadcrumbs",
     "render target",
@@ -171,6 +172,25 @@ fn dvr_plans_hold_a_table_per_frame_in_flight_and_mip_none() {
     let mut exact = f16_effects();
     exact.quality.classification = crate::scene::ClassificationLookup::Exact;
     assert_eq!(tables(&plan(exact, &input(), &TexelSizes).unwrap()), 0);
+}
+
+#[test]
+fn a_classified_volume_is_planned_at_four_bytes_a_voxel() {
+    let effects = Effects {
+        quality: crate::scene::Quality {
+            classification: crate::scene::ClassificationLookup::Volume,
+            ..Default::default()
+        },
+        ..f16_effects()
+    };
+    let p = plan(effects, &input(), &TexelSizes).unwrap();
+    assert_eq!(
+        held(&p, "classified volume"),
+        ("R8G8B8A8_UNORM".into(), 4 * N)
+    );
+    assert!(p.variants.iter().any(|v| v.contains("CLASSIFIED=on")));
+    let p = plan(f16_effects(), &input(), &TexelSizes).unwrap();
+    assert!(p.allocations.iter().all(|a| a.name != "classified volume"));
 }
 
 #[test]

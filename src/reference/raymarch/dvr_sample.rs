@@ -37,7 +37,7 @@ pub struct DvrSample {
 
 impl ReferenceRaymarch<'_> {
     /// |g|, k and the shading normal at `p` (k and the normal are 0 when their effect is off).
-    fn derivatives(&self, p: DVec3, v: f64) -> (f64, f64, DVec3) {
+    pub(super) fn derivatives(&self, p: DVec3, v: f64) -> (f64, f64, DVec3) {
         let m = self.geometry.gradient_to_world;
         let sample = |q: DVec3| self.value(q);
         let (magnitude, mut normal, central) = if self.on_the_fly {

@@ -61,6 +61,7 @@
 //! `formulas.rs` (per-sample formulas), this file (rays, samples, pixels).
 
 mod brain;
+mod classified;
 mod dvr_sample;
 mod formulas;
 mod inputs;
@@ -177,6 +178,9 @@ pub struct ReferenceRaymarch<'a> {
     table: Option<crate::scene::transfer_table::TransferTable>,
     // Lighting model, depth cues and their parameters (issue 34).
     lighting: lighting::ReferenceLighting,
+    // DVR from the classified volume (issue 33 item 1), built on first use (classified.rs).
+    classified_on: bool,
+    classified: std::sync::OnceLock<Vec<[f64; 4]>>,
 }
 
 impl<'a> ReferenceRaymarch<'a> {
@@ -238,6 +242,10 @@ impl<'a> ReferenceRaymarch<'a> {
 
         let effects = scene.effects;
         let dvr = effects.mode == RenderMode::Dvr;
+        // The engine's rule (engine/render.rs): a classified volume except for a cut scene.
+        let classified_on = dvr
+            && effects.quality.classification == ClassificationLookup::Volume
+            && !scene.has_cut();
         // Specialization constants: curvature and shading exist only in the DVR variant.
         let curvature_mode = effects.curvature_mode();
         let curvature_on = curvature_mode != CurvatureMode::Off;
@@ -363,10 +371,13 @@ impl<'a> ReferenceRaymarch<'a> {
             brain_mask: None,
             long_step_setting: {
                 let q = effects.quality;
-                (dvr && q.empty_space_skipping && q.long_steps.is_on()).then_some(q.long_steps)
+                (dvr && q.empty_space_skipping && q.long_steps.is_on() && !classified_on)
+                    .then_some(q.long_steps)
             },
+            classified_on,
+            classified: std::sync::OnceLock::new(),
             long_steps: None,
-            table: (dvr && effects.quality.classification == ClassificationLookup::Table)
+            table: (dvr && effects.quality.classification != ClassificationLookup::Exact)
                 .then(|| crate::scene::transfer_table::TransferTable::new(&classification)),
         })
     }
@@ -557,7 +568,11 @@ impl<'a> ReferenceRaymarch<'a> {
             let r = self.opacity_exponent * f64::from(span);
             let p = plan.position(i);
             let solid = plan.parameter(i) < plan.cap_end;
-            let tissue = self.dvr_sample_with(p, plan.view_direction, r, solid);
+            let tissue = if self.classified_on {
+                self.classified_sample(p, plan.view_direction)
+            } else {
+                self.dvr_sample_with(p, plan.view_direction, r, solid)
+            };
             let label = self.labels.and_then(|labels| {
                 let m = self.geometry.gradient_to_world;
                 labels.sample(self.volume.dims.map(|d| d as usize), p, m, self.shading, r)
