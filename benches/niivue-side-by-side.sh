@@ -20,6 +20,8 @@
 #          (fresh browser, fresh profile, no shader disk cache); browser launch reported apart.
 #          morphray = `bench --trials 1` cold "first pixel" (fresh process, empty pipeline cache,
 #          process start -> first frame's fence).
+# LEAN_FLAGS (e.g. "--classification volume"): morphray's frame also with these flags, right
+#   after its default one in each round (file morphray-lean-*; a "lean" row in the table).
 # Pictures (500x500, both renderers' defaults): NiiVue canvas screenshot at its default view;
 # morphray render --projection orthographic --azimuth 250 --elevation 10 (morphray's azimuth 270
 # is the patient's left; NiiVue's 110 shows the left hemisphere turned 20 degrees to anterior).
@@ -64,6 +66,12 @@ for r in $(seq "$FIRST_ROUND" $((FIRST_ROUND + ROUNDS - 1))); do
       "$MORPHRAY" bench "${VOL[$v]}" --size "$s" --frames "$FRAMES" --repeat 1 --trials $trials \
         --shading on > "$OUT/raw/morphray-$v-$s-r$r.txt" 2>&1
       grep -E "^raymarch:|total \(spawn" "$OUT/raw/morphray-$v-$s-r$r.txt" | cut -c1-100
+      if [ -n "${LEAN_FLAGS:-}" ]; then
+          # shellcheck disable=SC2086 # the flags are words
+          "$MORPHRAY" bench "${VOL[$v]}" --size "$s" --frames "$FRAMES" --repeat 1 --trials 0 \
+            --shading on $LEAN_FLAGS > "$OUT/raw/morphray-lean-$v-$s-r$r.txt" 2>&1
+          grep -E "^raymarch:" "$OUT/raw/morphray-lean-$v-$s-r$r.txt" | cut -c1-100
+      fi
   done
 done
 

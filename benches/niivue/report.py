@@ -21,6 +21,7 @@ for n in nv:
     if not frame:
         continue
     r = rows.setdefault(key, {"nv": [], "nvc": [], "nvl": [], "m": [], "mc": [], "rf": [], "rc": [],
+                              "lean": [], "rl": [],
                               "nvdev": n["renderer"], "mdev": device.group(1) if device else "?"})
     m, mc = float(frame.group(1)), float(cold.group(1)) if cold else None
     r["nv"].append(n["frameMedianMs"]); r["nvc"].append(n["tFirstFrame"])
@@ -29,6 +30,12 @@ for n in nv:
     r["rf"].append(m / n["frameMedianMs"])
     if mc is not None:
         r["mc"].append(mc); r["rc"].append(mc / n["tFirstFrame"])
+    # The same round's frame with LEAN_FLAGS, when the script ran it.
+    lean_path = f"{raw}/morphray-lean-{n['name']}-{n['size']}-r{n['round']}.txt"
+    lean = re.search(r"^raymarch: ([\d.]+) ms GPU median", open(lean_path).read(), re.M) \
+        if glob.glob(lean_path) else None
+    if lean:
+        r["lean"].append(float(lean.group(1))); r["rl"].append(float(lean.group(1)) / n["frameMedianMs"])
 
 med = st.median
 print("| volume | size | renderer | API -> device | frame ms (median) | first frame, cold (s) | morphray / NiiVue (frame; cold) | rounds |")
@@ -41,5 +48,8 @@ for (name, size), r in sorted(rows.items()):
     rc = f"{med(r['rc']):.2f}x" if r["rc"] else "-"
     print(f"| {name} | {size} | morphray (step 0.5, shading on) | Vulkan -> {r['mdev']} | "
           f"{med(r['m']):.0f} | {mc} | {med(r['rf']):.2f}x; {rc} | {len(r['m'])} |")
+    if r["lean"]:
+        print(f"| {name} | {size} | morphray, LEAN_FLAGS | Vulkan -> {r['mdev']} | "
+              f"{med(r['lean']):.0f} | - | {med(r['rl']):.2f}x; - | {len(r['lean'])} |")
 print()
 print("NiiVue renderer string:", ", ".join(sorted({r["nvdev"] for r in rows.values()})))

@@ -189,13 +189,23 @@ pub(super) fn first_frame_keys(
         && !bricked
         && effects.brain != crate::passes::brain::BrainSwitch::Off
         && effects.derivative_outputs().is_some();
+    let mut variants = vec![raymarch];
     if extracting {
-        keys.push(PipelineKey::Raymarch(RaymarchVariant {
-            brain: true,
-            ..raymarch
-        }));
+        variants.insert(
+            0,
+            RaymarchVariant {
+                brain: true,
+                ..raymarch
+            },
+        );
     }
-    keys.push(PipelineKey::Raymarch(raymarch));
+    for variant in variants {
+        // A classified variant's first frame runs its classifier first (engine/classified.rs).
+        if variant.classified {
+            keys.push(PipelineKey::Raymarch(variant.classifier()));
+        }
+        keys.push(PipelineKey::Raymarch(variant));
+    }
     keys
 }
 
