@@ -6,11 +6,10 @@
 mod common;
 
 use ash::vk;
-use common::twin_compare::{Case, assert_matches, compare, norm, prepare, rgba};
+use common::twin_compare::{Case, TwinInputs, assert_matches, compare, prepare, rgba};
 use morphray::engine::Engine;
-use morphray::reference::raymarch::{ReferenceDerived, ReferenceRaymarch, ReferenceVolume};
-use morphray::scene::uniforms::GradientStats;
-use morphray::scene::{ClassificationLookup, Scene, VolumeGeometry};
+use morphray::reference::raymarch::{ReferenceDerived, ReferenceRaymarch};
+use morphray::scene::{ClassificationLookup, Scene};
 use morphray::volume::phantom::{PhantomSpec, generate};
 
 const SIZE: (u32, u32) = (64, 48);
@@ -26,20 +25,13 @@ fn gpu_render(engine: &mut Engine, case: &Case, scene: &Scene) -> Vec<[f64; 4]> 
 }
 
 fn reference(engine: &Engine, case: &Case, scene: &Scene) -> Vec<[f64; 4]> {
-    let norm = norm(engine, &case.prepared);
-    let geometry = VolumeGeometry::new(case.prepared.dims, case.prepared.affine).unwrap();
-    let volume = ReferenceVolume::new(case.prepared.dims, &norm).unwrap();
-    let stats = case.derived.as_ref().map_or(
-        GradientStats {
-            max_magnitude: 0.0,
-            tau: 0.0,
-        },
-        |d| d.stats,
-    );
+    let inputs = TwinInputs::of(engine, case);
+    let volume = inputs.volume();
+    let (geometry, stats) = (&inputs.geometry, &inputs.stats);
     ReferenceRaymarch::new(
         scene,
-        &geometry,
-        &stats,
+        geometry,
+        stats,
         &volume,
         &ReferenceDerived::NONE,
         SIZE.0,

@@ -5,17 +5,13 @@
 
 mod common;
 
-use common::twin_compare::{Case, assert_matches, compare, norm, prepare, rgba};
+use common::twin_compare::{Case, TwinInputs, assert_matches, compare, prepare, rgba};
 
 use ash::vk;
 use common::volumes::{Rng, smooth_field, volume_with_affine};
 use morphray::engine::{Engine, LabelVolume, label_colours};
-use morphray::reference::raymarch::{
-    ReferenceDerived, ReferenceLabels, ReferenceRaymarch, ReferenceVolume,
-};
-use morphray::scene::VolumeGeometry;
+use morphray::reference::raymarch::{ReferenceDerived, ReferenceLabels, ReferenceRaymarch};
 use morphray::scene::overlay::{LabelTable, Labels};
-use morphray::scene::uniforms::GradientStats;
 use morphray::volume::Samples;
 use morphray::volume::phantom::{PhantomSpec, generate};
 use std::collections::BTreeSet;
@@ -49,22 +45,15 @@ fn reference(
     colours: &[u32],
     (w, h): (u32, u32),
 ) -> Vec<[f64; 4]> {
-    let norm = norm(engine, &case.prepared);
-    let geometry = VolumeGeometry::new(case.prepared.dims, case.prepared.affine).unwrap();
-    let volume = ReferenceVolume::new(case.prepared.dims, &norm).unwrap();
-    let stats = case.derived.as_ref().map_or(
-        GradientStats {
-            max_magnitude: 0.0,
-            tau: 0.0,
-        },
-        |d| d.stats,
-    );
+    let inputs = TwinInputs::of(engine, case);
+    let volume = inputs.volume();
+    let (geometry, stats) = (&inputs.geometry, &inputs.stats);
     let derived = ReferenceDerived {
         gradient_magnitude: None,
         curvature: None,
         normals: None,
     };
-    ReferenceRaymarch::new(&case.scene, &geometry, &stats, &volume, &derived, w, h)
+    ReferenceRaymarch::new(&case.scene, geometry, stats, &volume, &derived, w, h)
         .unwrap()
         .with_labels(ReferenceLabels {
             values: &labels.values,

@@ -6,18 +6,15 @@
 
 mod common;
 
-use common::twin_compare::{Case, assert_matches, compare, norm, prepare, rgba};
+use common::twin_compare::{Case, TwinInputs, assert_matches, compare, prepare, rgba};
 
 use ash::vk;
 use common::volumes::volume_with_affine;
 use morphray::engine::{Engine, LayerVolume};
-use morphray::reference::raymarch::{
-    ReferenceDerived, ReferenceLayer, ReferenceRaymarch, ReferenceVolume,
-};
+use morphray::reference::raymarch::{ReferenceDerived, ReferenceLayer, ReferenceRaymarch};
+use morphray::scene::Scene;
 use morphray::scene::layer::{LayerColormap, LayerStyle};
 use morphray::scene::layer_grid::LayerGrid;
-use morphray::scene::uniforms::GradientStats;
-use morphray::scene::{Scene, VolumeGeometry};
 use morphray::volume::Samples;
 use morphray::volume::phantom::{PhantomSpec, generate};
 use std::sync::Arc;
@@ -57,16 +54,9 @@ fn with_twin<R>(
     (w, h): (u32, u32),
     f: impl FnOnce(&ReferenceRaymarch) -> R,
 ) -> R {
-    let norm = norm(engine, &case.prepared);
-    let geometry = VolumeGeometry::new(case.prepared.dims, case.prepared.affine).unwrap();
-    let volume = ReferenceVolume::new(case.prepared.dims, &norm).unwrap();
-    let stats = case.derived.as_ref().map_or(
-        GradientStats {
-            max_magnitude: 0.0,
-            tau: 0.0,
-        },
-        |d| d.stats,
-    );
+    let inputs = TwinInputs::of(engine, case);
+    let volume = inputs.volume();
+    let (geometry, stats) = (&inputs.geometry, &inputs.stats);
     let codes: Vec<_> = layers.iter().map(|(l, _)| l.grid.codes()).collect();
     let tables: Vec<_> = layers.iter().map(|(_, style)| style.tables()).collect();
     let reference: Vec<ReferenceLayer> = layers
@@ -85,7 +75,7 @@ fn with_twin<R>(
         })
         .collect();
     let derived = ReferenceDerived::NONE;
-    let twin = ReferenceRaymarch::new(&case.scene, &geometry, &stats, &volume, &derived, w, h)
+    let twin = ReferenceRaymarch::new(&case.scene, geometry, stats, &volume, &derived, w, h)
         .unwrap()
         .with_layers(&reference);
     f(&twin)

@@ -6,7 +6,9 @@
 use morphray::engine::readback::read_image;
 use morphray::engine::{Derived, Engine, Frame, PreparedVolume};
 use morphray::gpu::Access;
-use morphray::scene::{GradientSource, Scene};
+use morphray::reference::raymarch::ReferenceVolume;
+use morphray::scene::uniforms::GradientStats;
+use morphray::scene::{GradientSource, Scene, VolumeGeometry};
 
 /// A volume prepared for a twin comparison, with its scene and derived volumes.
 pub struct Case {
@@ -33,6 +35,35 @@ pub fn prepare(
         prepared,
         derived,
         scene,
+    }
+}
+
+/// What every twin of a case starts from: I_norm read back, the geometry and the gradient
+/// statistics (zero without derived volumes).
+pub struct TwinInputs {
+    pub norm: Vec<f64>,
+    pub geometry: VolumeGeometry,
+    pub stats: GradientStats,
+}
+
+impl TwinInputs {
+    pub fn of(engine: &Engine, case: &Case) -> Self {
+        TwinInputs {
+            norm: norm(engine, &case.prepared),
+            geometry: VolumeGeometry::new(case.prepared.dims, case.prepared.affine).unwrap(),
+            stats: case.derived.as_ref().map_or(
+                GradientStats {
+                    max_magnitude: 0.0,
+                    tau: 0.0,
+                },
+                |d| d.stats,
+            ),
+        }
+    }
+
+    /// I_norm as the twin's volume.
+    pub fn volume(&self) -> ReferenceVolume<'_> {
+        ReferenceVolume::new(self.geometry.dims, &self.norm).unwrap()
     }
 }
 
