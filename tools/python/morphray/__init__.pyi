@@ -87,7 +87,7 @@ class Volume:
         cutaway: Union[Literal["centre"], Tuple[float, float, float], str] = ...,
         gradient: Literal["precomputed", "on-the-fly"] = ...,
         derived_precision: Literal["8bit", "f16", "f32"] = ...,
-        classification: Literal["table", "exact"] = ...,
+        classification: Literal["table", "exact", "volume"] = ...,
         background: Colour = ...,
         no_jitter: bool = ...,
         jitter: bool = ...,
