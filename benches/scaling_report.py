@@ -2,7 +2,8 @@
 """The side-by-side table and the scaling plot of one `benches/device-scaling.sh` run.
 
 Usage: python3 benches/scaling_report.py RUN_DIR
-Reads RUN_DIR/bench-*.json (morphray) and RUN_DIR/peers-*/peers.json (VTK, pygfx), prints a
+Reads RUN_DIR/bench-*.json (morphray) and RUN_DIR/peers-*/peers.json (VTK, pygfx; a volume's
+peers may come from several calls, peers-NAME-nii-gz*/, merged), prints a
 Markdown table, and writes RUN_DIR/scaling.svg: voxels (log) against morphray's and the peers'
 frame time and time to first pixel (log), drawn by hand (no plotting library needed).
 """
@@ -30,7 +31,9 @@ SIZE = "x".join(str(v) for v in first["image"]) if isinstance(first["image"], li
 rows = []
 for name in ORDER:
     bench = load(os.path.join(run, f"bench-{name}-nii-gz.json"))
-    peers = {p["peer"]: p for p in load(os.path.join(run, f"peers-{name}-nii-gz", "peers.json"))["summary"]}
+    peers = {p["peer"]: p
+             for path in sorted(glob.glob(os.path.join(run, f"peers-{name}-nii-gz*", "peers.json")))
+             for p in load(path)["summary"]}
     dims = bench["dims"]
     voxels = dims[0] * dims[1] * dims[2]
     rm = bench["raymarch"]

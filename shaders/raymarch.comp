@@ -103,6 +103,7 @@ layout(constant_id = 15) const bool DEPTH_CUES = false;   // occlusion and shado
 layout(constant_id = 16) const bool PICK = false;         // one view pixel's first visible sample (depth picking)
 layout(constant_id = 17) const uint LAYERS = 0u;          // intensity layers drawn, 0..2 (layers.glsl)
 layout(constant_id = 18) const bool CLASSIFIED = false;   // DVR samples the classified volume (MODE 3 builds it)
+layout(constant_id = 19) const bool TEXEL_LOOKUPS = false; // occupancy and table read as texel buffers
 
 layout(set = 0, binding = 0) uniform sampler3D volume;          // I_norm, trilinear
 layout(set = 0, binding = 1) uniform sampler3D gradient_volume; // .r |g|, .g k (scaled, see derived_scale)
@@ -163,8 +164,13 @@ const uint COUNTER_SLOTS = 512u;
 layout(set = 0, binding = 5, std430) buffer Counters { uint slots[]; } counters;
 
 // One bit per brick, set where a visible tissue can have non-zero opacity (SKIP_EMPTY only),
-// then (LONG_STEPS) one f32 opacity bound per brick (brick_bounds.comp's layout).
+// then (LONG_STEPS) one f32 opacity bound per brick (brick_bounds.comp's layout). Read per
+// sample: with TEXEL_LOOKUPS (CPU devices) through the same buffer's R32_UINT texel view, since
+// there a storage-buffer read at a per-lane index is a loop over the lanes and a texel fetch one
+// vectorized gather (llvmpipe); GPUs keep the storage buffer (Intel's compiler schedules it in
+// fewer cycles than a sampler message). Both are bound; the constant picks one.
 layout(set = 0, binding = 6, std430) readonly buffer Occupancy { uint bits[]; } occupancy;
+layout(set = 0, binding = 20) uniform usamplerBuffer occupancy_texels;
 
 // Slot + 1 of each storage brick in the atlases, 0 when not resident (BRICKED only).
 layout(set = 0, binding = 7, std430) readonly buffer BrickTable { uint slots[]; } brick_table;
@@ -176,8 +182,10 @@ layout(set = 0, binding = 9, std430) readonly buffer LabelColours { uint rgba[];
 
 // The transfer-function table (CLASSIFY_TABLE only; src/scene/transfer_table.rs): 4096 entries
 // of the tissues' opacity-weighted sums (rgb: colour sum, a: weight sum) at v = i / 4095, then
-// 4096 of the head layer's.
+// 4096 of the head layer's; with TEXEL_LOOKUPS read through the same buffer's RGBA32F texel view
+// (as the occupancy above).
 layout(set = 0, binding = 12, std430) readonly buffer TransferTable { vec4 entries[]; } transfer_table;
+layout(set = 0, binding = 21) uniform samplerBuffer transfer_texels;
 
 // The matcap (LIGHTING == 2 only; src/scene/matcap.rs): MATCAP_SIDE^2 RGBA8 texels, row 0 on top.
 layout(set = 0, binding = 13, std430) readonly buffer Matcap { uint texels[]; } matcap;
@@ -297,15 +305,20 @@ float brick_exit(ivec3 brick, vec3 origin, vec3 direction) {
     return t_exit;
 }
 
+// Word i of the occupancy buffer, through the binding TEXEL_LOOKUPS picks.
+uint occupancy_word(uint i) {
+    return TEXEL_LOOKUPS ? texelFetch(occupancy_texels, int(i)).r : occupancy.bits[i];
+}
+
 bool brick_occupied(uint b) {
-    return ((occupancy.bits[b >> 5u] >> (b & 31u)) & 1u) != 0u;
+    return ((occupancy_word(b >> 5u) >> (b & 31u)) & 1u) != 0u;
 }
 
 // The opacity bound of brick b, after the bits (brick_bounds.comp's layout).
 float brick_bound(uint b) {
     uint count = params.bricks.x * params.bricks.y * params.bricks.z;
     uint words = max((count + 31u) / 32u, 1u);
-    return uintBitsToFloat(occupancy.bits[words + b]);
+    return uintBitsToFloat(occupancy_word(words + b));
 }
 
 // One classified tissue sample's colour (rgb, shaded with SHADING) and step-corrected opacity

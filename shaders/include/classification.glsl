@@ -17,11 +17,16 @@ float window_weight(float v, vec4 window) {
 // half 1 the head layer's, linearly interpolated between entries (twin: TransferTable::lookup).
 const uint TABLE_ENTRIES = 4096u;
 
+// Entry i of the table, through the binding TEXEL_LOOKUPS picks (raymarch.comp).
+vec4 table_entry(uint i) {
+    return TEXEL_LOOKUPS ? texelFetch(transfer_texels, int(i)) : transfer_table.entries[i];
+}
+
 vec4 table_sums(uint half_index, float v) {
     float x = clamp(v, 0.0, 1.0) * float(TABLE_ENTRIES - 1u);
     uint i = min(uint(x), TABLE_ENTRIES - 2u);
     uint base = half_index * TABLE_ENTRIES + i;
-    return mix(transfer_table.entries[base], transfer_table.entries[base + 1u], x - float(i));
+    return mix(table_entry(base), table_entry(base + 1u), x - float(i));
 }
 
 vec4 classify_sums(float v, float vessel_weight, float brain) {

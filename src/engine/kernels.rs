@@ -67,13 +67,14 @@ const KINDS: [SampleKind; 5] = [
     SampleKind::F32,
 ];
 
-/// Every pipeline key a scene can select, analysis passes first.
-fn all_keys() -> Vec<PipelineKey> {
+/// Every pipeline key a scene can select on a device that does (or does not) prefer texel
+/// lookups, analysis passes first.
+fn all_keys(texel_lookups: bool) -> Vec<PipelineKey> {
     let mut keys: Vec<PipelineKey> = KINDS.into_iter().map(PipelineKey::Kind).collect();
     let mut seen: HashSet<PipelineKey> = keys.iter().copied().collect();
     for effects in every_effects() {
         for bricked in [false, true] {
-            for key in first_frame_keys(&effects, None, bricked) {
+            for key in first_frame_keys(&effects, None, bricked, texel_lookups) {
                 if seen.insert(key) {
                     keys.push(key);
                 }
@@ -184,13 +185,14 @@ impl Engine {
     /// Compiles `set`'s kernels (through the engine's pipeline cache; nothing is dispatched)
     /// and reports each with the driver's statistics.
     pub fn kernels(&mut self, set: KernelSet) -> GpuResult<Vec<KernelReport>> {
+        let texel_lookups = self.texel_lookups();
         let keys = match set {
             KernelSet::Plan {
                 effects,
                 kind,
                 bricked,
-            } => first_frame_keys(&effects, Some(kind), bricked),
-            KernelSet::All => all_keys(),
+            } => first_frame_keys(&effects, Some(kind), bricked, texel_lookups),
+            KernelSet::All => all_keys(texel_lookups),
         };
         let mut reports = Vec::new();
         for key in keys {

@@ -102,6 +102,11 @@ pub struct EngineConfig {
     /// the frame asked for (the command line's default when no `--frame` is given; off by
     /// default, so a caller that picks a frame gets that frame).
     pub epi_mean_frame: bool,
+    /// Read the raymarch's per-sample tables (occupancy, transfer function) through texel
+    /// buffers (`Some(true)`) or storage buffers (`Some(false)`); None: what the device prefers
+    /// (`AdapterInfo::prefers_texel_lookups`: texel buffers on CPU devices only). The same
+    /// picture either way; tests pin both.
+    pub texel_lookups: Option<bool>,
 }
 
 impl Default for EngineConfig {
@@ -115,6 +120,7 @@ impl Default for EngineConfig {
             normalize: crate::analysis::NormalizeMode::default(),
             analysis: crate::analysis::AnalysisParams::default(),
             epi_mean_frame: false,
+            texel_lookups: None,
         }
     }
 }
@@ -132,6 +138,8 @@ struct Placeholders {
     gradient: Arc<Image>,
     normal: Arc<Image>,
     occupancy: Arc<Buffer>,
+    /// Bound as the occupancy texels where a variant does not skip.
+    uint_texels: Arc<Buffer>,
     /// Bound as the classified volume's storage binding where nothing writes it (kept in
     /// `Access::ComputeWriteImage`).
     storage: Arc<Image>,
@@ -212,27 +220,44 @@ impl Drop for Engine {
 }
 
 /// The engine's 1-texel stand-ins, bound where a variant declares an input it never reads (as
-/// [`Engine::with_device`] creates them, and as the pass plan declares them): a gradient image,
-/// a normal image, an occupancy buffer and a storage image.
-pub fn placeholder_descs() -> (ImageDesc, ImageDesc, BufferDesc, ImageDesc) {
-    (
-        ImageDesc::volume(
+/// [`Engine::with_device`] creates them, and as the pass plan declares them).
+pub struct PlaceholderDescs {
+    /// A gradient image.
+    pub gradient: ImageDesc,
+    /// A normal image.
+    pub normal: ImageDesc,
+    /// A storage buffer, also an RGBA32F texel buffer (the transfer-function table's binding).
+    pub buffer: BufferDesc,
+    /// A storage buffer, also an R32_UINT texel buffer (the occupancy bindings).
+    pub uint_texels: BufferDesc,
+    /// A storage image (the classified volume's binding).
+    pub storage: ImageDesc,
+}
+
+/// The stand-ins' descriptions. A texel view's format must match what the shader declares
+/// (`samplerBuffer` float, `usamplerBuffer` uint), hence two texel buffers.
+pub fn placeholder_descs() -> PlaceholderDescs {
+    PlaceholderDescs {
+        gradient: ImageDesc::volume(
             "placeholder (gradient)",
             [1, 1, 1],
             vk::Format::R16G16_SFLOAT,
         ),
-        ImageDesc::volume(
+        normal: ImageDesc::volume(
             "placeholder (normals)",
             [1, 1, 1],
             vk::Format::R8G8B8A8_SNORM,
         ),
-        BufferDesc::host_storage("placeholder (occupancy)", 16),
-        ImageDesc::volume(
+        buffer: BufferDesc::host_storage("placeholder (occupancy)", 16)
+            .with_texel_view(vk::Format::R32G32B32A32_SFLOAT),
+        uint_texels: BufferDesc::host_storage("placeholder (uint texels)", 16)
+            .with_texel_view(vk::Format::R32_UINT),
+        storage: ImageDesc::volume(
             "placeholder (storage)",
             [1, 1, 1],
             classified::CLASSIFIED_FORMAT,
         ),
-    )
+    }
 }
 
 impl Engine {
@@ -250,12 +275,13 @@ impl Engine {
         let pipeline_cache = Arc::new(PipelineCache::new(&device, &config.pipeline_cache)?);
         let nearest = Sampler::new(&device, Filter::Nearest)?;
         let linear = Sampler::new(&device, Filter::Linear)?;
-        let (gradient, normal, occupancy, storage) = placeholder_descs();
+        let descs = placeholder_descs();
         let placeholders = Placeholders {
-            gradient: Image::new(&device, gradient)?,
-            normal: Image::new(&device, normal)?,
-            occupancy: Buffer::with_data(&device, occupancy, &[0u8; 16])?,
-            storage: Image::new(&device, storage)?,
+            gradient: Image::new(&device, descs.gradient)?,
+            normal: Image::new(&device, descs.normal)?,
+            occupancy: Buffer::with_data(&device, descs.buffer, &[0u8; 16])?,
+            uint_texels: Buffer::with_data(&device, descs.uint_texels, &[0u8; 16])?,
+            storage: Image::new(&device, descs.storage)?,
         };
         // Their layout transition waits for the first frame (`ensure_placeholder_layouts`): an
         // engine that only compiles (`morphray kernels`, on a stub device that cannot execute)

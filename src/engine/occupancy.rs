@@ -35,8 +35,36 @@ pub fn brick_range_descs(bricks: u64) -> [BufferDesc; 2] {
 /// One frame in flight's occupancy buffer for `bricks` bricks ([`BrickBoundsLayout`]: bits,
 /// opacity bounds, and the brick-bounds pass's inputs), host-visible so the host writes the
 /// inputs and reads the count of occupied bricks.
-pub fn occupancy_bits_desc(bricks: u64) -> BufferDesc {
-    BufferDesc::host_storage("occupancy bits", BrickBoundsLayout::new(bricks).bytes())
+impl Engine {
+    /// Whether this engine's raymarch reads its per-sample tables through texel buffers
+    /// (`EngineConfig::texel_lookups`, else the device's preference).
+    pub fn texel_lookups(&self) -> bool {
+        self.config
+            .texel_lookups
+            .unwrap_or_else(|| self.device.adapter().prefers_texel_lookups())
+    }
+}
+
+/// With `texel_view` the raymarch reads the bits and bounds per sample through an R32_UINT
+/// texel view (devices that prefer texel lookups: `AdapterInfo::prefers_texel_lookups`); the
+/// brick-bounds pass writes it as a storage buffer.
+pub fn occupancy_bits_desc(bricks: u64, texel_view: bool) -> BufferDesc {
+    let desc = BufferDesc::host_storage("occupancy bits", BrickBoundsLayout::new(bricks).bytes());
+    if texel_view {
+        desc.with_texel_view(ash::vk::Format::R32_UINT)
+    } else {
+        desc
+    }
+}
+
+/// Whether the raymarch can read the occupancy buffer of `bricks` bricks: always through a
+/// storage buffer; through a texel view (`texels`) only where the device's texel buffers address
+/// every word (Vulkan guarantees 65536 texels; lavapipe 2^27). Where they do not, the raymarch
+/// does not skip (lossless either way).
+pub fn occupancy_addressable(device: &crate::gpu::Device, bricks: u64, texels: bool) -> bool {
+    !texels
+        || BrickBoundsLayout::new(bricks).bytes() / 4
+            <= device.adapter().max_texel_buffer_elements as u64
 }
 
 impl Engine {
@@ -260,7 +288,7 @@ impl Engine {
             labels: labels.cloned(),
         };
         let layout = inputs.layout();
-        let data = Buffer::new(&self.device, occupancy_bits_desc(layout.bricks))?;
+        let data = Buffer::new(&self.device, occupancy_bits_desc(layout.bricks, false))?;
         data.write(4 * layout.ranges(), bytemuck::cast_slice(&inputs.words()?))?;
         let params = bounds_params(&inputs, classification);
         let (occupied, timings) = self.run_brick_bounds(&data, &params)?;
@@ -318,7 +346,8 @@ impl Engine {
         let buffer = match &slots.buffers[slot] {
             Some(b) if b.size() >= layout.bytes() => b.clone(),
             _ => {
-                let b = Buffer::new(&self.device, occupancy_bits_desc(layout.bricks))?;
+                let texels = self.texel_lookups();
+                let b = Buffer::new(&self.device, occupancy_bits_desc(layout.bricks, texels))?;
                 slots.buffers[slot] = Some(b.clone());
                 slots.written[slot] = [0, 0];
                 b

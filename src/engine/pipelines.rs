@@ -155,11 +155,13 @@ fn build(
 }
 
 /// The pipelines that preparing a volume (of `kind`, when known) and rendering a first frame of
-/// `effects` use, analysis passes first.
+/// `effects` use, analysis passes first; `texel_lookups` as the device prefers
+/// (`AdapterInfo::prefers_texel_lookups`), as render.rs sets it.
 pub(super) fn first_frame_keys(
     effects: &Effects,
     kind: Option<SampleKind>,
     bricked: bool,
+    texel_lookups: bool,
 ) -> Vec<PipelineKey> {
     let mut keys = Vec::new();
     if let (Some(kind), false) = (kind, bricked) {
@@ -177,7 +179,10 @@ pub(super) fn first_frame_keys(
             keys.push(PipelineKey::Brain);
         }
     }
-    let raymarch = RaymarchVariant::of_layout(effects, false, bricked);
+    let raymarch = RaymarchVariant {
+        texel_lookups,
+        ..RaymarchVariant::of_layout(effects, false, bricked)
+    };
     if raymarch.skip_empty {
         keys.push(PipelineKey::Occupancy);
     }
@@ -236,7 +241,8 @@ impl Engine {
         kind: Option<SampleKind>,
         bricked: bool,
     ) -> u32 {
-        let keys: Vec<PipelineKey> = first_frame_keys(effects, kind, bricked)
+        let texel_lookups = self.texel_lookups();
+        let keys: Vec<PipelineKey> = first_frame_keys(effects, kind, bricked, texel_lookups)
             .into_iter()
             .filter(|&key| !self.has_pipeline(key) && !self.pending.iter().any(|p| p.key == key))
             .collect();

@@ -20,7 +20,7 @@
 use super::Engine;
 use super::classified::ClassifyKey;
 use super::derive::Derived;
-use super::occupancy::{BoundsInputs, OccupancySlots};
+use super::occupancy::{BoundsInputs, OccupancySlots, occupancy_addressable};
 use super::prepare::PreparedVolume;
 use super::prepare::VolumeLayout;
 use crate::gpu::{
@@ -367,6 +367,7 @@ impl Engine {
         };
         let mut variant = RaymarchVariant::of_layout(&effects, count, atlas.brick > 0);
         variant.pick = target.pick.is_some();
+        variant.texel_lookups = self.texel_lookups();
         // The brain mask is read where the derived volumes hold one the switch uses (a head).
         variant.brain = variant.mode == 0
             && effects.brain != crate::passes::brain::BrainSwitch::Off
@@ -403,6 +404,10 @@ impl Engine {
                 Some(brain) if variant.brain => brain.ranges_inside(&ranges),
                 _ => ranges,
             };
+            let brick_count = ranges.grid.iter().map(|&g| g as u64).product();
+            // A device whose texel buffers cannot address the bits does not skip.
+            variant.skip_empty =
+                occupancy_addressable(&self.device, brick_count, variant.texel_lookups);
             let inputs = BoundsInputs {
                 ranges: ranges.clone(),
                 vessels: derived
@@ -412,19 +417,22 @@ impl Engine {
             };
             // Made even when this frame does not skip, so the buffers a scene with skipping
             // holds do not depend on the view: the plan lists them.
-            let (buffer, occupied) =
-                self.occupancy_for_frame(&mut target.occupancy, frame_slot, inputs, scene)?;
+            let (buffer, occupied) = if variant.skip_empty {
+                self.occupancy_for_frame(&mut target.occupancy, frame_slot, inputs, scene)?
+            } else {
+                (self.placeholders.uint_texels.clone(), 1.0)
+            };
             // Nothing to skip: the lookups would only cost (lossless either way).
-            variant.skip_empty = occupied <= MAX_OCCUPANCY_FOR_SKIPPING;
+            variant.skip_empty &= occupied <= MAX_OCCUPANCY_FOR_SKIPPING;
             bricks = [ranges.grid[0], ranges.grid[1], ranges.grid[2], ranges.side];
             if variant.skip_empty {
                 buffer
             } else {
                 bricks = [1, 1, 1, BRICK_SIDE];
-                self.placeholders.occupancy.clone()
+                self.placeholders.uint_texels.clone()
             }
         } else {
-            self.placeholders.occupancy.clone()
+            self.placeholders.uint_texels.clone()
         };
         // Long steps read the bounds next to the bits: off without skipping.
         variant.long_steps &= variant.skip_empty;
@@ -478,6 +486,12 @@ impl Engine {
         let matcap = self.matcap_input(target, frame_slot, variant.lighting == 2)?;
         let storage_placeholder = self.placeholders.storage.clone();
         let sampled_placeholder = self.placeholders.normal.clone();
+        // The bits' texel view exists only where the variant reads it.
+        let occupancy_texels = if variant.texel_lookups {
+            occupancy.clone()
+        } else {
+            self.placeholders.uint_texels.clone()
+        };
         let mut inputs = RaymarchInputs {
             transfer_table: &transfer_table,
             matcap: &matcap,
@@ -487,6 +501,7 @@ impl Engine {
             normal: &normal,
             vesselness: &vesselness,
             occupancy: &occupancy,
+            occupancy_texels: &occupancy_texels,
             brick_table: &brick_table,
             label_values: &label_values,
             label_colours: &label_colours,

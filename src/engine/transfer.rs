@@ -14,6 +14,13 @@ use crate::scene::Scene;
 use crate::scene::transfer_table::{TABLE_BYTES, TransferTable};
 use std::sync::Arc;
 
+/// The table's buffer: `vec4`s read as a storage buffer, or through its RGBA32F texel view on
+/// devices that prefer texel lookups (classification.glsl).
+pub fn transfer_table_desc() -> BufferDesc {
+    BufferDesc::host_storage("transfer-function table", TABLE_BYTES)
+        .with_texel_view(ash::vk::Format::R32G32B32A32_SFLOAT)
+}
+
 /// A render target's tables, per frame slot, and the classification each holds.
 pub type TableSlots = HostSlots<crate::scene::Classification>;
 
@@ -34,7 +41,7 @@ impl Engine {
         target.tables.current(
             &self.device,
             frame_slot,
-            || BufferDesc::host_storage("transfer-function table", TABLE_BYTES),
+            transfer_table_desc,
             |held| *held == classification,
             classification,
             |buffer| buffer.write(0, TransferTable::new(&classification).bytes()),

@@ -84,6 +84,8 @@ pub struct AdapterInfo {
     pub max_image_dimension_3d: u32,
     /// Largest storage-buffer binding in bytes.
     pub max_storage_buffer_range: u32,
+    /// Most texels a texel-buffer view may address.
+    pub max_texel_buffer_elements: u32,
     /// Largest workgroup count along x.
     pub max_workgroup_count_x: u32,
     /// Largest workgroup size per axis.
@@ -134,6 +136,15 @@ impl AdapterInfo {
             vk::PhysicalDeviceType::CPU => "cpu",
             _ => "other",
         }
+    }
+
+    /// Whether per-sample table reads should go through texel buffers rather than storage
+    /// buffers: on a CPU device (llvmpipe) a storage-buffer read at a per-lane index is a loop
+    /// over the lanes with a bounds test in each, a texel fetch one vectorized gather (the
+    /// shaded MNI152 frame 1.9x faster, BENCHMARKS.md "Per-sample tables as texel buffers");
+    /// GPUs keep the storage buffers, which Intel's compiler schedules in fewer cycles.
+    pub fn prefers_texel_lookups(&self) -> bool {
+        self.device_type == vk::PhysicalDeviceType::CPU
     }
 
     fn type_rank(&self) -> u32 {
@@ -408,6 +419,7 @@ fn describe(
         timestamp_period_ns: properties.limits.timestamp_period as f64,
         max_image_dimension_3d: properties.limits.max_image_dimension3_d,
         max_storage_buffer_range: properties.limits.max_storage_buffer_range,
+        max_texel_buffer_elements: properties.limits.max_texel_buffer_elements,
         max_workgroup_count_x: properties.limits.max_compute_work_group_count[0],
         max_workgroup_size: properties.limits.max_compute_work_group_size,
         max_workgroup_invocations: properties.limits.max_compute_work_group_invocations,

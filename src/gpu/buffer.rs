@@ -21,6 +21,9 @@ pub struct BufferDesc {
     pub usage: vk::BufferUsageFlags,
     /// Where the memory lives.
     pub intent: MemoryIntent,
+    /// When set, the buffer is also a uniform texel buffer of this format: one view over the
+    /// whole buffer, made and destroyed with it ([`BufferDesc::with_texel_view`]).
+    pub texel_format: Option<vk::Format>,
 }
 
 impl BufferDesc {
@@ -33,6 +36,7 @@ impl BufferDesc {
                 | vk::BufferUsageFlags::TRANSFER_DST
                 | vk::BufferUsageFlags::TRANSFER_SRC,
             intent: MemoryIntent::GpuOnly,
+            texel_format: None,
         }
     }
 
@@ -43,6 +47,7 @@ impl BufferDesc {
             size,
             usage: vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
             intent: MemoryIntent::Upload,
+            texel_format: None,
         }
     }
 
@@ -53,6 +58,7 @@ impl BufferDesc {
             size,
             usage: vk::BufferUsageFlags::UNIFORM_BUFFER,
             intent: MemoryIntent::Upload,
+            texel_format: None,
         }
     }
 
@@ -63,6 +69,7 @@ impl BufferDesc {
             size,
             usage: vk::BufferUsageFlags::TRANSFER_SRC,
             intent: MemoryIntent::Staging,
+            texel_format: None,
         }
     }
 
@@ -73,7 +80,27 @@ impl BufferDesc {
             size,
             usage: vk::BufferUsageFlags::TRANSFER_DST | vk::BufferUsageFlags::STORAGE_BUFFER,
             intent: MemoryIntent::Readback,
+            texel_format: None,
         }
+    }
+
+    /// This buffer, also read as a uniform texel buffer of `format` (`texelFetch` on a
+    /// `samplerBuffer`): on software devices a texel fetch is one vectorized gather, where a
+    /// storage-buffer read at a per-invocation index is a loop over the lanes with a bounds test
+    /// in each (Mesa's llvmpipe, `emit_load_mem`), so a per-sample table lookup belongs here.
+    pub fn with_texel_view(mut self, format: vk::Format) -> Self {
+        self.usage |= vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER;
+        self.texel_format = Some(format);
+        self
+    }
+}
+
+/// Bytes of one texel of the texel-buffer formats the engine uses.
+fn texel_bytes(format: vk::Format) -> Option<u64> {
+    match format {
+        vk::Format::R32G32B32A32_SFLOAT => Some(16),
+        vk::Format::R32_UINT | vk::Format::R32_SFLOAT => Some(4),
+        _ => None,
     }
 }
 
@@ -83,6 +110,8 @@ pub struct Buffer {
     desc: BufferDesc,
     allocation: Mutex<Option<TrackedAllocation>>,
     mapped: Option<std::ptr::NonNull<u8>>,
+    /// The texel view over the whole buffer (null without `desc.texel_format`).
+    pub(crate) texel_view: vk::BufferView,
     device: Arc<DeviceShared>,
 }
 
@@ -168,15 +197,34 @@ impl Buffer {
                 desc.name
             )));
         }
+        let texels = match desc.texel_format {
+            Some(format) => Some(checked_texels(device, &desc, format)?),
+            None => None,
+        };
         let shared = &device.shared;
         let (raw, tracked, mapped) = create_bound(shared, &desc)?;
-        Ok(Arc::new(Buffer {
+        // From here the Buffer owns the handle and the memory: an error below drops it.
+        let mut buffer = Buffer {
             raw,
             desc,
             allocation: Mutex::new(Some(tracked)),
             mapped,
+            texel_view: vk::BufferView::null(),
             device: shared.clone(),
-        }))
+        };
+        if let Some(format) = texels {
+            let info = vk::BufferViewCreateInfo::default()
+                .buffer(raw)
+                .format(format)
+                .offset(0)
+                .range(vk::WHOLE_SIZE);
+            // SAFETY: a live buffer of this device, made with UNIFORM_TEXEL_BUFFER usage; the
+            // format is one every device supports for uniform texel buffers, and the texel count
+            // was checked against maxTexelBufferElements.
+            buffer.texel_view = unsafe { shared.raw.create_buffer_view(&info, None) }
+                .map_err(vk_err("vkCreateBufferView"))?;
+        }
+        Ok(Arc::new(buffer))
     }
 
     /// Creates a host-visible buffer holding `bytes`.
@@ -240,8 +288,31 @@ impl Buffer {
     }
 }
 
+/// `desc`'s texel format, after checking that the device can address all its texels.
+fn checked_texels(device: &Device, desc: &BufferDesc, format: vk::Format) -> GpuResult<vk::Format> {
+    let bytes = texel_bytes(format).ok_or_else(|| {
+        GpuError::InvalidRequest(format!(
+            "buffer `{}`: texel format {format:?} is not one the engine reads",
+            desc.name
+        ))
+    })?;
+    let limit = device.adapter().max_texel_buffer_elements as u64;
+    let texels = desc.size / bytes;
+    if texels > limit {
+        return Err(GpuError::Unsupported(format!(
+            "buffer `{}` holds {texels} texels; this device's texel buffers address {limit}",
+            desc.name
+        )));
+    }
+    Ok(format)
+}
+
 impl Drop for Buffer {
     fn drop(&mut self) {
+        if self.texel_view != vk::BufferView::null() {
+            // SAFETY: as for the buffer below; the view is destroyed before its buffer.
+            unsafe { self.device.raw.destroy_buffer_view(self.texel_view, None) };
+        }
         // SAFETY: a Buffer is dropped only when no recording or submission holds it any more
         // (they keep Arcs until their fence signals), so the GPU no longer uses it.
         unsafe { self.device.raw.destroy_buffer(self.raw, None) };

@@ -28,6 +28,8 @@ pub enum Resource {
     SampledImage(Arc<Image>),
     /// A combined image sampler (layout SHADER_READ_ONLY_OPTIMAL).
     CombinedImageSampler(Arc<Image>, Arc<Sampler>),
+    /// A uniform texel buffer: the buffer's own view (`BufferDesc::with_texel_view`).
+    TexelBuffer(Arc<Buffer>),
 }
 
 impl Resource {
@@ -43,16 +45,25 @@ impl Resource {
                     Resource::CombinedImageSampler(..),
                     BindingKind::CombinedImageSampler
                 )
+                | (Resource::TexelBuffer(_), BindingKind::UniformTexelBuffer)
         )
     }
 
     fn keep_alive(&self) -> Vec<Arc<dyn Any + Send + Sync>> {
         match self {
-            Resource::Buffer(b) => vec![b.clone()],
+            Resource::Buffer(b) | Resource::TexelBuffer(b) => vec![b.clone()],
             Resource::StorageImage(i) | Resource::SampledImage(i) => vec![i.clone()],
             Resource::CombinedImageSampler(i, s) => vec![i.clone(), s.clone()],
         }
     }
+}
+
+/// Which array of a write's descriptor infos an entry indexes.
+#[derive(Clone, Copy)]
+enum Info {
+    Buffer,
+    Image,
+    TexelView,
 }
 
 /// A written descriptor set and the resources it refers to.
@@ -125,6 +136,7 @@ impl DescriptorSet {
 
         let mut buffer_infos = Vec::new();
         let mut image_infos = Vec::new();
+        let mut texel_views = Vec::new();
         let mut targets = Vec::new();
         for binding in &wanted {
             let (_, resource) = resources
@@ -153,7 +165,7 @@ impl DescriptorSet {
                     targets.push((
                         binding.binding,
                         descriptor_type(binding.kind),
-                        true,
+                        Info::Buffer,
                         buffer_infos.len() - 1,
                     ));
                 }
@@ -166,7 +178,7 @@ impl DescriptorSet {
                     targets.push((
                         binding.binding,
                         descriptor_type(binding.kind),
-                        false,
+                        Info::Image,
                         image_infos.len() - 1,
                     ));
                 }
@@ -179,8 +191,26 @@ impl DescriptorSet {
                     targets.push((
                         binding.binding,
                         descriptor_type(binding.kind),
-                        false,
+                        Info::Image,
                         image_infos.len() - 1,
+                    ));
+                }
+                Resource::TexelBuffer(b) => {
+                    if b.texel_view == vk::BufferView::null() {
+                        return Err(GpuError::InvalidRequest(format!(
+                            "binding `{}` of shader {} is a texel buffer; buffer `{}` has no \
+                             texel view",
+                            binding.name,
+                            shader.name,
+                            b.name()
+                        )));
+                    }
+                    texel_views.push(b.texel_view);
+                    targets.push((
+                        binding.binding,
+                        descriptor_type(binding.kind),
+                        Info::TexelView,
+                        texel_views.len() - 1,
                     ));
                 }
                 Resource::CombinedImageSampler(i, s) => {
@@ -192,7 +222,7 @@ impl DescriptorSet {
                     targets.push((
                         binding.binding,
                         descriptor_type(binding.kind),
-                        false,
+                        Info::Image,
                         image_infos.len() - 1,
                     ));
                 }
@@ -200,15 +230,17 @@ impl DescriptorSet {
         }
         let writes: Vec<vk::WriteDescriptorSet> = targets
             .iter()
-            .map(|&(binding, ty, is_buffer, index)| {
+            .map(|&(binding, ty, info, index)| {
                 let write = vk::WriteDescriptorSet::default()
                     .dst_set(set.raw)
                     .dst_binding(binding)
                     .descriptor_type(ty);
-                if is_buffer {
-                    write.buffer_info(std::slice::from_ref(&buffer_infos[index]))
-                } else {
-                    write.image_info(std::slice::from_ref(&image_infos[index]))
+                match info {
+                    Info::Buffer => write.buffer_info(std::slice::from_ref(&buffer_infos[index])),
+                    Info::Image => write.image_info(std::slice::from_ref(&image_infos[index])),
+                    Info::TexelView => {
+                        write.texel_buffer_view(std::slice::from_ref(&texel_views[index]))
+                    }
                 }
             })
             .collect();

@@ -66,6 +66,7 @@ pub(crate) fn descriptor_type(kind: BindingKind) -> vk::DescriptorType {
         BindingKind::CombinedImageSampler => vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
         BindingKind::SampledImage => vk::DescriptorType::SAMPLED_IMAGE,
         BindingKind::Sampler => vk::DescriptorType::SAMPLER,
+        BindingKind::UniformTexelBuffer => vk::DescriptorType::UNIFORM_TEXEL_BUFFER,
     }
 }
 

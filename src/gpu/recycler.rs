@@ -325,6 +325,7 @@ pub fn breadcrumb_desc() -> BufferDesc {
         size: CRUMB_BUFFER_BYTES,
         usage: vk::BufferUsageFlags::TRANSFER_DST,
         intent: MemoryIntent::Readback,
+        texel_format: None,
     }
 }
 

@@ -25,6 +25,9 @@ pub enum BindingKind {
     SampledImage,
     /// `SAMPLER`.
     Sampler,
+    /// `UNIFORM_TEXEL_BUFFER` (GLSL `samplerBuffer`: read with `texelFetch` through the texture
+    /// path, which software devices vectorize where a storage-buffer gather runs lane by lane).
+    UniformTexelBuffer,
 }
 
 /// One descriptor binding an entry point statically uses.

@@ -63,6 +63,10 @@ pub struct RaymarchVariant {
     /// DVR samples the classified volume (one RGBA8 fetch) instead of classifying each sample
     /// (the lean sample, issue 33 item 1); set by the engine where the scene allows it.
     pub classified: bool,
+    /// The occupancy bits and the transfer-function table are read through texel buffers
+    /// instead of storage buffers; set by the engine on devices that prefer them
+    /// (`AdapterInfo::prefers_texel_lookups`).
+    pub texel_lookups: bool,
 }
 
 impl RaymarchVariant {
@@ -103,6 +107,7 @@ impl RaymarchVariant {
             ("DEPTH_CUES", self.depth_cues),
             ("PICK", self.pick),
             ("CLASSIFIED", self.classified),
+            ("TEXEL_LOOKUPS", self.texel_lookups),
         ] {
             text.push_str(&format!(", {name}={}", on(value)));
         }
@@ -173,8 +178,11 @@ pub struct RaymarchInputs<'a> {
     pub vesselness: &'a Arc<Image>,
     /// The brain mask, or a placeholder.
     pub brain_mask: &'a Arc<Image>,
-    /// Occupancy bits, or a placeholder.
+    /// Occupancy bits, or a placeholder (the storage-buffer binding).
     pub occupancy: &'a Arc<Buffer>,
+    /// The same bits with an R32_UINT texel view where the variant has TEXEL_LOOKUPS, else a
+    /// placeholder texel buffer (the texel binding; the variant reads one of the two).
+    pub occupancy_texels: &'a Arc<Buffer>,
     /// Brick table of a bricked volume, or a placeholder.
     pub brick_table: &'a Arc<Buffer>,
     /// The labels of a label overlay (two u16 per word), or a placeholder.
@@ -193,7 +201,8 @@ pub struct RaymarchInputs<'a> {
     /// The classified volume MODE 3 writes (`Access::ComputeWriteImage`), or the storage
     /// placeholder.
     pub classified_out: &'a Arc<Image>,
-    /// The transfer-function table (`scene::transfer_table`), or a placeholder.
+    /// The transfer-function table (`scene::transfer_table`), or a placeholder; bound as a
+    /// storage buffer and as an RGBA32F texel buffer (the variant reads one).
     pub transfer_table: &'a Arc<Buffer>,
     /// The matcap (`scene::matcap`) of a matcap-lit variant, or a placeholder.
     pub matcap: &'a Arc<Buffer>,
@@ -241,6 +250,7 @@ impl RaymarchPass {
                 ("PICK", SpecValue::Bool(variant.pick)),
                 ("LAYERS", SpecValue::U32(variant.layers)),
                 ("CLASSIFIED", SpecValue::Bool(variant.classified)),
+                ("TEXEL_LOOKUPS", SpecValue::Bool(variant.texel_lookups)),
             ],
             cache,
         )?;
@@ -318,6 +328,10 @@ impl RaymarchPass {
                 ("params", Resource::Buffer(uniforms.clone())),
                 ("counters", Resource::Buffer(counters.clone())),
                 ("occupancy", Resource::Buffer(inputs.occupancy.clone())),
+                (
+                    "occupancy_texels",
+                    Resource::TexelBuffer(inputs.occupancy_texels.clone()),
+                ),
                 ("brick_table", Resource::Buffer(inputs.brick_table.clone())),
                 (
                     "label_values",
@@ -330,6 +344,10 @@ impl RaymarchPass {
                 (
                     "transfer_table",
                     Resource::Buffer(inputs.transfer_table.clone()),
+                ),
+                (
+                    "transfer_texels",
+                    Resource::TexelBuffer(inputs.transfer_table.clone()),
                 ),
                 ("matcap", Resource::Buffer(inputs.matcap.clone())),
                 (

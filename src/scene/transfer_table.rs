@@ -18,8 +18,10 @@
 //!   interpolates those same f32 values in f64, so GPU-vs-twin differences are the shader's f32
 //!   arithmetic only, and twin-vs-exact differences are the table's (measured by the accuracy
 //!   study's "classification table" setting).
-//! - The GPU buffer is `2 N` std430 `vec4`s (128 KiB), rewritten per frame slot only when the
-//!   classification changed (engine/render.rs).
+//! - The GPU buffer is `2 N` RGBA32F texels (128 KiB) read with `texelFetch` from a uniform
+//!   texel buffer (a storage-buffer read at a per-sample index runs lane by lane on CPU devices:
+//!   BENCHMARKS.md "Per-sample tables as texel buffers"), rewritten per frame slot only when the
+//!   classification changed (engine/transfer.rs).
 
 use super::classification::{Classification, render_weight};
 
@@ -70,7 +72,7 @@ impl TransferTable {
         TransferTable { entries }
     }
 
-    /// The table's bytes as the shader reads them (std430 `vec4` array).
+    /// The table's bytes as the shader reads them (RGBA32F texels).
     pub fn bytes(&self) -> &[u8] {
         bytemuck::cast_slice(&self.entries)
     }

@@ -74,6 +74,8 @@ impl RaymarchVariant {
             // A whole volume only (an atlas would need a classified atlas); the engine turns it
             // off for a scene with a cut.
             classified: dvr && q.classification == ClassificationLookup::Volume && !bricked,
+            // Set by the engine from the device (`AdapterInfo::prefers_texel_lookups`).
+            texel_lookups: false,
         }
     }
 }

@@ -24,14 +24,19 @@ pub fn engine() -> Engine {
 
 /// [`engine`] with the given normalization.
 pub fn engine_normalizing(normalize: morphray::analysis::NormalizeMode) -> Engine {
-    let config = EngineConfig {
+    engine_with(|config| config.normalize = normalize)
+}
+
+/// [`engine`] with its configuration edited by `edit` (validation stays required).
+pub fn engine_with(edit: impl FnOnce(&mut EngineConfig)) -> Engine {
+    let mut config = EngineConfig {
         device: DeviceConfig {
             validation: Validation::Required,
             ..Default::default()
         },
-        normalize,
         ..Default::default()
     };
+    edit(&mut config);
     match Engine::new(config) {
         Ok(engine) => engine,
         Err(e) => panic!(

@@ -46,6 +46,7 @@ pub fn table(entries: &[ReflectedEntry], out_dir: &Path) -> String {
                 }
                 BindingKind::SampledImage => "BindingKind::SampledImage".to_string(),
                 BindingKind::Sampler => "BindingKind::Sampler".to_string(),
+                BindingKind::UniformTexelBuffer => "BindingKind::UniformTexelBuffer".to_string(),
             };
             let _ = writeln!(
                 s,

@@ -17,6 +17,7 @@ use spirq::var::Variable;
 pub enum BindingKind {
     UniformBuffer,
     StorageBuffer { writable: bool },
+    UniformTexelBuffer,
     StorageImage { writable: bool },
     CombinedImageSampler,
     SampledImage,
@@ -181,6 +182,7 @@ pub fn reflect(shader: &CompiledShader) -> Result<ReflectedEntry, String> {
                     DescriptorType::CombinedImageSampler() => BindingKind::CombinedImageSampler,
                     DescriptorType::SampledImage() => BindingKind::SampledImage,
                     DescriptorType::Sampler() => BindingKind::Sampler,
+                    DescriptorType::UniformTexelBuffer() => BindingKind::UniformTexelBuffer,
                     other => {
                         return Err(format!(
                             "descriptor type {other:?} is not used by the engine"

@@ -135,12 +135,13 @@ pub(super) fn build(
 /// What every engine holds whatever the scene: the stand-ins bound where a variant declares an
 /// input it never reads, and the device's pass breadcrumbs (one slot per reusable submission).
 fn engine_fixed() -> PassDeclaration {
-    let (gradient, normal, occupancy, storage) = crate::engine::placeholder_descs();
+    let descs = crate::engine::placeholder_descs();
     PassDeclaration::allocations(vec![
-        Declared::held_image(gradient),
-        Declared::held_image(normal),
-        Declared::held_image(storage),
-        Declared::held(occupancy),
+        Declared::held_image(descs.gradient),
+        Declared::held_image(descs.normal),
+        Declared::held_image(descs.storage),
+        Declared::held(descs.buffer),
+        Declared::held(descs.uint_texels),
         Declared::held(recycler::breadcrumb_desc()),
     ])
 }
@@ -388,7 +389,8 @@ fn empty_space_skipping(ctx: &PlanContext) -> PassDeclaration {
         ]);
     }
     declared.allocations.extend(
-        (0..FRAMES_IN_FLIGHT).map(|_| Declared::held(occupancy::occupancy_bits_desc(bricks))),
+        (0..FRAMES_IN_FLIGHT)
+            .map(|_| Declared::held(occupancy::occupancy_bits_desc(bricks, false))),
     );
     declared
 }
@@ -418,12 +420,10 @@ fn raymarch(ctx: &PlanContext) -> PassDeclaration {
     let variant = RaymarchVariant::of_layout(&ctx.effects, false, ctx.bricked);
     if variant.classify_table {
         // The transfer-function table, one per frame in flight (engine/transfer.rs).
-        allocations.extend((0..FRAMES_IN_FLIGHT).map(|_| {
-            Declared::held(crate::gpu::BufferDesc::host_storage(
-                "transfer-function table",
-                crate::scene::transfer_table::TABLE_BYTES,
-            ))
-        }));
+        allocations.extend(
+            (0..FRAMES_IN_FLIGHT)
+                .map(|_| Declared::held(crate::engine::transfer::transfer_table_desc())),
+        );
     }
     if variant.classified {
         // The classified volume (engine/classified.rs), one per render target.

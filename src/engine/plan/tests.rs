@@ -122,11 +122,12 @@ fn denoising_raises_the_peak_by_its_images_and_holds_nothing_more() {
 }
 
 /// Allocations every plan holds whatever the scene (stand-ins, target, uniforms, counters).
-const FIXED: [&str; 11] = [
+const FIXED: [&str; 12] = [
     "placeholder (gradient)",
     "placeholder (normals)",
     "placeholder (storage)",
     "placeholder (occupancy)",
+    "placeholder (uint texels)",
     "pass breadcrumbs",
     "render target",
     "render target (host)",
