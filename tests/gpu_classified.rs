@@ -11,7 +11,7 @@ use ash::vk;
 use common::twin_compare::{Case, TwinInputs, assert_matches, compare, prepare, rgba};
 use morphray::engine::Engine;
 use morphray::reference::raymarch::{ReferenceDerived, ReferenceRaymarch};
-use morphray::scene::{ClassificationLookup, Scene};
+use morphray::scene::{ClassificationLookup, LightModel, Scene};
 use morphray::volume::phantom::{PhantomSpec, generate};
 
 const SIZE: (u32, u32) = (64, 48);
@@ -130,30 +130,32 @@ fn texel_and_storage_lookups_draw_the_same_picture_and_match_the_twin() {
     for texel_lookups in [false, true] {
         let mut engine = common::engine_with(|c| c.texel_lookups = Some(texel_lookups));
         assert_eq!(engine.texel_lookups(), texel_lookups);
-        let case = prepare(&mut engine, &phantom.volume, |s| s.effects.shading = true);
-        assert_eq!(
-            case.scene.effects.quality.classification,
-            ClassificationLookup::Table,
-            "the default reads the transfer-function table"
-        );
-        let mut target = engine
-            .render_target(SIZE.0, SIZE.1, vk::Format::R32G32B32A32_SFLOAT)
-            .unwrap();
-        let frame = engine
-            .render(
-                &mut target,
-                &case.prepared,
-                case.derived.as_ref(),
-                &case.scene,
-            )
-            .unwrap();
-        assert!(frame.skipped_empty_space, "the occupancy bits were read");
-        let gpu = rgba(&frame);
-        let cpu = reference(&engine, &case, &case.scene);
-        assert_matches(&format!("texel lookups {texel_lookups}"), &gpu, &cpu);
+        // Both light models read the transfer-function table and the occupancy bits.
+        for model in [LightModel::Studio, LightModel::Matcap] {
+            let case = prepare(&mut engine, &phantom.volume, |s| {
+                s.effects.shading = true;
+                s.effects.lighting.model = model;
+            });
+            assert_eq!(
+                case.scene.effects.quality.classification,
+                ClassificationLookup::Table,
+                "the default reads the transfer-function table"
+            );
+            let mut target = engine
+                .render_target(SIZE.0, SIZE.1, vk::Format::R32G32B32A32_SFLOAT)
+                .unwrap();
+            let frame = engine
+                .render(&mut target, &case.prepared, case.derived.as_ref(), &case.scene)
+                .unwrap();
+            assert!(frame.skipped_empty_space, "the occupancy bits were read");
+            let gpu = rgba(&frame);
+            let cpu = reference(&engine, &case, &case.scene);
+            assert_matches(&format!("texel lookups {texel_lookups}, {model:?}"), &gpu, &cpu);
+            pictures.push(gpu);
+        }
         common::assert_no_validation_errors(&engine);
-        pictures.push(gpu);
     }
     // The same f32 entries and bits through either binding: the same arithmetic after them.
-    assert_eq!(pictures[0], pictures[1]);
+    assert_eq!(pictures[0], pictures[2], "studio");
+    assert_eq!(pictures[1], pictures[3], "matcap");
 }
