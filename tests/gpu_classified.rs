@@ -145,12 +145,21 @@ fn texel_and_storage_lookups_draw_the_same_picture_and_match_the_twin() {
                 .render_target(SIZE.0, SIZE.1, vk::Format::R32G32B32A32_SFLOAT)
                 .unwrap();
             let frame = engine
-                .render(&mut target, &case.prepared, case.derived.as_ref(), &case.scene)
+                .render(
+                    &mut target,
+                    &case.prepared,
+                    case.derived.as_ref(),
+                    &case.scene,
+                )
                 .unwrap();
             assert!(frame.skipped_empty_space, "the occupancy bits were read");
             let gpu = rgba(&frame);
             let cpu = reference(&engine, &case, &case.scene);
-            assert_matches(&format!("texel lookups {texel_lookups}, {model:?}"), &gpu, &cpu);
+            assert_matches(
+                &format!("texel lookups {texel_lookups}, {model:?}"),
+                &gpu,
+                &cpu,
+            );
             pictures.push(gpu);
         }
         common::assert_no_validation_errors(&engine);
