@@ -8,7 +8,9 @@
 mod common;
 
 use ash::vk;
-use common::twin_compare::{Case, TwinInputs, assert_matches, compare, prepare, rgba};
+use common::twin_compare::{
+    Case, TwinInputs, assert_matches, compare, prepare, render_float, rgba,
+};
 use morphray::engine::Engine;
 use morphray::reference::raymarch::{ReferenceDerived, ReferenceRaymarch};
 use morphray::scene::{ClassificationLookup, LightModel, Scene};
@@ -17,13 +19,7 @@ use morphray::volume::phantom::{PhantomSpec, generate};
 const SIZE: (u32, u32) = (64, 48);
 
 fn gpu_render(engine: &mut Engine, case: &Case, scene: &Scene) -> Vec<[f64; 4]> {
-    let mut target = engine
-        .render_target(SIZE.0, SIZE.1, vk::Format::R32G32B32A32_SFLOAT)
-        .unwrap();
-    let frame = engine
-        .render(&mut target, &case.prepared, case.derived.as_ref(), scene)
-        .unwrap();
-    rgba(&frame)
+    rgba(&render_float(engine, case, scene, SIZE, |_| {}))
 }
 
 fn reference(engine: &Engine, case: &Case, scene: &Scene) -> Vec<[f64; 4]> {
@@ -141,17 +137,7 @@ fn texel_and_storage_lookups_draw_the_same_picture_and_match_the_twin() {
                 ClassificationLookup::Table,
                 "the default reads the transfer-function table"
             );
-            let mut target = engine
-                .render_target(SIZE.0, SIZE.1, vk::Format::R32G32B32A32_SFLOAT)
-                .unwrap();
-            let frame = engine
-                .render(
-                    &mut target,
-                    &case.prepared,
-                    case.derived.as_ref(),
-                    &case.scene,
-                )
-                .unwrap();
+            let frame = render_float(&mut engine, &case, &case.scene, SIZE, |_| {});
             assert!(frame.skipped_empty_space, "the occupancy bits were read");
             let gpu = rgba(&frame);
             let cpu = reference(&engine, &case, &case.scene);

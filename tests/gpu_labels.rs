@@ -5,9 +5,10 @@
 
 mod common;
 
-use common::twin_compare::{Case, TwinInputs, assert_matches, compare, prepare, rgba};
+use common::twin_compare::{
+    Case, TwinInputs, assert_matches, compare, prepare, render_float, rgba,
+};
 
-use ash::vk;
 use common::volumes::{Rng, smooth_field, volume_with_affine};
 use morphray::engine::{Engine, LabelVolume, label_colours};
 use morphray::reference::raymarch::{ReferenceDerived, ReferenceLabels, ReferenceRaymarch};
@@ -23,18 +24,9 @@ fn gpu_render(
     labels: Option<(&Arc<LabelVolume>, &[u32])>,
     (w, h): (u32, u32),
 ) -> Vec<[f64; 4]> {
-    let mut target = engine
-        .render_target(w, h, vk::Format::R32G32B32A32_SFLOAT)
-        .unwrap();
-    target.set_labels(labels.map(|(l, c)| (l.clone(), c.to_vec())));
-    let frame = engine
-        .render(
-            &mut target,
-            &case.prepared,
-            case.derived.as_ref(),
-            &case.scene,
-        )
-        .unwrap();
+    let frame = render_float(engine, case, &case.scene, (w, h), |target| {
+        target.set_labels(labels.map(|(l, c)| (l.clone(), c.to_vec())))
+    });
     rgba(&frame)
 }
 

@@ -6,9 +6,10 @@
 
 mod common;
 
-use common::twin_compare::{Case, TwinInputs, assert_matches, compare, prepare, rgba};
+use common::twin_compare::{
+    Case, TwinInputs, assert_matches, compare, prepare, render_float, rgba,
+};
 
-use ash::vk;
 use common::volumes::volume_with_affine;
 use morphray::engine::{Engine, LayerVolume};
 use morphray::reference::raymarch::{ReferenceDerived, ReferenceLayer, ReferenceRaymarch};
@@ -27,18 +28,9 @@ fn gpu_render(
     layers: &Attached,
     (w, h): (u32, u32),
 ) -> Vec<[f64; 4]> {
-    let mut target = engine
-        .render_target(w, h, vk::Format::R32G32B32A32_SFLOAT)
-        .unwrap();
-    target.set_layers(layers.clone()).unwrap();
-    let frame = engine
-        .render(
-            &mut target,
-            &case.prepared,
-            case.derived.as_ref(),
-            &case.scene,
-        )
-        .unwrap();
+    let frame = render_float(engine, case, &case.scene, (w, h), |target| {
+        target.set_layers(layers.clone()).unwrap()
+    });
     rgba(&frame)
 }
 

@@ -4,7 +4,7 @@
 #![allow(dead_code)]
 
 use morphray::engine::readback::read_image;
-use morphray::engine::{Derived, Engine, Frame, PreparedVolume};
+use morphray::engine::{Derived, Engine, Frame, PreparedVolume, RenderTarget};
 use morphray::gpu::Access;
 use morphray::reference::raymarch::ReferenceVolume;
 use morphray::scene::uniforms::GradientStats;
@@ -65,6 +65,24 @@ impl TwinInputs {
     pub fn volume(&self) -> ReferenceVolume<'_> {
         ReferenceVolume::new(self.geometry.dims, &self.norm).unwrap()
     }
+}
+
+/// `scene` over `case`'s volumes rendered into a fresh `w` x `h` RGBA32F target that `attach`
+/// has set up (labels, layers; or nothing).
+pub fn render_float(
+    engine: &mut Engine,
+    case: &Case,
+    scene: &Scene,
+    (w, h): (u32, u32),
+    attach: impl FnOnce(&mut RenderTarget),
+) -> Frame {
+    let mut target = engine
+        .render_target(w, h, ash::vk::Format::R32G32B32A32_SFLOAT)
+        .unwrap();
+    attach(&mut target);
+    engine
+        .render(&mut target, &case.prepared, case.derived.as_ref(), scene)
+        .unwrap()
 }
 
 /// A float frame's pixels as f64 RGBA.
