@@ -353,7 +353,7 @@ impl Engine {
             VolumeLayout::Bricked(a) => {
                 // The resident bricks were chosen for one scene; a scene that can see more would
                 // draw holes, so it is refused instead.
-                check_residency(prepared, a, scene)?;
+                super::bricked::check_residency(prepared, a, scene)?;
                 let e = prepared.normalized.extent();
                 let info = AtlasInfo {
                     dims: e,
@@ -662,41 +662,4 @@ impl Engine {
             skipped_empty_space,
         })
     }
-}
-
-/// Fails when `scene` can see a brick that is not resident in the atlas.
-fn check_residency(
-    prepared: &PreparedVolume,
-    atlas: &super::prepare::BrickAtlas,
-    scene: &Scene,
-) -> GpuResult<()> {
-    let Some(ranges) = prepared.brick_ranges.get() else {
-        return Ok(());
-    };
-    // The fine (8^3) ranges say which fine bricks the scene can see; each must lie in a resident
-    // storage brick. Storage bricks are a whole number of fine bricks (32 = 4 x 8).
-    let bits = ranges.needed_bits(scene);
-    let mut table = vec![0u8; 4 * atlas.grid.iter().map(|&g| g as usize).product::<usize>()];
-    atlas.table.read(0, &mut table)?;
-    let ratio = atlas.brick / ranges.side;
-    let [gx, gy, _] = ranges.grid;
-    for (b, _) in ranges.ranges.iter().enumerate() {
-        if bits[b / 32] >> (b % 32) & 1 == 0 {
-            continue;
-        }
-        let (x, y, z) = (b as u32 % gx, (b as u32 / gx) % gy, b as u32 / (gx * gy));
-        let s = [x / ratio, y / ratio, z / ratio];
-        let index = (s[0] + atlas.grid[0] * (s[1] + atlas.grid[1] * s[2])) as usize * 4;
-        let slot = table
-            .get(index..index + 4)
-            .map_or(0, |w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]));
-        if slot == 0 {
-            return Err(GpuError::InvalidRequest(
-                "this bricked volume was uploaded for another scene (tissue windows or mode); this \
-                 scene sees bricks that are not resident (open it again with this scene)"
-                    .into(),
-            ));
-        }
-    }
-    Ok(())
 }
