@@ -32,9 +32,6 @@ pub fn brick_range_descs(bricks: u64) -> [BufferDesc; 2] {
     ]
 }
 
-/// One frame in flight's occupancy buffer for `bricks` bricks ([`BrickBoundsLayout`]: bits,
-/// opacity bounds, and the brick-bounds pass's inputs), host-visible so the host writes the
-/// inputs and reads the count of occupied bricks.
 impl Engine {
     /// Whether this engine's raymarch reads its per-sample tables through texel buffers
     /// (`EngineConfig::texel_lookups`, else the device's preference).
@@ -45,6 +42,10 @@ impl Engine {
     }
 }
 
+/// One frame in flight's occupancy buffer for `bricks` bricks ([`BrickBoundsLayout`]: bits,
+/// opacity bounds, and the brick-bounds pass's inputs), host-visible so the host writes the
+/// inputs and reads the count of occupied bricks.
+///
 /// With `texel_view` the raymarch reads the bits and bounds per sample through an R32_UINT
 /// texel view (devices that prefer texel lookups: `AdapterInfo::prefers_texel_lookups`); the
 /// brick-bounds pass writes it as a storage buffer.
