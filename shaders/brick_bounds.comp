@@ -24,6 +24,9 @@
 //   [W + 3B, W + 5B)    vesselness (min, max) per brick (in; read with VESSEL_BIT)
 //   [W + 5B, 2W + 5B)   label bits (in; read with LABEL_BIT)
 //   [2W + 5B]           occupied bricks (out, atomically added; zeroed before the pass)
+//   then two regions of D = ceil(B / 4) words: the empty-space distance map (one byte per
+//   brick; the raymarch reads it) and its scratch, both written by brick_distance.comp after
+//   this pass.
 // The f64 twin is `BrickRanges::reference_bounds` (src/scene/occupancy.rs).
 
 layout(local_size_x = 64, local_size_y = 1, local_size_z = 1) in;

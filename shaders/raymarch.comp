@@ -13,9 +13,11 @@
 // Empty-space skipping (SKIP_EMPTY): the volume is cut into 8^3-voxel bricks; a bit per brick
 // says whether any visible tissue window can be non-zero in the brick's intensity range (brick
 // min/max over the brick plus a 2-voxel halo, the footprint of every interpolation; classified
-// by the brick-bounds pass when the windows change). A sample in an empty brick jumps to the last sample of the same
-// lattice before the brick's exit, so the samples taken are exactly those taken without
-// skipping minus samples of zero opacity: the image is unchanged.
+// by the brick-bounds pass when the windows change). From the bits, the distance map
+// (brick_distance.comp) gives each empty brick its Chebyshev distance d to the nearest occupied
+// brick. A sample in an empty brick jumps to the last sample of the same lattice before the exit
+// of the cube of bricks within d - 1 of it, all empty (issue 33 item 3), so the samples taken are
+// exactly those taken without skipping minus samples of zero opacity: the image is unchanged.
 //
 // Long steps (LONG_STEPS, with SKIP_EMPTY; issue 17 item 2): the occupancy buffer also holds
 // each brick's upper bound of f(v) (shaders/brick_bounds.comp). In an occupied brick whose bound
@@ -131,7 +133,7 @@ layout(set = 0, binding = 4, std140) uniform Params {
     uvec4 bricks;           // xyz: brick grid, w: brick side in voxels
     vec4 atlas;             // BRICKED: xyz atlas dims in texels, w storage brick side
     uvec4 brick_grid;       // BRICKED: xyz storage brick grid, w halo
-    uvec4 atlas_slots;      // BRICKED: xy slots per atlas row and layer
+    uvec4 atlas_slots;      // BRICKED: xyz slots per atlas row and layer; w (SKIP_EMPTY): farthest empty-space jump in bricks
     // Helper "clip" (issue 16 items 2 and 4): crop box, clip planes, colour map.
     vec4 crop_lo;           // xyz index-space crop box corner; w: clip planes in use
     vec4 crop_hi;           // xyz the opposite corner; w: 1 = colours from the colour map
@@ -290,11 +292,11 @@ uint brick_index(ivec3 brick) {
     return uint(brick.x) + params.bricks.x * (uint(brick.y) + params.bricks.y * uint(brick.z));
 }
 
-// The ray parameter at which the ray leaves `brick`.
-float brick_exit(ivec3 brick, vec3 origin, vec3 direction) {
+// The ray parameter at which the ray leaves the box of bricks `first` .. `last` (inclusive).
+float bricks_exit(ivec3 first, ivec3 last, vec3 origin, vec3 direction) {
     float side = float(params.bricks.w);
-    vec3 lo = vec3(brick) * side - 0.5;
-    vec3 hi = lo + side;
+    vec3 lo = vec3(first) * side - 0.5;
+    vec3 hi = vec3(last + 1) * side - 0.5;
     float t_exit = 3.0e38;
     for (int a = 0; a < 3; a++) {
         if (abs(direction[a]) >= MIN_DIRECTION) {
@@ -310,8 +312,14 @@ uint occupancy_word(uint i) {
     return TEXEL_LOOKUPS ? texelFetch(occupancy_texels, int(i)).r : occupancy.bits[i];
 }
 
-bool brick_occupied(uint b) {
-    return ((occupancy_word(b >> 5u) >> (b & 31u)) & 1u) != 0u;
+// The empty-space distance of brick b (brick_distance.comp, after the brick-bounds pass's
+// count word): 0 when occupied, else the Chebyshev distance in bricks to the nearest occupied
+// brick (at most 255).
+uint brick_distance(uint b) {
+    uint count = params.bricks.x * params.bricks.y * params.bricks.z;
+    uint words = max((count + 31u) / 32u, 1u);
+    uint base = 2u * words + 5u * count + 1u;
+    return (occupancy_word(base + (b >> 2u)) >> (8u * (b & 3u))) & 0xffu;
 }
 
 // The opacity bound of brick b, after the bits (brick_bounds.comp's layout).
@@ -472,11 +480,17 @@ void main() {
             if (SKIP_EMPTY) {
                 ivec3 brick = brick_at(p);
                 uint b = brick_index(brick);
-                bool occupied = brick_occupied(b);
+                uint distance = brick_distance(b);
+                bool occupied = distance == 0u;
                 if (!occupied || (LONG_STEPS && brick_bound(b) < params.derived_scale.z)) {
-                    // The last lattice sample at or before the exit: it still lies in this brick
-                    // (or on its face).
-                    float t_exit = brick_exit(brick, origin, direction);
+                    // An empty brick at distance d has only empty bricks within d - 1 of it: the
+                    // ray leaves that cube (at most the reach atlas_slots.w allows; 1 = this
+                    // brick only) before it can meet opacity. An occupied brick with a low
+                    // bound ends its long step at its own faces.
+                    int reach = occupied ? 0 : int(clamp(distance, 1u, max(params.atlas_slots.w, 1u))) - 1;
+                    // The last lattice sample at or before the exit: it still lies in the cube
+                    // (or on its face), whose halo-covered ranges bound it (lossless).
+                    float t_exit = bricks_exit(brick - reach, brick + reach, origin, direction);
                     float last = clamp(floor((t_exit - start) / dt), float(i), float(steps - 1u));
                     if (!occupied) {
                         // Nothing with opacity is skipped.

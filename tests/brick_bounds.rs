@@ -2,11 +2,15 @@
 //! (`BrickRanges::reference_bits`, `reference_bounds`): bits equal exactly, bounds no lower than
 //! the twin's minus 1e-6 and within 1e-5, at brick grids that are not multiples of the
 //! workgroup or of 32, with the vessel channel and labels on and off, and at ranges placed on
-//! the window supports' f32 neighbours, where a rounding error would flip a bit.
+//! the window supports' f32 neighbours, where a rounding error would flip a bit. The distance
+//! map made from the bits (shaders/brick_distance.comp) equals its twin
+//! (`reference::brick_distance`) exactly, on the same grids and on sparse patterns made to reach
+//! far: single bricks, corners, lines longer than the 255 cap, nothing occupied.
 
 mod common;
 
 use morphray::analysis::Window;
+use morphray::reference::brick_distance::{FAR, chebyshev_distances};
 use morphray::scene::occupancy::{BrickRanges, bound_channels, reference_ranges};
 use morphray::scene::{Classification, TissueClass};
 use std::sync::Arc;
@@ -74,6 +78,8 @@ fn check(
         let l = labels.map(|l| l.as_slice());
         let bits = ranges.reference_bits(c, v, l);
         assert_eq!(gpu.bits, bits, "{what}, classification {i}");
+        let distances = chebyshev_distances(&bits, ranges.grid);
+        assert_eq!(gpu.distances, distances, "{what}, classification {i}");
         let twin = ranges.reference_bounds(c, v, l);
         assert_eq!(gpu.bounds.len(), twin.len());
         for (b, (&g, &t)) in gpu.bounds.iter().zip(&twin).enumerate() {
@@ -228,5 +234,75 @@ fn the_pass_runs_when_the_classification_changes_never_per_frame() {
         frame(&mut engine, &scene);
     }
     assert_eq!(runs(&engine), start + 4);
+    common::assert_no_validation_errors(&engine);
+}
+
+/// Ranges that make exactly the bricks `occupied` visible under [`sparse_classification`].
+fn sparse_ranges(grid: [u32; 3], occupied: &[usize]) -> Arc<BrickRanges> {
+    let count = (grid[0] * grid[1] * grid[2]) as usize;
+    let mut ranges = vec![(0.0f32, 0.0f32); count];
+    for &b in occupied {
+        ranges[b] = (0.5, 0.55);
+    }
+    Arc::new(BrickRanges {
+        grid,
+        side: 8,
+        ranges,
+    })
+}
+
+fn sparse_classification() -> Classification {
+    let window = Some(Window {
+        lo: 0.45,
+        hi: 0.6,
+        edge: 0.01,
+    });
+    let mut c = Classification::with_windows([None, None, window, None]);
+    c.show_only(&[TissueClass::Wm]);
+    c
+}
+
+#[test]
+fn distance_map_equals_the_twin_on_sparse_far_reaching_patterns() {
+    let mut engine = common::engine();
+    let c = sparse_classification();
+    let mut state = 7u32;
+    let mut next = |n: usize| {
+        state ^= state << 13;
+        state ^= state >> 17;
+        state ^= state << 5;
+        state as usize % n
+    };
+    let mut cases: Vec<([u32; 3], Vec<usize>)> = vec![
+        ([1, 1, 1], vec![]),
+        ([1, 1, 1], vec![0]),
+        ([13, 7, 5], vec![]),
+        ([13, 7, 5], vec![0]),
+        ([13, 7, 5], vec![13 * 7 * 5 - 1]),
+        ([300, 1, 1], vec![0]),
+        ([1, 2, 290], vec![1]),
+        ([9, 300, 1], vec![4 + 9 * 150]),
+    ];
+    for grid in [[17, 11, 6], [33, 5, 9], [4, 4, 4], [70, 3, 2]] {
+        let count = (grid[0] * grid[1] * grid[2]) as usize;
+        for occupied in [1, 3, count / 50 + 1] {
+            let set = (0..occupied).map(|_| next(count)).collect();
+            cases.push((grid, set));
+        }
+    }
+    for (grid, occupied) in cases {
+        let ranges = sparse_ranges(grid, &occupied);
+        let gpu = engine.brick_bounds(&ranges, &c, None, None).unwrap();
+        let twin = chebyshev_distances(&gpu.bits, grid);
+        let set: usize = gpu.bits.iter().map(|w| w.count_ones() as usize).sum();
+        let mut unique = occupied.clone();
+        unique.sort_unstable();
+        unique.dedup();
+        assert_eq!(set, unique.len(), "{grid:?}: the pattern's bits");
+        assert_eq!(gpu.distances, twin, "{grid:?}, occupied {occupied:?}");
+        if occupied.is_empty() {
+            assert!(gpu.distances.iter().all(|&d| d == FAR), "{grid:?}");
+        }
+    }
     common::assert_no_validation_errors(&engine);
 }

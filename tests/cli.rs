@@ -301,6 +301,7 @@ fn a_tiny_bench_reports_every_pass_as_json() {
         "derivatives |g|",
         "derivatives |g|,k",
         "brick bounds",
+        "brick distance",
     ] {
         assert!(names.contains(&pass), "{pass} missing from {names:?}");
     }

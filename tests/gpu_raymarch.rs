@@ -652,29 +652,53 @@ fn no_nan_pixel_for_extreme_cameras_and_steps() {
     common::assert_no_validation_errors(&engine);
 }
 
+/// How many pixels of two pictures differ (a short failure message).
+fn differing(a: &[[f64; 4]], b: &[[f64; 4]]) -> String {
+    let n = a.iter().zip(b).filter(|(x, y)| x != y).count();
+    format!("{n} of {} pixels differ", a.len())
+}
+
 #[test]
 fn empty_space_skipping_changes_no_pixel() {
+    // Jumps across the distance map's cubes (the default) and one brick at a time.
     let mut engine = common::engine();
+    let mut by_bricks = common::engine_with(|c| {
+        c.normalize = morphray::analysis::NormalizeMode::MinMax;
+        c.distance_skipping = false;
+    });
     let (volume, _) = phantom(48);
     for visible in [
         vec![TissueClass::Csf, TissueClass::Gm, TissueClass::Wm],
         vec![TissueClass::Pathology],
     ] {
         for interpolation in [Interpolation::Trilinear, Interpolation::Tricubic] {
-            let p = prepare(&mut engine, &volume, |s| {
+            let edit = |s: &mut morphray::scene::Scene| {
                 s.classification.show_only(&visible);
                 s.effects.quality.interpolation = interpolation;
                 s.effects.shading = true;
-            });
+            };
+            let p = prepare(&mut engine, &volume, edit);
             let mut off = p.scene;
             off.effects.quality.empty_space_skipping = false;
             let mut on = p.scene;
             on.effects.quality.empty_space_skipping = true;
             let a = gpu_render(&mut engine, &p, &off, 48, 48);
             let b = gpu_render(&mut engine, &p, &on, 48, 48);
+            let q = prepare(&mut by_bricks, &volume, edit);
+            let c = gpu_render(&mut by_bricks, &q, &on, 48, 48);
             // The same lattice samples minus samples of zero opacity: identical up to the
             // order-independent f32 arithmetic of the compositing, i.e. exactly.
-            assert_eq!(a, b, "{visible:?} {interpolation:?}");
+            assert!(
+                a == b,
+                "{visible:?} {interpolation:?}: {}",
+                differing(&a, &b)
+            );
+            let one_brick = "one brick at a time";
+            assert!(
+                a == c,
+                "{visible:?} {interpolation:?}, {one_brick}: {}",
+                differing(&a, &c)
+            );
             // And skipping really ran: enough bricks are empty for the engine to use it.
             let ranges = engine.brick_ranges(&p.prepared).unwrap();
             let occupied = ranges.occupied_fraction(&on.classification);
@@ -685,6 +709,7 @@ fn empty_space_skipping_changes_no_pixel() {
         }
     }
     common::assert_no_validation_errors(&engine);
+    common::assert_no_validation_errors(&by_bricks);
 }
 
 #[test]

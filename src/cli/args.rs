@@ -59,6 +59,20 @@ pub struct Cli {
     )]
     pub bricked: bool,
 
+    /// How far empty-space skipping jumps: across the whole cube of empty 8^3 bricks around a
+    /// sample, from a Chebyshev distance map rebuilt on the GPU when the classification changes
+    /// (`distance`), or one brick at a time from the occupancy bits alone (`bricks`, to measure
+    /// what the map saves). The picture is the same either way.
+    #[arg(
+        long,
+        global = true,
+        help_heading = "Device and profiling",
+        hide_short_help = true,
+        value_enum,
+        default_value = "distance"
+    )]
+    pub empty_skip: EmptySkip,
+
     /// Run under a device profile: `gen12` (Intel Xe-LP: 2048-texel 3D images, unified memory
     /// without staging, a 12 GiB budget from 16 GiB of RAM, subgroup sizes 8/16/32, no float
     /// atomics, 36-bit timestamps) or the path of a .toml profile with the same keys.
@@ -685,4 +699,14 @@ mod tests {
         use clap::CommandFactory;
         Cli::command().debug_assert();
     }
+}
+
+/// `--empty-skip`: how far one empty-space jump reaches.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum EmptySkip {
+    /// Across the cube of empty bricks the distance map finds.
+    #[default]
+    Distance,
+    /// One brick at a time (the occupancy bits alone).
+    Bricks,
 }

@@ -377,12 +377,13 @@ pub fn run(args: &BenchArgs, global: &super::GlobalOptions) -> Result<(), Error>
     // per frame, so it is timed on its own, `--repeat` times.
     if scene.effects.mode == RenderMode::Dvr && scene.effects.quality.empty_space_skipping {
         let ranges = opened.engine.brick_ranges(&opened.twin.prepared)?;
-        let mut times = Vec::new();
+        let (mut times, mut distance_times) = (Vec::new(), Vec::new());
         for _ in 0..args.repeat {
             let b = opened
                 .engine
                 .brick_bounds(&ranges, &scene.classification, None, None)?;
             times.extend(times_of(&b.timings, "brick bounds"));
+            distance_times.extend(times_of(&b.timings, "brick distance"));
         }
         let bricks = ranges.ranges.len() as f64;
         let c = PassCost {
@@ -391,6 +392,20 @@ pub fn run(args: &BenchArgs, global: &super::GlobalOptions) -> Result<(), Error>
             ..Default::default()
         };
         passes.push(pass_report("brick bounds", &times, c, copy, documented));
+        // Each scan reads at most its whole line per brick (a word of bits or bytes each).
+        let line_words: f64 = ranges.grid.iter().map(|&n| f64::from(n)).sum();
+        let c = PassCost {
+            bytes_read: 4.0 * bricks * line_words,
+            bytes_written: 3.0 * bricks,
+            ..Default::default()
+        };
+        passes.push(pass_report(
+            "brick distance",
+            &distance_times,
+            c,
+            copy,
+            documented,
+        ));
     }
 
     // Raymarch over an orbit: warm-up, timed frames without readback, then counted frames.

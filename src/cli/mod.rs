@@ -104,6 +104,8 @@ pub struct GlobalOptions {
     pub memory_budget: Option<u64>,
     /// Brick even when the volume fits whole.
     pub bricked: bool,
+    /// How far one empty-space jump reaches (the distance map's cube by default).
+    pub empty_skip: args::EmptySkip,
     /// Device profile to apply.
     pub profile: Option<crate::gpu::DeviceProfile>,
     /// Workgroup and subgroup choices.
@@ -124,6 +126,7 @@ impl GlobalOptions {
         let mut config =
             session::engine_config(self.device.as_deref(), self.validation, self.memory_budget);
         config.force_bricking = self.bricked;
+        config.distance_skipping = self.empty_skip == args::EmptySkip::Distance;
         config.device.profile = self.profile.clone();
         config.device.tuning = self.tuning.clone();
         config.pipeline_cache = self.pipeline_cache.clone();
@@ -189,6 +192,7 @@ pub fn run(cli: &Cli) -> Result<(), CommandError> {
         validation: cli.validation,
         memory_budget: cli.memory_budget,
         bricked: cli.bricked,
+        empty_skip: cli.empty_skip,
         profile: cli
             .profile
             .as_deref()

@@ -224,10 +224,12 @@ impl Engine {
                 vec![report(pass.pipeline(), derivative_variant_name(&outputs))?]
             }
             PipelineKey::Occupancy => {
-                vec![report(
-                    self.occupancy_pass()?.pipeline(),
-                    "occupancy".into(),
-                )?]
+                let pass = self.occupancy_pass()?;
+                vec![
+                    report(pass.pipeline(), "occupancy".into())?,
+                    report(pass.bounds().pipeline(), "brick bounds".into())?,
+                    report(pass.distance().pipeline(), "brick distance".into())?,
+                ]
             }
             PipelineKey::Brain => {
                 let pass = self.brain_pass()?;

@@ -107,6 +107,10 @@ pub struct EngineConfig {
     /// (`AdapterInfo::prefers_texel_lookups`: texel buffers on CPU devices only). The same
     /// picture either way; tests pin both.
     pub texel_lookups: Option<bool>,
+    /// Empty-space skipping jumps across the whole cube of empty bricks the distance map finds
+    /// around a sample (true, the default) or one brick at a time (false: the occupancy bits
+    /// alone, to measure what the map saves). The same picture either way.
+    pub distance_skipping: bool,
 }
 
 impl Default for EngineConfig {
@@ -121,6 +125,7 @@ impl Default for EngineConfig {
             analysis: crate::analysis::AnalysisParams::default(),
             epi_mean_frame: false,
             texel_lookups: None,
+            distance_skipping: true,
         }
     }
 }

@@ -233,6 +233,9 @@ pub struct BrickBounds {
     pub bits: Vec<u32>,
     /// Upper bound of the opacity per mm a sample in each brick can have (plus 1 with a label).
     pub bounds: Vec<f32>,
+    /// Per brick, the Chebyshev distance in bricks to the nearest occupied brick (0 when
+    /// occupied, at most 255), as the raymarch reads it (`passes::brick_distance`).
+    pub distances: Vec<u8>,
     /// Fraction of bricks occupied.
     pub occupied: f64,
     /// GPU time of the pass.
@@ -240,12 +243,14 @@ pub struct BrickBounds {
 }
 
 impl Engine {
-    /// Runs the brick-bounds pass over `data` (inputs written, count zeroed) and waits;
-    /// returns the fraction of bricks occupied and the pass's GPU time.
+    /// Runs the brick-bounds pass over `data` (inputs written, count zeroed) and the distance
+    /// map of its bits over the brick grid `grid`, and waits; returns the fraction of bricks
+    /// occupied and the passes' GPU times.
     fn run_brick_bounds(
         &mut self,
         data: &Arc<Buffer>,
         params: &BrickBoundsParams,
+        grid: [u32; 3],
     ) -> GpuResult<(f64, Vec<PassTiming>)> {
         self.occupancy_pass()?;
         let Some(pass) = &self.occupancy_pass else {
@@ -258,8 +263,11 @@ impl Engine {
         rec.begin_pass("brick bounds");
         pass.bounds().record(&mut rec, data, params)?;
         rec.end_pass();
-        // Orders the pass's writes before the host reads the count, and before the raymarch
-        // of any later submission reads the bits and bounds.
+        rec.begin_pass("brick distance");
+        pass.distance().record(&mut rec, data, grid)?;
+        rec.end_pass();
+        // Orders the passes' writes before the host reads the count, and before the raymarch
+        // of any later submission reads the bits, bounds and distances.
         rec.barriers(&[(data, Access::ComputeWriteBuffer, Access::HostRead)], &[]);
         rec.barriers(
             &[(data, Access::ComputeWriteBuffer, Access::ComputeReadBuffer)],
@@ -292,7 +300,7 @@ impl Engine {
         let data = Buffer::new(&self.device, occupancy_bits_desc(layout.bricks, false))?;
         data.write(4 * layout.ranges(), bytemuck::cast_slice(&inputs.words()?))?;
         let params = bounds_params(&inputs, classification);
-        let (occupied, timings) = self.run_brick_bounds(&data, &params)?;
+        let (occupied, timings) = self.run_brick_bounds(&data, &params, ranges.grid)?;
         let mut out = vec![0u32; (layout.words + layout.bricks) as usize];
         data.read(0, bytemuck::cast_slice_mut(&mut out))?;
         let bounds = out[layout.words as usize..]
@@ -300,9 +308,13 @@ impl Engine {
             .map(|&w| f32::from_bits(w))
             .collect();
         out.truncate(layout.words as usize);
+        let mut distances = vec![0u8; 4 * layout.distance_words() as usize];
+        data.read(4 * layout.distances(), &mut distances)?;
+        distances.truncate(layout.bricks as usize);
         Ok(BrickBounds {
             bits: out,
             bounds,
+            distances,
             occupied,
             timings,
         })
@@ -366,7 +378,8 @@ impl Engine {
                 buffer.write(4 * layout.count(), &[0; 4])?;
             }
             let params = bounds_params(&cache.inputs, &cache.classification);
-            let (occupied, timings) = self.run_brick_bounds(&buffer, &params)?;
+            let grid = cache.inputs.ranges.grid;
+            let (occupied, timings) = self.run_brick_bounds(&buffer, &params, grid)?;
             cache.occupied = Some(occupied);
             slots.timings = timings;
             *bits_written = cache.generation;

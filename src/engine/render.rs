@@ -459,6 +459,12 @@ impl Engine {
         block.layer_window = layers.uniforms.window;
         block.layer_decode = layers.uniforms.decode;
         block.layer_bricks = layers.uniforms.bricks;
+        // The farthest empty-space jump in bricks: the distance map's cap, or the brick itself.
+        block.atlas_slots[3] = if self.config.distance_skipping {
+            255
+        } else {
+            1
+        };
         let uniforms = target.uniforms[frame_slot].clone();
         uniforms.write(0, bytemuck::bytes_of(&block))?;
 

@@ -85,9 +85,25 @@ impl BrickBoundsLayout {
         2 * self.words + 5 * self.bricks
     }
 
+    /// Words of one distance-map region (four bricks' bytes each, at least 1).
+    pub fn distance_words(&self) -> u64 {
+        self.bricks.div_ceil(4).max(1)
+    }
+
+    /// First word of the empty-space distance map (`passes::brick_distance`), after the count:
+    /// the raymarch reads it here.
+    pub fn distances(&self) -> u64 {
+        self.count() + 1
+    }
+
+    /// First word of the distance map's scratch region (the y scan's output).
+    pub fn distance_scratch(&self) -> u64 {
+        self.distances() + self.distance_words()
+    }
+
     /// Size of the buffer in bytes.
     pub fn bytes(&self) -> u64 {
-        4 * (self.count() + 1)
+        4 * (self.distance_scratch() + self.distance_words())
     }
 }
 
@@ -156,7 +172,10 @@ mod tests {
         assert_eq!(l.vessel_ranges(), 2 + 33 + 66);
         assert_eq!(l.label_bits(), 2 + 33 + 132);
         assert_eq!(l.count(), 2 + 33 + 132 + 2);
-        assert_eq!(l.bytes(), 4 * (l.count() + 1));
+        assert_eq!(l.distances(), l.count() + 1);
+        assert_eq!(l.distance_words(), 9);
+        assert_eq!(l.distance_scratch(), l.count() + 1 + 9);
+        assert_eq!(l.bytes(), 4 * (l.count() + 1 + 18));
         assert_eq!(BrickBoundsLayout::new(0).words, 1);
     }
 }

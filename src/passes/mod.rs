@@ -9,6 +9,7 @@
 pub mod bandwidth;
 pub mod brain;
 pub mod brick_bounds;
+pub mod brick_distance;
 pub mod compositing_probe;
 pub mod cost;
 pub mod denoise;

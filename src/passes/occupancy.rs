@@ -31,11 +31,12 @@ pub fn brick_grid(dims: [u32; 3]) -> [u32; 3] {
     dims.map(|d| d.div_ceil(BRICK_SIDE))
 }
 
-/// The brick-range pass, with the brick-bounds pass that classifies its ranges (one pipeline
-/// key for both: whoever skips empty space needs the two).
+/// The brick-range pass, with the brick-bounds pass that classifies its ranges and the distance
+/// map made from its bits (one pipeline key for the three: whoever skips empty space needs them).
 pub struct OccupancyPass {
     pipeline: Arc<ComputePipeline>,
     bounds: super::brick_bounds::BrickBoundsPass,
+    distance: super::brick_distance::BrickDistancePass,
 }
 
 impl OccupancyPass {
@@ -49,12 +50,18 @@ impl OccupancyPass {
         Ok(OccupancyPass {
             pipeline: ComputePipeline::new(device, &table::OCCUPANCY, &[], cache)?,
             bounds: super::brick_bounds::BrickBoundsPass::new(device, cache)?,
+            distance: super::brick_distance::BrickDistancePass::new(device, cache)?,
         })
     }
 
     /// The brick-bounds pass (bits and opacity bounds from the ranges).
     pub fn bounds(&self) -> &super::brick_bounds::BrickBoundsPass {
         &self.bounds
+    }
+
+    /// The distance-map pass (Chebyshev distances from the bits).
+    pub fn distance(&self) -> &super::brick_distance::BrickDistancePass {
+        &self.distance
     }
 
     /// Records the ranges of `volume` (in `Access::ComputeSampled`) into `ranges` (2 u32 per

@@ -18,6 +18,7 @@
 //! - Volumes are x fastest: voxel `(i, j, k)` is at `i + nx * (j + ny * k)`.
 
 pub mod brain;
+pub mod brick_distance;
 pub mod denoise;
 pub mod derivatives;
 pub mod eigen;

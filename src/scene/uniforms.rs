@@ -57,7 +57,8 @@ pub struct RaymarchUniforms {
     pub atlas: [f32; 4],
     /// Bricked volumes: xyz storage brick grid, w halo.
     pub brick_grid: [u32; 4],
-    /// Bricked volumes: xy slots per atlas row and layer.
+    /// Bricked volumes: xyz slots per atlas row and layer; w (empty-space skipping, set by the
+    /// engine): the farthest jump in bricks (1: the brick itself).
     pub atlas_slots: [u32; 4],
     // Helper "clip" (issue 16 items 2 and 4): crop box, clip planes, colour map.
     /// Crop box, index space: xyz smallest corner; w = clip planes in use.
@@ -327,7 +328,8 @@ impl RaymarchUniforms {
                 frame.atlas.slots[0],
                 frame.atlas.slots[1],
                 frame.atlas.slots[2],
-                0,
+                // The farthest empty-space jump: the distance map's cap (the engine may lower it).
+                255,
             ],
         }
     }
