@@ -6,7 +6,7 @@
 // changes, never per frame.
 //
 // The L-infinity distance transform is separable: three dispatches of this shader, one per axis
-// (AXIS, a push constant), each a 1-D min-max scan along its brick lines:
+// (the axis is the push constant grid.w), each a 1-D min-max scan along its brick lines:
 //   x: a(p) = min over occupied q on p's x line of |p.x - q.x|      (from the occupancy bits)
 //   y: b(p) = min over q on p's y line of max(|p.y - q.y|, a(q))
 //   z: d(p) = min over q on p's z line of max(|p.z - q.z|, b(q))

@@ -3,7 +3,7 @@
 //! Decision: every scene option of `render` lives in [`SceneArgs`], flattened into each command
 //! that renders or plans, so `render`, `view`, `bench` and `plan` accept the same spelling.
 
-use clap::{Args, Parser, Subcommand, ValueEnum};
+use clap::{Args, Parser, Subcommand};
 use std::path::PathBuf;
 
 pub use super::scene_args::{
@@ -188,24 +188,7 @@ pub struct Cli {
 }
 
 pub use super::identity_args::{ContrastArg, ModalityArg};
-
-/// `--normalize`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum NormalizeArg {
-    /// Percentiles of the finite voxels; values outside clamped.
-    Robust,
-    /// The paper's min/max (eq. 1).
-    Minmax,
-}
-
-impl From<NormalizeArg> for crate::analysis::NormalizeMode {
-    fn from(arg: NormalizeArg) -> Self {
-        match arg {
-            NormalizeArg::Robust => crate::analysis::NormalizeMode::Robust,
-            NormalizeArg::Minmax => crate::analysis::NormalizeMode::MinMax,
-        }
-    }
-}
+pub use super::value_args::{EmptySkip, NormalizeArg};
 
 /// The commands.
 #[derive(Debug, Subcommand)]
@@ -699,14 +682,4 @@ mod tests {
         use clap::CommandFactory;
         Cli::command().debug_assert();
     }
-}
-
-/// `--empty-skip`: how far one empty-space jump reaches.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
-pub enum EmptySkip {
-    /// Across the cube of empty bricks the distance map finds.
-    #[default]
-    Distance,
-    /// One brick at a time (the occupancy bits alone).
-    Bricks,
 }

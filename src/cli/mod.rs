@@ -35,6 +35,7 @@ pub mod session;
 mod slice;
 pub mod source;
 mod ttfp;
+mod value_args;
 #[cfg(feature = "viewer")]
 mod view;
 mod view_preset;
