@@ -40,6 +40,8 @@ fn main() {
         PathBuf::from(std::env::var("OUT_DIR").unwrap_or_else(|_| fail("OUT_DIR is not set")));
     let shader_dir = root.join("shaders");
     println!("cargo:rerun-if-changed=shaders");
+    // An experiment's switch (tools/build/glsl.rs): spirv-opt flags for the GLSL modules.
+    println!("cargo:rerun-if-env-changed=MORPHRAY_SPIRV_OPT");
     for file in [
         "build.rs",
         "tools/build/codegen.rs",

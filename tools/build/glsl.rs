@@ -49,6 +49,23 @@ pub fn compile(
             .collect();
         return Err(format!("{rel}: glslang failed:\n{}", errors.join("\n")));
     }
+    // MORPHRAY_SPIRV_OPT="-O" runs spirv-opt over the module: an experiment's switch, off by
+    // default because it buys nothing (BENCHMARKS.md "spirv-opt and the drivers' compile
+    // time": on lavapipe -O makes raymarch.comp 5.3x larger and compiles no faster; -Os drops
+    // unused push-constant members, which the engine's size check then refuses).
+    let opt_flags = std::env::var("MORPHRAY_SPIRV_OPT").unwrap_or_default();
+    if !opt_flags.trim().is_empty() {
+        let status = Command::new("spirv-opt")
+            .args(opt_flags.split_whitespace())
+            .arg(&spv)
+            .arg("-o")
+            .arg(&spv)
+            .status()
+            .map_err(|e| format!("{rel}: cannot run spirv-opt ({e})"))?;
+        if !status.success() {
+            return Err(format!("{rel}: spirv-opt failed"));
+        }
+    }
     let bytes =
         std::fs::read(&spv).map_err(|e| format!("{rel}: cannot read {}: {e}", spv.display()))?;
     if bytes.len() % 4 != 0 {
