@@ -31,6 +31,7 @@ pub mod engine;
 pub mod error;
 pub mod files;
 pub mod gpu;
+pub mod model;
 pub mod passes;
 pub mod reference;
 pub mod scene;

@@ -31,9 +31,9 @@
 //! The GPU (`passes::fine_histogram`) and the host (`reference::robust::fine_histogram`) feed
 //! the same estimator ([`robust_step`]).
 
+use crate::model::{LinearMap, Samples};
 use crate::reference::fine_histogram::{FINE_BINS, RangeHistogram};
 use crate::reference::normalize::half_difference;
-use crate::volume::{LinearMap, Samples};
 
 /// How the physical intensity range mapped to `I_norm = 0..1` is chosen.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]

@@ -13,9 +13,24 @@ use crate::gpu::{
     Access, ComputePipeline, DescriptorSet, Device, GpuError, GpuResult, Image, ImageDesc,
     Recording, Resource, Sampler,
 };
-use crate::scene::slice::IndexGrid;
 use ash::vk;
 use std::sync::Arc;
+
+/// A slice's pixel grid in the volume's index space (voxel centres at integers), what this pass
+/// and its f64 twin sample: pixel (x, y) is at `origin + x * du + y * dv`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct IndexGrid {
+    /// Index position of pixel (0, 0)'s centre.
+    pub origin: [f64; 3],
+    /// Index step per column.
+    pub du: [f64; 3],
+    /// Index step per row.
+    pub dv: [f64; 3],
+    /// Pixels per row.
+    pub width: u32,
+    /// Rows.
+    pub height: u32,
+}
 
 /// Push constants of `slice.comp`.
 #[repr(C)]

@@ -15,7 +15,7 @@
 //! - Ranges near the f64 limit are handled through half differences (no `hi - lo` overflow).
 
 use super::normalize::half_difference;
-use crate::volume::{LinearMap, Samples};
+use crate::model::{LinearMap, Samples};
 
 /// Bins of one fine-histogram pass (2048 u32 + 2 fit 8 KiB of shared memory on the GPU).
 pub const FINE_BINS: usize = 2048;

@@ -13,7 +13,7 @@
 //!   cannot occur for volumes that fit a 3D image).
 
 use super::normalize::normalize_value;
-use crate::volume::{LinearMap, Samples};
+use crate::model::{LinearMap, Samples};
 
 /// Number of histogram bins.
 pub const BINS: usize = 256;

@@ -12,7 +12,7 @@
 //! - Every value a [`Samples`] can hold is exact in f64 (u8/i8/u16/i16/f32), so f64 loses nothing.
 //! - Non-finite values exist only in [`SampleKind::F32`]; they are skipped and counted separately.
 
-use crate::volume::{SampleKind, Samples};
+use crate::model::{SampleKind, Samples};
 use std::cmp::Ordering;
 
 /// Minimum and maximum stored value over the finite samples, or `None` when there is none

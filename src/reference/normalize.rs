@@ -16,7 +16,7 @@
 //!   Halving is exact for normal numbers, and the difference of two halves of finite numbers is
 //!   finite.
 
-use crate::volume::{LinearMap, Samples};
+use crate::model::{LinearMap, Samples};
 
 /// Physical `(imin, imax)` from the stored finite range and the stored-to-physical map.
 ///

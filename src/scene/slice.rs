@@ -18,6 +18,9 @@
 //! - Everything here is f64; the GPU receives the index-space grid ([`IndexGrid`]) in f32.
 
 use super::geometry::VolumeGeometry;
+// The index-space grid is what the GPU pass consumes: it lives with the pass (a downward
+// import), re-exported here beside the world-space plane it is made from.
+pub use crate::passes::slice::IndexGrid;
 use glam::DVec3;
 
 /// Which world plane a slice shows.
@@ -143,22 +146,6 @@ pub struct SliceGrid {
     pub u: DVec3,
     /// World step from one row to the next (mm).
     pub v: DVec3,
-}
-
-/// A slice's pixel grid in the volume's index space (voxel centres at integers), what the GPU
-/// pass and its f64 twin sample: pixel (x, y) is at `origin + x * du + y * dv`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct IndexGrid {
-    /// Index position of pixel (0, 0)'s centre.
-    pub origin: [f64; 3],
-    /// Index step per column.
-    pub du: [f64; 3],
-    /// Index step per row.
-    pub dv: [f64; 3],
-    /// Pixels per row.
-    pub width: u32,
-    /// Rows.
-    pub height: u32,
 }
 
 /// Why a slice cannot be made.

@@ -25,34 +25,13 @@ mod phantom_math;
 mod phantom_tissue;
 pub mod phantom_vessels;
 pub mod roi;
-pub mod samples;
 pub mod source;
 pub mod stats;
 pub mod vessel_phantom;
 
-pub use samples::{SampleKind, Samples};
-
-/// Maps stored sample values to physical intensities: `physical = stored * slope + intercept`.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
-pub struct LinearMap {
-    /// Multiplier applied to a stored sample (never 0, never non-finite).
-    pub slope: f64,
-    /// Added after the multiplication.
-    pub intercept: f64,
-}
-
-impl LinearMap {
-    /// The identity map: stored samples are physical intensities.
-    pub const IDENTITY: LinearMap = LinearMap {
-        slope: 1.0,
-        intercept: 0.0,
-    };
-
-    /// Physical intensity of one stored sample value.
-    pub fn apply(&self, stored: f64) -> f64 {
-        stored * self.slope + self.intercept
-    }
-}
+// The sample containers and the stored-to-physical map are plain data every layer reads: they
+// live in `model` (below reference/ and analysis/), re-exported here where volumes are made.
+pub use crate::model::{LinearMap, SampleKind, Samples};
 
 /// Where the index-to-world affine came from (NIfTI's three methods, in priority order).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
