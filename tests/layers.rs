@@ -27,7 +27,7 @@ const LAYERS: [(&str, u8); 12] = [
 ];
 
 /// Upward imports at the time of writing: (file, layer it imports).
-const KNOWN: [(&str, &str); 11] = [
+const KNOWN: [(&str, &str); 10] = [
     ("src/reference/brain_tests.rs", "analysis"),
     ("src/reference/raymarch/tests.rs", "passes"),
     ("src/reference/raymarch/dvr_sample.rs", "scene"),
@@ -38,7 +38,6 @@ const KNOWN: [(&str, &str); 11] = [
     ("src/reference/raymarch/sampling.rs", "scene"),
     ("src/reference/raymarch/tests.rs", "scene"),
     ("src/reference/derivatives.rs", "volume"),
-    ("src/reference/tissue_fit.rs", "volume"),
 ];
 
 fn rank(layer: &str) -> Option<u8> {

@@ -43,7 +43,7 @@ fn range(p: &Phantom) -> (f64, f64) {
 
 fn fit_inside(p: &Phantom, inside: &[u8]) -> morphray::analysis::Fit {
     let (imin, imax) = range(p);
-    let hist = histogram_inside(&p.volume, inside, imin, imax).map(f64::from);
+    let hist = histogram_inside(p.volume.voxel_grid(), inside, imin, imax).map(f64::from);
     let (first, last) = occupied_range(&hist, 0);
     let labels = labels_for(p.spec.contrast);
     fit_tissues(
@@ -111,7 +111,7 @@ fn the_classes_follow_each_contrasts_order_and_the_windows_hold_their_means() {
         let p = phantom(contrast);
         let inside = brain(&p);
         let (imin, imax) = range(&p);
-        let hist = histogram_inside(&p.volume, &inside, imin, imax).map(f64::from);
+        let hist = histogram_inside(p.volume.voxel_grid(), &inside, imin, imax).map(f64::from);
         let labels = labels_for(contrast);
         let (fit, mixture) = fit_tissues(
             &hist,
@@ -163,7 +163,7 @@ fn an_enhancing_tail_becomes_the_band_above_wm_and_steals_no_class() {
     let p = phantom(Contrast::T1);
     let inside = brain(&p);
     let (imin, imax) = range(&p);
-    let mut hist = histogram_inside(&p.volume, &inside, imin, imax).map(f64::from);
+    let mut hist = histogram_inside(p.volume.voxel_grid(), &inside, imin, imax).map(f64::from);
     let brain_voxels: f64 = hist.iter().sum();
     let wm = p.intensity(Tissue::Wm);
     let bin = |raw: f64| (((raw - imin) / (imax - imin)) * BINS as f64) as usize;
@@ -196,7 +196,7 @@ fn the_fit_of_256_bins_is_fast() {
     let p = phantom(Contrast::T1);
     let inside = brain(&p);
     let (imin, imax) = range(&p);
-    let hist = histogram_inside(&p.volume, &inside, imin, imax).map(f64::from);
+    let hist = histogram_inside(p.volume.voxel_grid(), &inside, imin, imax).map(f64::from);
     let fit = fit_tissues(
         &hist,
         occupied_range(&hist, 0),

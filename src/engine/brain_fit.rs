@@ -94,7 +94,7 @@ impl Engine {
         };
         // Every second voxel along each axis: an eighth of the work (on the first pixel's path)
         // and still hundreds of thousands of brain voxels for 256 bins.
-        let hist = histogram_inside_mask(volume, &mask, 2, (report.imin, report.imax));
+        let hist = histogram_inside_mask(volume.voxel_grid(), &mask, 2, (report.imin, report.imax));
         Ok(refit_report(report, &hist))
     }
 }

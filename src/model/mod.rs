@@ -13,3 +13,15 @@ pub mod samples;
 
 pub use linear_map::LinearMap;
 pub use samples::{SampleKind, Samples};
+
+/// A scan's first frame as the CPU twins read it: samples, grid and intensity map, borrowed
+/// from a `volume::Volume` (`Volume::voxel_grid`) without its orientation or metadata.
+#[derive(Clone, Copy, Debug)]
+pub struct VoxelGrid<'a> {
+    /// Stored voxel values, x fastest.
+    pub samples: &'a Samples,
+    /// Voxels along i, j, k.
+    pub dims: [usize; 3],
+    /// Stored-to-physical intensity map.
+    pub to_physical: LinearMap,
+}

@@ -28,6 +28,7 @@
 //!   model sits near 0.8-0.9).
 
 use super::BINS;
+use crate::model::VoxelGrid;
 
 /// Pure classes (CSF, GM, WM in some order).
 pub const PURE: usize = 3;
@@ -188,14 +189,9 @@ pub fn fit(hist: &[f64; BINS], start: &FitStart) -> Option<Mixture> {
 }
 
 /// Histogram of `I_norm` (eq. 1 in f64 with `imin`/`imax`, rounded to f32, the kernel's
-/// binning) over the finite voxels of `volume`'s first frame where `inside` is nonzero: the
-/// fit's input inside a brain mask.
-pub fn histogram_inside(
-    volume: &crate::volume::Volume,
-    inside: &[u8],
-    imin: f64,
-    imax: f64,
-) -> [u32; BINS] {
+/// binning) over the finite voxels of `volume` (a scan's first frame) where `inside` is nonzero:
+/// the fit's input inside a brain mask.
+pub fn histogram_inside(volume: VoxelGrid<'_>, inside: &[u8], imin: f64, imax: f64) -> [u32; BINS] {
     let mut bins = [0u32; BINS];
     let voxels = volume
         .dims
@@ -220,7 +216,7 @@ pub fn histogram_inside(
 /// of the working-grid `mask` is set (nearest lookup, `WorkingMask::export_nearest`), without
 /// building a volume-sized mask.
 pub fn histogram_inside_mask(
-    volume: &crate::volume::Volume,
+    volume: VoxelGrid<'_>,
     mask: &super::brain_mask::WorkingMask<'_>,
     stride: usize,
     (imin, imax): (f64, f64),

@@ -31,7 +31,7 @@ pub mod vessel_phantom;
 
 // The sample containers and the stored-to-physical map are plain data every layer reads: they
 // live in `model` (below reference/ and analysis/), re-exported here where volumes are made.
-pub use crate::model::{LinearMap, SampleKind, Samples};
+pub use crate::model::{LinearMap, SampleKind, Samples, VoxelGrid};
 
 /// Where the index-to-world affine came from (NIfTI's three methods, in priority order).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
@@ -131,6 +131,15 @@ pub enum VolumeError {
 }
 
 impl Volume {
+    /// Frame 0's samples, grid and intensity map, as the CPU twins read them.
+    pub fn voxel_grid(&self) -> VoxelGrid<'_> {
+        VoxelGrid {
+            samples: &self.samples,
+            dims: self.dims,
+            to_physical: self.to_physical,
+        }
+    }
+
     /// Number of voxels in frame 0.
     pub fn voxel_count(&self) -> usize {
         self.dims[0] * self.dims[1] * self.dims[2]
