@@ -4,7 +4,7 @@
 //! - `*.wgsl` goes through naga (WGSL front end, validator with the capabilities the engine
 //!   enables, SPIR-V 1.3 back end). A `// variants: NAME = suffix:value ...` line resolves a WGSL
 //!   `override` at build time into one SPIR-V module per value, because naga never emits
-//!   `override`s as specialization constants (FACTS.md).
+//!   `override`s as specialization constants.
 //! - `*.comp` (GLSL compute) goes through `glslangValidator` (Debian's glslang-tools) with
 //!   `--target-env vulkan1.1`, i.e. SPIR-V 1.3. GLSL keeps `constant_id` specialization constants,
 //!   which the pipeline code sets by name.

@@ -1,6 +1,6 @@
 //! morphray: a GPU volume renderer for MRI built directly on Vulkan (`ash`).
 //!
-//! Layers, each knowing only the ones below it (DESIGN.md):
+//! Layers, each knowing only the ones below it (ARCHITECTURE.md; `tests/layers.rs` checks it):
 //!
 //! ```text
 //! cli                 commands, argument parsing, output formatting; no Vulkan calls

@@ -402,7 +402,7 @@ fn planned(opened: &OpenedVolume) -> Vec<(String, u64)> {
 fn the_angio_presets_vessel_channel_is_planned_and_fits_the_budget() {
     let _one_at_a_time = serial();
     // A BIDS `_angio` name: the automatic preset is `angio`, which draws the vessel channel.
-    let mut volume = morphray::volume::vessel_phantom::tubes().volume;
+    let mut volume = morphray::volume::shape_phantoms::tubes().volume;
     volume.facts.bids_suffix = Some("angio".into());
     let recipe = scene_with(|_| {});
     assert!(

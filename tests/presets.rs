@@ -138,7 +138,7 @@ fn the_head_phantom_as_ct_shows_its_skull_with_the_automatic_ct_preset() {
 fn a_bids_angio_tube_phantom_picks_the_angio_preset_and_shows_vessels() {
     let dir = folder("angio");
     let nii = dir.join("sub-01_angio.nii");
-    let tubes = morphray::volume::vessel_phantom::tubes();
+    let tubes = morphray::volume::shape_phantoms::tubes();
     write_nifti1(&tubes.volume, &nii, false).unwrap();
     let peaks = ok(&["peaks", s(&nii), "--json"]);
     let peaks: serde_json::Value = serde_json::from_str(&peaks).unwrap();
@@ -219,7 +219,7 @@ fn a_ct_angiogram_picks_angio_with_its_hounsfield_band_and_says_why() {
 /// The tube phantom as a CT angiogram in Hounsfield units: brain 40 HU, contrast-filled
 /// lumen 350 HU (the partial-volume ramp between), a slab of air (-1000 HU) beside the tubes.
 fn tubes_in_hu(path: &Path) {
-    let mut volume = morphray::volume::vessel_phantom::tubes().volume;
+    let mut volume = morphray::volume::shape_phantoms::tubes().volume;
     let [nx, ny, _] = volume.dims;
     let hu: Vec<i16> = volume
         .samples

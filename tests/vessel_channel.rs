@@ -14,7 +14,7 @@ use morphray::reference::raymarch::{ReferenceDerived, ReferenceRaymarch, Referen
 use morphray::scene::classification::render_weight;
 use morphray::scene::{Classification, RenderMode, Scene, VolumeGeometry};
 use morphray::volume::phantom::{PhantomSpec, Tissue, generate};
-use morphray::volume::vessel_phantom::tubes;
+use morphray::volume::shape_phantoms::tubes;
 
 fn gpu_render(
     engine: &mut Engine,

@@ -13,7 +13,7 @@ use morphray::gpu::Access;
 use morphray::passes::vesselness::VesselnessParams;
 use morphray::reference::IndexToWorld;
 use morphray::reference::vesselness::{VesselnessOptions, vesselness};
-use morphray::volume::vessel_phantom::{ShapeKind, ShapeVolume, blobs, plates, roc_auc, tubes};
+use morphray::volume::shape_phantoms::{ShapeKind, ShapeVolume, blobs, plates, roc_auc, tubes};
 use morphray::volume::{Samples, Volume};
 
 /// GPU vs f64 bound on the response (in [0, 1]), absolute. The GPU smooths and differentiates

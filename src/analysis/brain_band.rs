@@ -1,4 +1,4 @@
-//! The tissue band of brain extraction (BRAIN_SPEC.md, `band_for`): which smoothed intensities
+//! The tissue band of brain extraction (`reference::brain`, `band_for`): which smoothed intensities
 //! count as brain tissue, from the 256-bin histogram of `I_norm` and the contrast.
 //!
 //! Decisions:

@@ -1,6 +1,6 @@
 //! `morphray bench`: what each pass costs on this device, against what it must move.
 //!
-//! Method (METHOD.md): the GPU is warmed up for 0.5 s first (clocks ramp from idle); every pass
+//! Method: the GPU is warmed up for 0.5 s first (clocks ramp from idle); every pass
 //! time is a GPU timestamp median over repeated runs; each pass
 //! is compared with its floor (bytes read + written once over the device-copy bandwidth measured
 //! in the same run, and texture fetches over the texel rate), and the same counts are projected
@@ -17,7 +17,8 @@ mod derived;
 use super::args::BenchArgs;
 use super::output::{json, print_line, print_warnings};
 use super::progress::say;
-use super::session::{self, OpenTimings};
+use super::session;
+use crate::engine::SessionTimings;
 use crate::engine::plan::{Layout, Plan};
 use crate::error::Error;
 use crate::files::write::{OutputKind, check_output, write_file};
@@ -139,7 +140,7 @@ struct BenchReport<'a> {
     frames: u32,
     repeat: u32,
     scene: &'a super::args::SceneArgs,
-    open_ms: OpenTimings,
+    open_ms: SessionTimings,
     measured_copy_gb_per_s: Option<f64>,
     documented_device: Option<DeviceModel>,
     projection_device: DeviceModel,

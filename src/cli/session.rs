@@ -19,9 +19,6 @@ use crate::scene::SceneRecipe;
 use crate::volume::source::VolumeSource;
 use std::path::PathBuf;
 
-/// Phase times of opening a volume (the library's).
-pub use crate::engine::SessionTimings as OpenTimings;
-
 /// A volume on the GPU with its histogram analysis (the library's session).
 pub type Opened = Session;
 

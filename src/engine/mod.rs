@@ -7,7 +7,7 @@
 //!   caller asks, saved only when the caller says so, after its first frame). A caller that
 //!   knows what its first frame needs can have them compiled ahead on worker threads
 //!   (`pipelines.rs`).
-//! - The data flow of DESIGN.md: upload -> min/max -> (CPU, f64) normalization plan ->
+//! - The data flow (ARCHITECTURE.md): upload -> min/max -> (CPU, f64) normalization plan ->
 //!   normalize -> histogram -> (CPU) peaks; derived volumes only when asked for. The min/max
 //!   result makes one host round trip, because the scale and offset are computed in f64.
 //! - The engine records what each persistent image was last used for, so readback and later

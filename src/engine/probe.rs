@@ -1,5 +1,5 @@
 //! A device-memory bandwidth probe: the ceiling passes are compared against, measured in the same
-//! run on the same device (METHOD.md: measure the ceiling, don't trust the datasheet).
+//! run on the same device (measure the ceiling, do not trust the datasheet).
 
 use super::Engine;
 use crate::gpu::{Access, Buffer, BufferDesc, GpuResult, Recording};

@@ -22,7 +22,7 @@
 //! - The pipeline cache is saved by the clients after their first frame (never on the way to
 //!   it).
 
-use super::open::{OpenError, OpenTimings as VolumeTimings, OpenedVolume};
+use super::open::{OpenError, OpenTimings, OpenedVolume};
 use super::{Engine, EngineConfig, PipelineTimes, Twin};
 use crate::analysis::TissueReport;
 use crate::engine::plan::{Layout, Plan};
@@ -102,7 +102,7 @@ pub struct SessionTimings {
     /// Peak finding on the CPU (inside `prepare_ms`).
     pub peaks_ms: f64,
     /// The breakdown of `prepare_ms`.
-    pub volume: VolumeTimings,
+    pub volume: OpenTimings,
     /// From the start of the open until the derived volumes are done.
     pub wall_ms: f64,
 }

@@ -3,7 +3,7 @@
 //! Decisions:
 //! - The loader is opened at run time (`ash::Entry::load`), so a machine without Vulkan gets a
 //!   typed error naming the package to install instead of a link failure.
-//! - Validation is a test oracle (DESIGN.md): [`Validation::Required`] fails if the layer is
+//! - Validation is a test oracle (every GPU test fails on a validation error): [`Validation::Required`] fails if the layer is
 //!   missing, [`Validation::IfAvailable`] (debug builds) uses it when installed, [`Validation::Off`]
 //!   (release) never loads it. Synchronization validation is switched on through
 //!   VK_EXT_validation_features whenever the layer is on.

@@ -7,8 +7,8 @@
 //!   without staging); it never claims a capability the device lacks, so everything the engine
 //!   does under a profile really runs. That is what lets lavapipe and the H100 test the Intel
 //!   Gen12 (Xe-LP) paths: bricking past 2048 texels, unified-memory uploads, integer-only atomics.
-//! - `gen12` is built in (the facts in FACTS.md: maxImageDimension3D 2048, one DEVICE_LOCAL heap
-//!   in system memory with host-visible types, subgroup sizes 8-32, no float atomic add, 36-bit
+//! - `gen12` is built in (what Mesa's ANV reports for Tiger Lake: maxImageDimension3D 2048,
+//!   one DEVICE_LOCAL heap in system memory with host-visible types, subgroup sizes 8-32, no float atomic add, 36-bit
 //!   timestamps). Its heap is what Mesa's ANV driver reports for the machine's RAM: half of it up
 //!   to 4 GiB, three quarters above (`anv_compute_sys_heap_size`); the built-in profile assumes
 //!   16 GiB. Other profiles are small TOML files with the same keys (see [`DeviceProfile`]).
@@ -16,7 +16,7 @@
 //!   `local_size_x_id` (raymarch, normalize, derivatives); the WGSL reductions size their shared
 //!   memory and loops for 256 invocations and stay fixed. A subgroup size is pinned with
 //!   `requiredSubgroupSize` where the device supports subgroup size control for compute, because
-//!   Xe-LP reports 32 even when a kernel runs SIMD8 or SIMD16 (FACTS.md).
+//!   Xe-LP reports 32 even when a kernel runs SIMD8 or SIMD16 (BENCHMARKS.md "Intel Gen12").
 
 use super::adapter::AdapterInfo;
 use super::error::{GpuError, GpuResult};

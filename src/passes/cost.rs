@@ -160,14 +160,15 @@ pub struct DeviceModel {
     pub texel_rate: f64,
 }
 
-/// Intel Xe-LP (Iris Xe, 96 EU): 68 GB/s, about 60 GTexel/s (FACTS.md).
+/// Intel Xe-LP (Iris Xe, 96 EU): 68 GB/s (dual-channel LPDDR4X-4266), about 60 GTexel/s (the
+/// model's assumptions from the part's specification; no Xe-LP device was measured).
 pub const XE_LP: DeviceModel = DeviceModel {
     name: "Intel Iris Xe 96 EU (Xe-LP), model",
     bandwidth: 68e9,
     texel_rate: 60e9,
 };
 
-/// NVIDIA H100 SXM: 3.35 TB/s HBM3, about 1045 GTexel/s in compute (FACTS.md).
+/// NVIDIA H100 SXM: 3.35 TB/s HBM3, about 1045 GTexel/s in compute (from the part's specification).
 pub const H100: DeviceModel = DeviceModel {
     name: "NVIDIA H100 80GB HBM3",
     bandwidth: 3.35e12,
@@ -180,7 +181,7 @@ mod tests {
 
     #[test]
     fn bounds_pick_the_binding_resource() {
-        // 25.2 MB read at 68 GB/s is 0.37 ms (FACTS.md's Iris Xe min/max estimate).
+        // 25.2 MB read at 68 GB/s is 0.37 ms (the Iris Xe min/max estimate).
         let c = minmax(25_165_824.0);
         assert!((c.bound_seconds(XE_LP.bandwidth, XE_LP.texel_rate) * 1e3 - 0.370).abs() < 0.001);
         // 1920x1080 rays x 400 trilinear samples: texel-bound at 2 units per fetch.

@@ -14,8 +14,8 @@
 //!   semaphore. Frames in flight: [`FRAMES_IN_FLIGHT`]; a slot's submission is waited for before
 //!   the slot's command resources, acquire semaphore and raymarch target are reused.
 //! - egui texture uploads (font atlas, rarely) block until the queue is idle inside the
-//!   renderer (FACTS.md), so they happen before recording, never inside a timed pass, and only
-//!   after waiting for the frames in flight (an upload may rewrite a texture they sample).
+//!   renderer (egui-ash-renderer), so they happen before recording, never inside a timed pass,
+//!   and only after waiting for the frames in flight (an upload may rewrite a texture they sample).
 //!   Textures egui frees are destroyed once the frame that last drew them has finished.
 
 use crate::gpu::FRAMES_IN_FLIGHT;

@@ -1,4 +1,4 @@
-//! Twin of brain extraction (BRAIN_SPEC.md steps 1-12 and the head test), in f64: the
+//! Twin of brain extraction (the chain below and the head test), in f64: the
 //! definition the GPU passes are tested against, one public function per step so a test can
 //! compare any intermediate.
 //!
@@ -45,9 +45,9 @@ use crate::reference::brain_report::DecisionCells;
 pub const BIG: f64 = 1e30;
 /// Most taps each side of a distance pass.
 pub const MAX_TAPS: usize = 64;
-/// The head test: at least this fraction of the foreground outside the mask ... BRAIN_SPEC.md
-/// said 0.25, to be checked: measured with the twin and defaults (`brain_twin` example, this
-/// machine), the skull-stripped MNI152 template gives 0.000, chris_t1 (a head) 0.42, the clinical
+/// The head test: at least this fraction of the foreground outside the mask ... The first
+/// specification said 0.25, to be checked: measured with the twin and defaults (`brain_twin`
+/// example, this machine), the skull-stripped MNI152 template gives 0.000, chris_t1 (a head) 0.42, the clinical
 /// T2w head with thick slices and a slab that covers little below the brain 0.22; 0.1 calls all
 /// three right with margin on both sides.
 pub const HEAD_MIN_OUTSIDE_FRACTION: f64 = 0.1;

@@ -1,4 +1,4 @@
-//! The CPU steps of brain extraction on the coarse grid (BRAIN_SPEC.md steps 6 and 11): the
+//! The CPU steps of brain extraction on the coarse grid (the chain of `reference::brain`): the
 //! largest 6-connected component of the eroded tissue, and hole filling. The engine runs them on
 //! the coarse grid it reads back from the GPU; the f64 twin (`reference::brain`) calls the same
 //! functions, so the two cannot disagree here.

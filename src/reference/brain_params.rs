@@ -1,15 +1,15 @@
-//! Parameters of brain extraction (BRAIN_SPEC.md), shared by the GPU passes and their f64 twin
+//! Parameters of brain extraction (`reference::brain`), shared by the GPU passes and their f64 twin
 //! (`reference::brain`), so both read one definition and one validation.
 //!
 //! Decisions (defaults measured with a scipy prototype of the same chain on a 0.88 mm research
 //! T1 against its ROBEX mask: Dice 0.95-0.97 for erosion radii 4-5 mm; 3 mm leaked into the
 //! scalp, 6 mm lost thin gyri):
-//! - `grow_mm` 2.5 instead of BRAIN_SPEC.md's 1.5: measured with the twin (`brain_twin`
+//! - `grow_mm` 2.5 instead of the first specification's 1.5: measured with the twin (`brain_twin`
 //!   example, this machine) on chris_t1 against ROBEX, erode 4.5 / close 5: grow 1.5 gave Dice
 //!   0.947 (1452 cm^3 against ROBEX's 1573), 2.0 0.951, 2.5 0.953, 3.0 0.952. The band cuts the
 //!   brain's partial-volume rim (and the CSF ROBEX includes), which the grow gives back. A
 //!   smaller erosion scores higher on this scan (3.5 mm / close 6 / grow 2: 0.971; 4 / 6 / 2:
-//!   0.963) and leaks only at 2.5 mm here, but 4.5 mm is kept for the margin BRAIN_SPEC.md asks
+//!   0.963) and leaks only at 2.5 mm here, but 4.5 mm is kept for the margin the specification asks
 //!   for (the prototype leaked at 3 mm, and the thick-slice T2w head leaks into its vertex
 //!   scalp at every radius tried).
 //! - Radii are in mm, so anisotropic voxels erode and dilate by the same ball.
@@ -37,7 +37,7 @@ pub struct BrainParams {
     pub erode_mm: f64,
     /// Closing radius in mm (5.0).
     pub close_mm: f64,
-    /// Net growth of the closing in mm (2.5; BRAIN_SPEC.md said 1.5): its erosion is
+    /// Net growth of the closing in mm (2.5; the first specification said 1.5): its erosion is
     /// `close_mm - grow_mm`.
     pub grow_mm: f64,
     /// Coarse-grid cell edge in voxels, 1..=8 (2).

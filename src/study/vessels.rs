@@ -1,6 +1,6 @@
 //! The vesselness and denoising knobs of the accuracy study (`morphray accuracy --vessels`): what
 //! each setting costs in GPU time next to its error, on the shape phantoms of
-//! `volume::vessel_phantom` (tubes of radius 0.5 to 3 mm, plates, balls).
+//! `volume::shape_phantoms` (tubes of radius 0.5 to 3 mm, plates, balls).
 //!
 //! Decisions:
 //! - Number of scales: 1 to 6 log-spaced scales over 0.6 to 3 mm (1 scale: their geometric mean,
@@ -20,7 +20,7 @@ use crate::passes::vesselness::VesselnessParams;
 use crate::reference::IndexToWorld;
 use crate::reference::vesselness::{VesselnessOptions, vesselness};
 use crate::volume::Samples;
-use crate::volume::vessel_phantom::{ShapeKind, ShapeVolume, blobs, plates, roc_auc, tubes};
+use crate::volume::shape_phantoms::{ShapeKind, ShapeVolume, blobs, plates, roc_auc, tubes};
 
 /// Half-width of the uniform noise of the denoising rows (I_norm units).
 pub const NOISE: f64 = 0.15;

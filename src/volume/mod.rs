@@ -25,9 +25,9 @@ mod phantom_math;
 mod phantom_tissue;
 pub mod phantom_vessels;
 pub mod roi;
+pub mod shape_phantoms;
 pub mod source;
 pub mod stats;
-pub mod vessel_phantom;
 
 // The sample containers and the stored-to-physical map are plain data every layer reads: they
 // live in `model` (below reference/ and analysis/), re-exported here where volumes are made.

@@ -3,7 +3,7 @@
 //! Decision: the glslang-tools binary instead of the `glslang` crate. The crate builds glslang
 //! from C++ source (about 3 minutes debug, 4.5 release on 2 cores) and `shaderc` does not link
 //! against Debian 12's libshaderc; the tool costs nothing to build and about 0.2 s per shader
-//! (FACTS.md). `.ci/run` and the README's set-up command install it. Its diagnostics already read
+//! (measured when this was written). `.ci/run` and the README's set-up command install it. Its diagnostics already read
 //! `ERROR: shaders/x.comp:12: ...`, which is what a build error should point at.
 
 use crate::CompiledShader;

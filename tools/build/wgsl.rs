@@ -1,6 +1,6 @@
 //! WGSL -> SPIR-V 1.3 through naga, one module per resolved `override` value.
 //!
-//! Decisions (FACTS.md, naga pitfalls):
+//! Decisions (naga pitfalls):
 //! - `lang_version` is (1, 3): with naga's default (1, 0) subgroup code is silently invalid.
 //! - The validator gets exactly the capabilities the engine enables on the device: subgroup
 //!   operations (basic, vote, arithmetic, ballot) and immediates (push constants). Anything else

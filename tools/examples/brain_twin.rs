@@ -105,7 +105,7 @@ fn parse() -> Result<Args, String> {
     Ok(a)
 }
 
-/// Column norms of the affine's linear part (the spacing BRAIN_SPEC.md uses).
+/// Column norms of the affine's linear part (the spacing brain extraction uses).
 fn spacing_of(v: &Volume) -> [f64; 3] {
     let l = v.orientation.linear_part();
     [0, 1, 2].map(|c| (0..3).map(|r| l[r][c].powi(2)).sum::<f64>().sqrt())

@@ -2,7 +2,7 @@
 # Builds Intel's Vulkan driver (ANV) and Mesa's no-op DRM shim from Debian's own Mesa source, so
 # that Vulkan shows a stub Tiger Lake ("Intel(R) Xe Graphics (TGL GT2)", the paper's Iris Xe
 # class) on a machine without Intel graphics. Pipelines compile with Intel's real backend
-# compiler and the device reports TGL's real limits; dispatches do not execute (FACTS.md).
+# compiler and the device reports TGL's real limits; dispatches do not execute.
 #
 # Idempotent and cached: everything lives under ${MORPHRAY_GEN12_DIR:-~/.cache/morphray/gen12}
 # (outside any clone, so a second CI run reuses it); a finished build is only checked. Installs

@@ -4,7 +4,7 @@
 #   tools/peers/device-peers.sh VOLUME [run_peers.py options...]
 #   e.g. tools/peers/device-peers.sh /tmp/phantom.nii.gz --size 1920x1080 --frames 200 -k 5 --png --out $OUT/peers
 #
-# Before it: the caller has unpacked the Vulkan loader and libglvnd (GPU.md: dpkg -x .gl/*.deb /;
+# Before it: the caller has unpacked the Vulkan loader and libglvnd (dpkg -x .gl/*.deb /;
 # ldconfig) and exported VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json.
 # Carry .peers (tools/peers/stage.sh makes it). Environment knobs:
 #   PYTHON                        interpreter (default python3, the device's 3.12 with numpy)

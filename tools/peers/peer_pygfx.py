@@ -43,7 +43,7 @@ def parse_args():
         choices=("float16", "native"),
         default="float16",
         help="texture type: float16 (default; hardware trilinear filtering) or the file's own type "
-        "(int16/uint16 are filtered by hand in the shader, about 3.4x slower: FACTS.md)",
+        "(int16/uint16 are filtered by hand in the shader, about 3.4x slower, measured)",
     )
     args = p.parse_args()
     if args.step != "stock":
@@ -88,7 +88,7 @@ def main():
     ph = common.Phases(T_SCRIPT_NS)
     if args.frames < 0:
         common.fail(PEER, args, "--frames must be >= 0")
-    # wgpu-native also offers an OpenGL backend; the comparison is pygfx on Vulkan (FACTS.md).
+    # wgpu-native also offers an OpenGL backend; the comparison is pygfx on Vulkan.
     os.environ.setdefault("WGPU_BACKEND_TYPE", "Vulkan")
     try:
         import numpy as np
@@ -173,7 +173,7 @@ def main():
     def render_frame(azimuth):
         set_camera(azimuth)
         renderer.render(scene, camera)  # records, submits, flushes into the target
-        device._poll_wait()  # wgpuDevicePoll(wait=True): every submission done (FACTS.md)
+        device._poll_wait()  # wgpuDevicePoll(wait=True): every submission done
 
     set_camera(args.azimuth)
     ph.mark("setup")

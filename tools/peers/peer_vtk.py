@@ -243,7 +243,7 @@ def main():
         mapper.SetBlendModeToMaximumIntensity()
     else:
         mapper.SetBlendModeToComposite()
-    # Fairness (FACTS.md): fixed 0.5-voxel steps, full-resolution image, no interactive
+    # Fairness: fixed 0.5-voxel steps, full-resolution image, no interactive
     # down-sampling, no jitter.
     sample_mm = 0.5 * min(spacing)
     mapper.SetAutoAdjustSampleDistances(0)

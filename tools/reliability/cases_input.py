@@ -6,7 +6,7 @@ Decisions:
   frames, odd data) also run `render`, where a silently wrong image would appear.
 - The base volume is 16^3 int16 (8 KiB of voxels): big enough to have a histogram and a
   picture, small enough that every variant loads in milliseconds.
-- Expectations follow /work/shared/NIFTI.md's contract (the loader's documented outcomes); where
+- Expectations follow the loader contract (`tests/nifti_loader.rs`, the documented outcomes); where
   the contract allows a repair or a refusal, the case says "any".
 """
 

@@ -1,5 +1,6 @@
-//! NIfTI-1, NIfTI-2 and ANALYZE 7.5 reader (and a small NIfTI-1 writer), per NIFTI.md's
-//! contract: every odd file gets a documented outcome, nothing a user feeds it can panic.
+//! NIfTI-1, NIfTI-2 and ANALYZE 7.5 reader (and a small NIfTI-1 writer), to the loader
+//! contract that `tests/nifti_loader.rs` checks point by point: every odd file gets a
+//! documented outcome, nothing a user feeds it can panic.
 //!
 //! Decisions:
 //! - Three phases the engine can time and schedule separately: [`read_file`] (I/O, regular

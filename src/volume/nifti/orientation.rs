@@ -1,7 +1,7 @@
 //! Index-to-world geometry from header fields: a total function (any bit pattern in, a finite,
 //! invertible affine out, never a panic).
 //!
-//! Decisions (NIFTI.md point 7):
+//! Decisions (the loader contract's point 7, `tests/nifti_loader.rs`):
 //! - Voxel size: `pixdim[1..=3]`, converted to mm by `xyzt_units` (metres x1000, microns
 //!   x0.001; "unknown" (0) is taken as mm silently because most files leave it 0; codes 4..7
 //!   are not spatial units: mm, with a warning). A value that is non-finite or <= 0 is repaired

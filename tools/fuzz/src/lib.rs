@@ -1,5 +1,5 @@
-//! Invariants the fuzz targets check on every input (NIFTI.md's contract, point 9: no panics,
-//! and whatever is accepted must be usable by the engine).
+//! Invariants the fuzz targets check on every input (the loader contract's point 9,
+//! tests/nifti_loader.rs: no panics, and whatever is accepted must be usable by the engine).
 //!
 //! A violated invariant panics, which libFuzzer reports as a crash with the input saved under
 //! `artifacts/`. The checks are deliberately stronger than "does not panic": an accepted volume
