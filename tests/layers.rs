@@ -1,6 +1,7 @@
 //! Arrows point down (issue 29 item 3): each folder under `src/` is a layer that imports only the
 //! layers below it, in ARCHITECTURE.md's order
-//!   cli, app > study > engine > scene > passes > gpu > volume > analysis > reference > model, files.
+//!   cli, app > study > engine > scene > passes > gpu > volume > analysis > reference >
+//!   model, files.
 //! This reads every `crate::LAYER` path in `src/` and fails on one that runs back up.
 //!
 //! The imports that ran up when this check was written are listed in [`KNOWN`] (issue 29 moves

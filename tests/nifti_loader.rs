@@ -1,4 +1,5 @@
-//! The loader contract (`volume::nifti`), one crafted file per point, each with its documented outcome.
+//! The loader contract (`volume::nifti`), one crafted file per point, each with its documented
+//! outcome.
 //!
 //! Files are built in memory by a small builder on top of `RawHeader::encode`. Because encode
 //! and decode share the same field table, `header_field_offsets_match_the_standard` checks the

@@ -3,10 +3,10 @@
 //! Decisions:
 //! - The loader is opened at run time (`ash::Entry::load`), so a machine without Vulkan gets a
 //!   typed error naming the package to install instead of a link failure.
-//! - Validation is a test oracle (every GPU test fails on a validation error): [`Validation::Required`] fails if the layer is
-//!   missing, [`Validation::IfAvailable`] (debug builds) uses it when installed, [`Validation::Off`]
-//!   (release) never loads it. Synchronization validation is switched on through
-//!   VK_EXT_validation_features whenever the layer is on.
+//! - Validation is a test oracle (every GPU test fails on a validation error):
+//!   [`Validation::Required`] fails if the layer is missing, [`Validation::IfAvailable`] (debug
+//!   builds) uses it when installed, [`Validation::Off`] (release) never loads it. Synchronization
+//!   validation is switched on through VK_EXT_validation_features whenever the layer is on.
 //! - API version 1.3: synchronization2, subgroup size control and maintenance4 are core there, and
 //!   every target (lavapipe, NVIDIA, Intel ANV on Gen12) has it.
 
@@ -31,8 +31,8 @@ pub enum Validation {
 }
 
 impl Validation {
-    /// `IfAvailable` in debug builds, `Off` in release builds; `MORPHRAY_VALIDATION=required|on|off`
-    /// overrides.
+    /// `IfAvailable` in debug builds, `Off` in release builds;
+    /// `MORPHRAY_VALIDATION=required|on|off` overrides.
     pub fn from_build_and_env() -> Self {
         match std::env::var("MORPHRAY_VALIDATION").as_deref() {
             Ok("required") => Validation::Required,

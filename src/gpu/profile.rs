@@ -7,11 +7,12 @@
 //!   without staging); it never claims a capability the device lacks, so everything the engine
 //!   does under a profile really runs. That is what lets lavapipe and the H100 test the Intel
 //!   Gen12 (Xe-LP) paths: bricking past 2048 texels, unified-memory uploads, integer-only atomics.
-//! - `gen12` is built in (what Mesa's ANV reports for Tiger Lake: maxImageDimension3D 2048,
-//!   one DEVICE_LOCAL heap in system memory with host-visible types, subgroup sizes 8-32, no float atomic add, 36-bit
-//!   timestamps). Its heap is what Mesa's ANV driver reports for the machine's RAM: half of it up
-//!   to 4 GiB, three quarters above (`anv_compute_sys_heap_size`); the built-in profile assumes
-//!   16 GiB. Other profiles are small TOML files with the same keys (see [`DeviceProfile`]).
+//! - `gen12` is built in (what Mesa's ANV reports for Tiger Lake: maxImageDimension3D 2048, one
+//!   DEVICE_LOCAL heap in system memory with host-visible types, subgroup sizes 8-32, no float
+//!   atomic add, 36-bit timestamps). Its heap is what Mesa's ANV driver reports for the machine's
+//!   RAM: half of it up to 4 GiB, three quarters above (`anv_compute_sys_heap_size`); the built-in
+//!   profile assumes 16 GiB. Other profiles are small TOML files with the same keys (see
+//!   [`DeviceProfile`]).
 //! - Workgroup sizes are specialization constants of the kernels that declare
 //!   `local_size_x_id` (raymarch, normalize, derivatives); the WGSL reductions size their shared
 //!   memory and loops for 256 invocations and stay fixed. A subgroup size is pinned with

@@ -47,9 +47,9 @@ pub const BIG: f64 = 1e30;
 pub const MAX_TAPS: usize = 64;
 /// The head test: at least this fraction of the foreground outside the mask ... The first
 /// specification said 0.25, to be checked: measured with the twin and defaults (`brain_twin`
-/// example, this machine), the skull-stripped MNI152 template gives 0.000, chris_t1 (a head) 0.42, the clinical
-/// T2w head with thick slices and a slab that covers little below the brain 0.22; 0.1 calls all
-/// three right with margin on both sides.
+/// example, this machine), the skull-stripped MNI152 template gives 0.000, chris_t1 (a head) 0.42,
+/// the clinical T2w head with thick slices and a slab that covers little below the brain 0.22; 0.1
+/// calls all three right with margin on both sides.
 pub const HEAD_MIN_OUTSIDE_FRACTION: f64 = 0.1;
 /// ... and a mask of at least this many cm^3 ...
 pub const HEAD_MIN_CM3: f64 = 500.0;

@@ -3,8 +3,9 @@
 //! Decision: the glslang-tools binary instead of the `glslang` crate. The crate builds glslang
 //! from C++ source (about 3 minutes debug, 4.5 release on 2 cores) and `shaderc` does not link
 //! against Debian 12's libshaderc; the tool costs nothing to build and about 0.2 s per shader
-//! (measured when this was written). `.ci/run` and the README's set-up command install it. Its diagnostics already read
-//! `ERROR: shaders/x.comp:12: ...`, which is what a build error should point at.
+//! (measured when this was written). `.ci/run` and the README's set-up command install it. Its
+//! diagnostics already read `ERROR: shaders/x.comp:12: ...`, which is what a build error should
+//! point at.
 
 use crate::CompiledShader;
 use std::path::Path;
@@ -49,23 +50,7 @@ pub fn compile(
             .collect();
         return Err(format!("{rel}: glslang failed:\n{}", errors.join("\n")));
     }
-    // MORPHRAY_SPIRV_OPT="-O" runs spirv-opt over the module: an experiment's switch, off by
-    // default because it buys nothing (BENCHMARKS.md "spirv-opt and the drivers' compile
-    // time": on lavapipe -O makes raymarch.comp 5.3x larger and compiles no faster; -Os drops
-    // unused push-constant members, which the engine's size check then refuses).
-    let opt_flags = std::env::var("MORPHRAY_SPIRV_OPT").unwrap_or_default();
-    if !opt_flags.trim().is_empty() {
-        let status = Command::new("spirv-opt")
-            .args(opt_flags.split_whitespace())
-            .arg(&spv)
-            .arg("-o")
-            .arg(&spv)
-            .status()
-            .map_err(|e| format!("{rel}: cannot run spirv-opt ({e})"))?;
-        if !status.success() {
-            return Err(format!("{rel}: spirv-opt failed"));
-        }
-    }
+    optimize(&spv, rel)?;
     let bytes =
         std::fs::read(&spv).map_err(|e| format!("{rel}: cannot read {}: {e}", spv.display()))?;
     if bytes.len() % 4 != 0 {
@@ -83,4 +68,28 @@ pub fn compile(
         source: rel.to_string(),
         words,
     }])
+}
+
+/// Runs spirv-opt over `spv` in place with the flags in MORPHRAY_SPIRV_OPT (nothing when unset or
+/// empty): an experiment's switch, off by default because it buys nothing (BENCHMARKS.md
+/// "spirv-opt before the driver": -O makes raymarch.comp 5.3x larger, compiles no faster on
+/// lavapipe and adds 150-200 ms to the H200's cold first pixel; -Os drops unused push-constant
+/// members, which the engine's size check then refuses).
+fn optimize(spv: &Path, rel: &str) -> Result<(), String> {
+    let flags = std::env::var("MORPHRAY_SPIRV_OPT").unwrap_or_default();
+    if flags.trim().is_empty() {
+        return Ok(());
+    }
+    let status = Command::new("spirv-opt")
+        .args(flags.split_whitespace())
+        .arg(spv)
+        .arg("-o")
+        .arg(spv)
+        .status()
+        .map_err(|e| format!("{rel}: cannot run spirv-opt ({e})"))?;
+    if status.success() {
+        Ok(())
+    } else {
+        Err(format!("{rel}: spirv-opt failed"))
+    }
 }

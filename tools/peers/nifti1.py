@@ -1,8 +1,8 @@
 """A small NIfTI-1 reader for the peer benchmarks (gzip + numpy only, no nibabel).
 
 nibabel is not carried to the device (the carry limit is tight), so the peer scripts read the
-volume themselves. What this reader does, following morphray's loader contract (tests/nifti_loader.rs) where it
-matters for rendering:
+volume themselves. What this reader does, following morphray's loader contract
+(tests/nifti_loader.rs) where it matters for rendering:
 
 - gzip is sniffed by its magic bytes, never by the extension, and every gzip member is inflated
   (multi-member files are legal); the output is capped at what the header declares.

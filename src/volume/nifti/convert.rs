@@ -13,11 +13,11 @@
 //! - NaN and infinities stay (f32 can hold them); they are excluded from the offset's range.
 //! - RGB24 / RGBA32 become f32 luminance with the Rec. 709 weights 0.2126 R + 0.7152 G +
 //!   0.0722 B (alpha ignored), never scaled by scl_slope, with a warning.
-//! - Scaling (the loader contract's point 5, `tests/nifti_loader.rs`): scl_slope 0 or
-//!   non-finite means no scaling at all (NaN and infinities also warn; 0 is the standard's "unused"); a non-finite scl_inter with a usable
-//!   slope is replaced by 0 with a warning. A finite scaling that would push some stored value
-//!   outside the f64 range (only NIfTI-2's f64 fields can) is dropped with a warning, so the map
-//!   and every physical value stay finite.
+//! - Scaling (the loader contract's point 5, `tests/nifti_loader.rs`): scl_slope 0 or non-finite
+//!   means no scaling at all (NaN and infinities also warn; 0 is the standard's "unused"); a
+//!   non-finite scl_inter with a usable slope is replaced by 0 with a warning. A finite scaling
+//!   that would push some stored value outside the f64 range (only NIfTI-2's f64 fields can) is
+//!   dropped with a warning, so the map and every physical value stay finite.
 
 use super::datatype::Datatype;
 use super::error::NiftiError;

@@ -5,11 +5,12 @@
 //!   that are really compressed, and `.nii.gz` files that are not, both exist. A NIfTI/ANALYZE
 //!   header can never start with `1f 8b` (its first field is 348 or 540).
 //! - libdeflate inflates (about 3x faster than flate2's default miniz_oxide, measured when the
-//!   loader was written). It needs the output buffer up front, and its safe wrapper does not say where a member ends, so this
-//!   module calls `libdeflate_gzip_decompress_ex` through `libdeflate-sys` to learn each
-//!   member's compressed length; that is what makes multi-member files (concatenated `.gz`,
-//!   bgzip, pigz `--independent`) load whole. Multi-member files are first tried on several
-//!   threads (gzip_parallel.rs), with this sequential loop as the fallback that names errors.
+//!   loader was written). It needs the output buffer up front, and its safe wrapper does not say
+//!   where a member ends, so this module calls `libdeflate_gzip_decompress_ex` through
+//!   `libdeflate-sys` to learn each member's compressed length; that is what makes multi-member
+//!   files (concatenated `.gz`, bgzip, pigz `--independent`) load whole. Multi-member files are
+//!   first tried on several threads (gzip_parallel.rs), with this sequential loop as the fallback
+//!   that names errors.
 //! - Written files are multi-member ([`WRITE_MEMBER_BYTES`] per member, compressed in
 //!   parallel), so what morphray writes, it reads back on every core.
 //! - Inflation is bounded by what the header declares, never by the input alone: the caller
